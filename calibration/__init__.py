@@ -1,0 +1,1 @@
+"""Calibration of warpdem models with a genetic algorithm over batched worlds (see the calibration issue)."""

@@ -1,0 +1,1 @@
+"""Scenes of the reference study: sweep tool, soil assemblies, soil bin, ringing test, direct shear box."""

@@ -1,0 +1,366 @@
+"""Broad phase: candidate lists (with a neighbour skin) for sphere-sphere and sphere-triangle contacts.
+
+A candidate list is stored CSR-style per sphere (``start``, ``count``, then one entry per candidate); every entry
+carries its contact history (:class:`~warpdem.contact_law.Hist`), so contacts persist across rebuilds: a rebuild
+makes the new lists in scratch arrays, copies each surviving pair's history from the old lists, and copies the
+result back (fixed array addresses, so the whole step can live in one CUDA graph).
+
+Sphere-sphere candidates come from a grouped float64 ``wp.HashGrid`` (group = world, so worlds never meet);
+sphere-triangle candidates from ``wp.mesh_query_aabb`` against each mesh in its own body frame (no refit needed).
+A pair is a candidate when its gap is below the skin; contacts that exist stay listed however far they stretch.
+The lists are rebuilt when the largest sphere displacement since the last build plus the larger of that and the
+largest mesh displacement exceeds the skin, so no contact can be missed between two builds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from .contact_law import ACTIVE, Hist, closest_point_triangle, empty_hist
+
+wp.set_module_options({"enable_backward": False})
+
+
+# ----------------------------------------------------------------------------- displacement check
+@wp.kernel
+def _sphere_displacement_kernel(
+    # Data in:
+    sphere_pos_in: wp.array(dtype=wp.vec3d),
+    build_pos_in: wp.array(dtype=wp.vec3d),
+    # Data out:
+    disp_out: wp.array(dtype=float),
+):
+    i = wp.tid()
+    d = float(wp.length(sphere_pos_in[i] - build_pos_in[i]))
+    wp.atomic_max(disp_out, 0, d)
+
+
+@wp.kernel
+def _mesh_displacement_kernel(
+    # Model:
+    mesh_body: wp.array(dtype=int),
+    mesh_rmax: wp.array(dtype=float),
+    # Data in:
+    body_pos_in: wp.array(dtype=wp.vec3d),
+    body_quat_in: wp.array(dtype=wp.quatd),
+    build_pos_in: wp.array(dtype=wp.vec3d),
+    build_quat_in: wp.array(dtype=wp.quatd),
+    # Data out:
+    disp_out: wp.array(dtype=float),
+):
+    m = wp.tid()
+    b = mesh_body[m]
+    dq = body_quat_in[b] * wp.quat_inverse(build_quat_in[m])
+    s = wp.min(wp.length(wp.vec3d(dq[0], dq[1], dq[2])), wp.float64(1.0))
+    angle = 2.0 * float(wp.asin(s))
+    d = float(wp.length(body_pos_in[b] - build_pos_in[m])) + angle * mesh_rmax[m]
+    wp.atomic_max(disp_out, 1, d)
+
+
+@wp.kernel
+def _decide_rebuild_kernel(skin: float, disp: wp.array(dtype=float), flag_out: wp.array(dtype=int)):
+    ds = disp[0]
+    if ds + wp.max(ds, disp[1]) > skin:
+        flag_out[0] = 1
+    else:
+        flag_out[0] = 0
+    disp[0] = 0.0
+    disp[1] = 0.0
+
+
+@wp.kernel
+def _record_mesh_build_pose_kernel(
+    mesh_body: wp.array(dtype=int),
+    body_pos_in: wp.array(dtype=wp.vec3d),
+    body_quat_in: wp.array(dtype=wp.quatd),
+    build_pos_out: wp.array(dtype=wp.vec3d),
+    build_quat_out: wp.array(dtype=wp.quatd),
+):
+    m = wp.tid()
+    build_pos_out[m] = body_pos_in[mesh_body[m]]
+    build_quat_out[m] = body_quat_in[mesh_body[m]]
+
+
+# ----------------------------------------------------------------------------- sphere-sphere lists
+@wp.func
+def _ss_is_candidate(
+    i: int, j: int, sphere_pos: wp.array(dtype=wp.vec3d), radius: wp.array(dtype=float), skin: float
+) -> int:
+    d = float(wp.length(sphere_pos[j] - sphere_pos[i]))
+    if d < radius[i] + radius[j] + skin:
+        return 1
+    return 0
+
+
+@wp.kernel
+def _ss_count_kernel(
+    # Model:
+    grid: wp.uint64,
+    sphere_body: wp.array(dtype=int),
+    sphere_world: wp.array(dtype=int),
+    radius: wp.array(dtype=float),
+    max_radius: float,
+    skin: float,
+    # Data in:
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    old_start: wp.array(dtype=int),
+    old_count: wp.array(dtype=int),
+    old_other: wp.array(dtype=int),
+    old_hist: wp.array(dtype=Hist),
+    # Data out:
+    count_out: wp.array(dtype=int),
+):
+    i = wp.tid()
+    x = sphere_pos[i]
+    query = wp.hash_grid_query(grid, x, wp.float64(radius[i] + max_radius + skin), sphere_world[i])
+    j = int(0)
+    c = int(0)
+    while wp.hash_grid_query_next(query, j):
+        if j > i and sphere_body[j] != sphere_body[i]:
+            c += _ss_is_candidate(i, j, sphere_pos, radius, skin)
+    # existing contacts stretched beyond the skin stay listed
+    for k in range(old_start[i], old_start[i] + old_count[i]):
+        if (old_hist[k].flags & ACTIVE) != 0 and _ss_is_candidate(i, old_other[k], sphere_pos, radius, skin) == 0:
+            c += 1
+    count_out[i] = c
+
+
+@wp.kernel
+def _ss_fill_kernel(
+    # Model:
+    grid: wp.uint64,
+    sphere_body: wp.array(dtype=int),
+    sphere_world: wp.array(dtype=int),
+    radius: wp.array(dtype=float),
+    max_radius: float,
+    skin: float,
+    capacity: int,
+    # Data in:
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    old_start: wp.array(dtype=int),
+    old_count: wp.array(dtype=int),
+    old_other: wp.array(dtype=int),
+    old_hist: wp.array(dtype=Hist),
+    start_in: wp.array(dtype=int),
+    # Data out:
+    count_out: wp.array(dtype=int),
+    other_out: wp.array(dtype=int),
+    hist_out: wp.array(dtype=Hist),
+    overflow_out: wp.array(dtype=int),
+):
+    i = wp.tid()
+    base = start_in[i]
+    n = count_out[i]
+    if base + n > capacity:
+        wp.atomic_max(overflow_out, 0, base + n)
+        n = wp.max(capacity - base, 0)
+        count_out[i] = n
+    x = sphere_pos[i]
+    query = wp.hash_grid_query(grid, x, wp.float64(radius[i] + max_radius + skin), sphere_world[i])
+    j = int(0)
+    c = int(0)
+    while wp.hash_grid_query_next(query, j):
+        if j > i and sphere_body[j] != sphere_body[i] and c < n:
+            if _ss_is_candidate(i, j, sphere_pos, radius, skin) == 1:
+                other_out[base + c] = j
+                c += 1
+    for k in range(old_start[i], old_start[i] + old_count[i]):
+        jj = old_other[k]
+        if (old_hist[k].flags & ACTIVE) != 0 and _ss_is_candidate(i, jj, sphere_pos, radius, skin) == 0 and c < n:
+            other_out[base + c] = jj
+            c += 1
+    # sort by partner index: the order of force sums then does not depend on the hash grid's internals
+    for a in range(1, n):
+        v = other_out[base + a]
+        b = a - 1
+        while b >= 0 and other_out[base + b] > v:
+            other_out[base + b + 1] = other_out[base + b]
+            b -= 1
+        other_out[base + b + 1] = v
+    # inherit history from the old list (both are sorted by partner)
+    ko = old_start[i]
+    ko_end = ko + old_count[i]
+    for a in range(n):
+        jj = other_out[base + a]
+        while ko < ko_end and old_other[ko] < jj:
+            ko += 1
+        if ko < ko_end and old_other[ko] == jj:
+            hist_out[base + a] = old_hist[ko]
+        else:
+            hist_out[base + a] = empty_hist()
+
+
+# ----------------------------------------------------------------------------- sphere-triangle lists
+@wp.func
+def sphere_in_body_frame(
+    x: wp.vec3d, body_pos: wp.vec3d, body_quat: wp.quatd
+) -> wp.vec3f:
+    """A world point expressed in a body's principal frame (float64 difference, then float32)."""
+    return wp.vec3f(wp.quat_rotate_inv(body_quat, x - body_pos))
+
+
+@wp.func
+def triangle_distance(p: wp.vec3f, tri_vertices: wp.array(dtype=wp.vec3f), t: int) -> float:
+    a = tri_vertices[3 * t]
+    b = tri_vertices[3 * t + 1]
+    c = tri_vertices[3 * t + 2]
+    cp = closest_point_triangle(p, a, b, c)
+    return wp.length(p - wp.vec3f(cp[0], cp[1], cp[2]))
+
+
+@wp.func
+def _st_is_candidate(
+    i: int,
+    m: int,
+    f: int,
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    radius: wp.array(dtype=float),
+    mesh_body: wp.array(dtype=int),
+    mesh_tri_offset: wp.array(dtype=int),
+    tri_vertices: wp.array(dtype=wp.vec3f),
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    skin: float,
+) -> int:
+    b = mesh_body[m]
+    p = sphere_in_body_frame(sphere_pos[i], body_pos[b], body_quat[b])
+    if triangle_distance(p, tri_vertices, mesh_tri_offset[m] + f) < radius[i] + skin:
+        return 1
+    return 0
+
+
+@wp.kernel
+def _st_build_kernel(
+    # Model:
+    sphere_body: wp.array(dtype=int),
+    sphere_world: wp.array(dtype=int),
+    radius: wp.array(dtype=float),
+    mesh_body: wp.array(dtype=int),
+    mesh_ids: wp.array(dtype=wp.uint64),
+    mesh_tri_offset: wp.array(dtype=int),
+    tri_vertices: wp.array(dtype=wp.vec3f),
+    world_mesh_start: wp.array(dtype=int),
+    meshes_per_world: int,
+    skin: float,
+    capacity: int,
+    fill: int,
+    # Data in:
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    old_start: wp.array(dtype=int),
+    old_count: wp.array(dtype=int),
+    old_mesh: wp.array(dtype=int),
+    old_face: wp.array(dtype=int),
+    old_hist: wp.array(dtype=Hist),
+    start_in: wp.array(dtype=int),
+    # Data out:
+    count_out: wp.array(dtype=int),
+    mesh_out: wp.array(dtype=int),
+    face_out: wp.array(dtype=int),
+    hist_out: wp.array(dtype=Hist),
+    overflow_out: wp.array(dtype=int),
+):
+    """Count (fill = 0) or fill (fill = 1) the sphere-triangle candidates of sphere i."""
+    i = wp.tid()
+    base = int(0)
+    n = int(2147483647)
+    if fill == 1:
+        base = start_in[i]
+        n = count_out[i]
+        if base + n > capacity:
+            wp.atomic_max(overflow_out, 0, base + n)
+            n = wp.max(capacity - base, 0)
+            count_out[i] = n
+    c = int(0)
+    r = radius[i] + skin
+    m0 = world_mesh_start[sphere_world[i]]
+    for m in range(m0, m0 + meshes_per_world):
+        b = mesh_body[m]
+        if b == sphere_body[i]:
+            continue
+        p = sphere_in_body_frame(sphere_pos[i], body_pos[b], body_quat[b])
+        query = wp.mesh_query_aabb(mesh_ids[m], p - wp.vec3f(r), p + wp.vec3f(r))
+        f = int(0)
+        while wp.mesh_query_aabb_next(query, f):
+            if triangle_distance(p, tri_vertices, mesh_tri_offset[m] + f) < r and c < n:
+                if fill == 1:
+                    mesh_out[base + c] = m
+                    face_out[base + c] = f
+                c += 1
+    for k in range(old_start[i], old_start[i] + old_count[i]):
+        if (old_hist[k].flags & ACTIVE) != 0 and c < n:
+            mk = old_mesh[k]
+            if _st_is_candidate(
+                i, mk, old_face[k], sphere_pos, radius, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
+                body_quat, skin
+            ) == 0:
+                if fill == 1:
+                    mesh_out[base + c] = mk
+                    face_out[base + c] = old_face[k]
+                c += 1
+    if fill == 0:
+        count_out[i] = c
+        return
+    # sort by (mesh, face), then inherit history
+    for a in range(1, n):
+        vm = mesh_out[base + a]
+        vf = face_out[base + a]
+        bb = a - 1
+        while bb >= 0 and (mesh_out[base + bb] > vm or (mesh_out[base + bb] == vm and face_out[base + bb] > vf)):
+            mesh_out[base + bb + 1] = mesh_out[base + bb]
+            face_out[base + bb + 1] = face_out[base + bb]
+            bb -= 1
+        mesh_out[base + bb + 1] = vm
+        face_out[base + bb + 1] = vf
+    for a in range(n):
+        hist_out[base + a] = empty_hist()
+        for k in range(old_start[i], old_start[i] + old_count[i]):
+            if old_mesh[k] == mesh_out[base + a] and old_face[k] == face_out[base + a]:
+                hist_out[base + a] = old_hist[k]
+
+
+# ----------------------------------------------------------------------------- host-side container
+class PairList:
+    """CSR candidate list with per-entry contact history (sphere-sphere: ``other``; sphere-triangle: ``mesh``,
+    ``face``). ``start``/``count`` have shape (n_spheres,); entry arrays have shape (capacity,)."""
+
+    def __init__(self, n_spheres: int, capacity: int, device: wp.context.Device, two_keys: bool) -> None:
+        self.device = device
+        self.two_keys = two_keys
+        self.capacity = int(max(capacity, 16))
+        self.start = wp.zeros(n_spheres, dtype=int, device=device)
+        self.count = wp.zeros(n_spheres, dtype=int, device=device)
+        self.key_a = wp.zeros(self.capacity, dtype=int, device=device)
+        self.key_b = wp.zeros(self.capacity if two_keys else 1, dtype=int, device=device)
+        self.hist = wp.zeros(self.capacity, dtype=Hist, device=device)
+
+    def grow(self, capacity: int) -> None:
+        """Reallocate the entry arrays with a larger capacity, keeping current entries."""
+        capacity = int(capacity)
+        for name in ("key_a", "key_b", "hist"):
+            if name == "key_b" and not self.two_keys:
+                continue
+            old = getattr(self, name)
+            new = wp.zeros(capacity, dtype=old.dtype, device=self.device)
+            wp.copy(new, old, count=min(old.shape[0], capacity))
+            setattr(self, name, new)
+        self.capacity = capacity
+
+    def copy_from(self, other: PairList) -> None:
+        """Copy start, count and all entries (same capacities)."""
+        wp.copy(self.start, other.start)
+        wp.copy(self.count, other.count)
+        wp.copy(self.key_a, other.key_a)
+        if self.two_keys:
+            wp.copy(self.key_b, other.key_b)
+        wp.copy(self.hist, other.hist)
+
+    def numpy(self) -> dict[str, np.ndarray]:
+        """Host copies: start, count, keys and the history fields."""
+        out = {"start": self.start.numpy(), "count": self.count.numpy(), "key_a": self.key_a.numpy()}
+        if self.two_keys:
+            out["key_b"] = self.key_b.numpy()
+        out["hist"] = self.hist.numpy()
+        return out

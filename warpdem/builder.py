@@ -1,0 +1,641 @@
+"""ModelBuilder: a readable scripting API that turns a scene description into device arrays.
+
+    b = ModelBuilder(gravity=(0, 0, -9.81))
+    soil = b.add_material("soil", Material(young=1e7, poisson=0.4, density=2700, friction_angle=30))
+    b.add_spheres(positions, radii, "soil", group="soil")
+    b.add_mesh("floor", vertices, faces, "steel", kind="static")
+    b.set_local_damping("soil", 0.2)
+    model, state = b.finalize("cpu", n_worlds=20, overrides={"material:soil:friction_angle": angles})
+
+Bodies are rigid: a free sphere, a clump of spheres, a triangle mesh (static, kinematic or dynamic) or a bare rigid
+body (a kinematic carriage for springs). Units are SI; friction angles are in degrees at this API.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from . import mass as massprops
+from .errors import InputError, check_choice, check_finite, check_int, check_nonnegative, check_points, check_positive, check_vec3
+from .materials import MATERIAL_FIELDS, Material
+from .model import ALL_DOFS, FLAG_ASPHERICAL, ROT_DOFS, Model, State, dof_mask
+
+
+@dataclass
+class _Mesh:
+    name: str
+    body: int
+    material: int
+    vertices_local: np.ndarray  # (nv, 3) in the body's principal frame
+    faces: np.ndarray  # (nf, 3)
+
+
+@dataclass
+class _Spring:
+    name: str
+    body_a: int
+    point_a: np.ndarray
+    body_b: int
+    point_b: np.ndarray
+    stiffness: float
+    damping: float
+    rest_length: float
+    preload: float
+
+
+_BODY_FIELDS = ("pos", "quat", "vel", "angvel", "mass", "inertia", "density_material", "group", "blocked")
+
+
+class ModelBuilder:
+    """Collects materials, bodies, meshes, springs and damping groups; :meth:`finalize` makes a Model and State."""
+
+    def __init__(self, gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)) -> None:
+        self.gravity = tuple(check_vec3("gravity", gravity).tolist())
+        self.materials: list[Material] = []
+        self.material_names: dict[str, int] = {}
+        self.groups: dict[str, int] = {}
+        self.group_damping: list[float] = []
+        # bodies, stored as chunks of rows (see _push_bodies) and concatenated on demand
+        self._chunks: dict[str, list[np.ndarray]] = {k: [] for k in _BODY_FIELDS}
+        self._cache: dict[str, np.ndarray] = {}
+        self.body_names: dict[str, int] = {}
+        # spheres
+        self.sphere_body: list[np.ndarray] = []
+        self.sphere_offset: list[np.ndarray] = []
+        self.sphere_radius: list[np.ndarray] = []
+        self.sphere_material: list[np.ndarray] = []
+        self.meshes: list[_Mesh] = []
+        self.springs: list[_Spring] = []
+        self._n_bodies = 0
+
+    # ---------------------------------------------------------------- body storage
+    def _push_bodies(self, **rows: np.ndarray) -> None:
+        for k in _BODY_FIELDS:
+            self._chunks[k].append(rows[k])
+        self._n_bodies += len(rows["mass"])
+        self._cache.clear()
+
+    def body_array(self, key: str) -> np.ndarray:
+        """All bodies' values of one field (pos, quat, vel, angvel, mass, inertia, ...), concatenated."""
+        if key not in self._cache:
+            chunks = self._chunks[key]
+            self._cache[key] = np.concatenate(chunks) if chunks else np.zeros((0,))
+        return self._cache[key]
+
+    # ---------------------------------------------------------------- materials and groups
+    def add_material(self, name: str, material: Material) -> int:
+        """Register a material under a name; returns its index."""
+        if not isinstance(material, Material):
+            raise InputError(f"material must be a warpdem.Material, got {type(material).__name__}")
+        if name in self.material_names:
+            raise InputError(f"material name {name!r} is already used")
+        self.material_names[name] = len(self.materials)
+        self.materials.append(material)
+        return self.material_names[name]
+
+    def _material(self, material: str | int) -> int:
+        if isinstance(material, str):
+            if material not in self.material_names:
+                raise InputError(f"material {material!r} is not defined; known: {sorted(self.material_names)}")
+            return self.material_names[material]
+        idx = check_int("material", material)
+        if idx >= len(self.materials):
+            raise InputError(f"material index {idx} is out of range (have {len(self.materials)})")
+        return idx
+
+    def _group(self, group: str) -> int:
+        if group not in self.groups:
+            self.groups[group] = len(self.groups)
+            self.group_damping.append(0.0)
+        return self.groups[group]
+
+    def set_local_damping(self, group: str, damping: float) -> None:
+        """Cundall local (non-viscous) damping coefficient [-] in [0, 1) for the bodies of a group."""
+        check_nonnegative("local damping", damping)
+        if damping >= 1.0:
+            raise InputError(f"local damping must be < 1, got {damping!r}")
+        self.group_damping[self._group(group)] = float(damping)
+
+    # ---------------------------------------------------------------- bodies
+    def _add_body(
+        self,
+        pos: np.ndarray,
+        quat: np.ndarray,
+        mass: float,
+        inertia: np.ndarray,
+        density_material: int,
+        group: str,
+        blocked: str,
+        velocity: object,
+        angular_velocity: object,
+        name: str | None,
+    ) -> int:
+        idx = self._n_bodies
+        self._push_bodies(
+            pos=np.asarray(pos, dtype=np.float64)[None],
+            quat=np.asarray(quat, dtype=np.float64)[None],
+            vel=check_vec3("velocity", velocity)[None],
+            angvel=check_vec3("angular_velocity", angular_velocity)[None],
+            mass=np.array([mass], dtype=np.float64),
+            inertia=np.asarray(inertia, dtype=np.float64)[None],
+            density_material=np.array([density_material]),
+            group=np.array([self._group(group)]),
+            blocked=np.array([dof_mask(blocked)]),
+        )
+        if name is not None:
+            if name in self.body_names:
+                raise InputError(f"body name {name!r} is already used")
+            self.body_names[name] = idx
+        return idx
+
+    def add_sphere(
+        self,
+        pos: object,
+        radius: float,
+        material: str | int,
+        *,
+        velocity: object = (0.0, 0.0, 0.0),
+        angular_velocity: object = (0.0, 0.0, 0.0),
+        group: str = "default",
+        blocked: str = "",
+        name: str | None = None,
+    ) -> int:
+        """Add a free sphere (its own rigid body). pos [m] (3,), radius [m]; returns the body index."""
+        return int(
+            self.add_spheres(
+                np.asarray([pos], dtype=np.float64),
+                [radius],
+                material,
+                velocities=np.asarray([velocity], dtype=np.float64),
+                angular_velocities=np.asarray([angular_velocity], dtype=np.float64),
+                group=group,
+                blocked=blocked,
+                name=name,
+            )[0]
+        )
+
+    def add_spheres(
+        self,
+        positions: object,
+        radii: object,
+        material: str | int,
+        *,
+        velocities: object | None = None,
+        angular_velocities: object | None = None,
+        group: str = "default",
+        blocked: str = "",
+        name: str | None = None,
+    ) -> np.ndarray:
+        """Add many free spheres at once. positions [m] (n, 3), radii [m] (n,); returns body indices (n,).
+
+        ``name`` (optional) names the first of them.
+        """
+        positions = check_points("sphere positions", positions)
+        radii = np.broadcast_to(np.asarray(radii, dtype=np.float64), (len(positions),))
+        check_positive("sphere radius", radii)
+        mat = self._material(material)
+        n = len(positions)
+        vel = np.zeros((n, 3)) if velocities is None else np.broadcast_to(np.asarray(velocities, float), (n, 3))
+        ang = (
+            np.zeros((n, 3))
+            if angular_velocities is None
+            else np.broadcast_to(np.asarray(angular_velocities, float), (n, 3))
+        )
+        rho = self.materials[mat].density
+        first = self._n_bodies
+        gidx = self._group(group)
+        mask = dof_mask(blocked)
+        check_finite("sphere velocities", vel)
+        check_finite("sphere angular velocities", ang)
+        masses = rho * 4.0 / 3.0 * np.pi * radii**3
+        self._push_bodies(
+            pos=positions,
+            quat=np.tile([0.0, 0.0, 0.0, 1.0], (n, 1)),
+            vel=np.array(vel, dtype=np.float64),
+            angvel=np.array(ang, dtype=np.float64),
+            mass=masses,
+            inertia=np.repeat((0.4 * masses * radii**2)[:, None], 3, axis=1),
+            density_material=np.full(n, mat),
+            group=np.full(n, gidx),
+            blocked=np.full(n, mask),
+        )
+        ids = np.arange(first, first + n, dtype=np.int32)
+        if name is not None:
+            if name in self.body_names:
+                raise InputError(f"body name {name!r} is already used")
+            self.body_names[name] = first
+        self.sphere_body.append(ids)
+        self.sphere_offset.append(np.zeros((n, 3)))
+        self.sphere_radius.append(radii.copy())
+        self.sphere_material.append(np.full(n, mat, dtype=np.int32))
+        return ids
+
+    def add_clump(
+        self,
+        centres: object,
+        radii: object,
+        material: str | int,
+        *,
+        velocity: object = (0.0, 0.0, 0.0),
+        angular_velocity: object = (0.0, 0.0, 0.0),
+        group: str = "default",
+        blocked: str = "",
+        name: str | None = None,
+    ) -> int:
+        """Add a clump: a rigid body of overlapping spheres (member centres [m] (k, 3) in the world, radii [m] (k,)).
+
+        Mass and inertia follow Yade's rule (sum of member masses, overlaps counted twice; parallel axes), and the
+        body frame is the clump's principal frame. Returns the body index.
+        """
+        centres = check_points("clump centres", centres)
+        radii = np.asarray(radii, dtype=np.float64).reshape(-1)
+        if radii.shape != (len(centres),):
+            raise InputError(f"clump radii must have shape ({len(centres)},), got {radii.shape}")
+        check_positive("clump radius", radii)
+        mat = self._material(material)
+        m, com, inertia = massprops.clump_mass(centres, radii, np.full(len(radii), self.materials[mat].density))
+        moments, quat = massprops.principal_axes(inertia)
+        rot = massprops.quat_to_matrix(quat)
+        body = self._add_body(com, quat, m, moments, mat, group, blocked, velocity, angular_velocity, name)
+        self.sphere_body.append(np.full(len(radii), body, dtype=np.int32))
+        self.sphere_offset.append((centres - com) @ rot)
+        self.sphere_radius.append(radii)
+        self.sphere_material.append(np.full(len(radii), mat, dtype=np.int32))
+        return body
+
+    def add_rigid_body(
+        self,
+        pos: object,
+        *,
+        mass: float = 0.0,
+        inertia: object | None = None,
+        velocity: object = (0.0, 0.0, 0.0),
+        angular_velocity: object = (0.0, 0.0, 0.0),
+        group: str = "default",
+        blocked: str = "xyzXYZ",
+        name: str | None = None,
+    ) -> int:
+        """Add a rigid body without geometry, e.g. a kinematic carriage that springs attach to.
+
+        pos: centre of mass [m] (3,); mass [kg] (may be 0 only if every DoF is blocked); inertia: tensor about the
+        centre of mass, world axes [kg m^2] (3, 3). By default every DoF is blocked and the body moves at
+        ``velocity`` [m/s] and ``angular_velocity`` [rad/s].
+        """
+        pos = check_vec3("pos", pos)
+        mask = dof_mask(blocked)
+        if mask != ALL_DOFS:
+            check_positive("mass", mass)
+        if inertia is None:
+            moments, quat = np.ones(3), np.array([0.0, 0.0, 0.0, 1.0])
+            if mask & ROT_DOFS != ROT_DOFS:
+                raise InputError("inertia must be given for a rigid body with free rotations")
+        else:
+            moments, quat = massprops.principal_axes(inertia)
+        return self._add_body(pos, quat, mass, moments, -1, group, blocked, velocity, angular_velocity, name)
+
+    def add_mesh(
+        self,
+        name: str,
+        vertices: object,
+        faces: object,
+        material: str | int,
+        *,
+        kind: str = "static",
+        body: int | None = None,
+        mass: float | None = None,
+        com: object | None = None,
+        inertia: object | None = None,
+        velocity: object = (0.0, 0.0, 0.0),
+        angular_velocity: object = (0.0, 0.0, 0.0),
+        group: str | None = None,
+        blocked: str | None = None,
+    ) -> int:
+        """Add a triangle mesh (facets, both faces active) as a body, or attach it to an existing ``body``.
+
+        Args:
+            name: unique mesh name (also the body's name when a new body is made).
+            vertices: [m] (nv, 3) in the world. faces: vertex indices (nf, 3).
+            kind: "static" (fixed), "kinematic" (moves at the given velocity, every DoF blocked) or "dynamic"
+                (a free rigid body moved by contact and spring forces; restrict it with ``blocked``).
+            mass, com, inertia: of a dynamic mesh [kg], [m] (3,), tensor about com in world axes [kg m^2] (3, 3).
+                If omitted they are computed by trimesh from the material's density (the mesh must be closed).
+            velocity [m/s], angular_velocity [rad/s]: initial (or imposed, for blocked DoFs) velocities.
+        Returns the body index.
+        """
+        check_choice("kind", kind, ("static", "kinematic", "dynamic"))
+        vertices, faces = massprops.check_faces(vertices, faces)
+        mat = self._material(material)
+        if any(m.name == name for m in self.meshes):
+            raise InputError(f"mesh name {name!r} is already used")
+        if body is None:
+            grp = group or ("walls" if kind != "dynamic" else "tool")
+            if kind == "dynamic":
+                if mass is None:
+                    m, c, inertia_c = massprops.mesh_mass(vertices, faces, self.materials[mat].density)
+                else:
+                    check_positive("mass", mass)
+                    if com is None or inertia is None:
+                        raise InputError("a dynamic mesh given a mass also needs com and inertia")
+                    m, c, inertia_c = float(mass), check_vec3("com", com), np.asarray(inertia, dtype=np.float64)
+                moments, quat = massprops.principal_axes(inertia_c)
+                blk = blocked or ""
+            else:
+                m, c = 0.0, vertices.mean(axis=0)
+                moments, quat = np.ones(3), np.array([0.0, 0.0, 0.0, 1.0])
+                blk = "xyzXYZ"
+                if blocked not in (None, "xyzXYZ"):
+                    raise InputError(f"a {kind} mesh has every DoF blocked, got blocked={blocked!r}")
+            body = self._add_body(c, quat, m, moments, -1, grp, blk, velocity, angular_velocity, name)
+        else:
+            body = check_int("body", body)
+            if body >= self._n_bodies:
+                raise InputError(f"body {body} does not exist (have {self._n_bodies})")
+        rot = massprops.quat_to_matrix(self.body_array("quat")[body])
+        local = (vertices - self.body_array("pos")[body]) @ rot
+        self.meshes.append(_Mesh(name, body, mat, local, faces))
+        return body
+
+    def add_mesh_file(self, name: str, path: str, material: str | int, *, scale: float = 1.0, **kwargs: object) -> int:
+        """Load an STL (or any format trimesh reads) and add it with :meth:`add_mesh`; ``scale`` converts to m."""
+        import trimesh
+
+        mesh = trimesh.load(path, force="mesh")
+        if len(mesh.faces) == 0:
+            raise InputError(f"mesh file {path!r} has no faces")
+        return self.add_mesh(name, np.asarray(mesh.vertices) * scale, np.asarray(mesh.faces), material, **kwargs)
+
+    def add_spring(
+        self,
+        name: str,
+        body_a: int,
+        point_a: object,
+        body_b: int,
+        point_b: object,
+        *,
+        stiffness: float,
+        damping: float = 0.0,
+        rest_length: float | None = None,
+        preload: float = 0.0,
+    ) -> int:
+        """Linear spring-dashpot between a point of body a and a point of body b (points in the world [m], now).
+
+        Force along the line a->b, tension positive: F = preload + stiffness*(L - rest_length) + damping*dL/dt,
+        stiffness [N/m], damping [N s/m], rest_length [m] (default: the current distance), preload [N].
+        """
+        for label, b in (("body_a", body_a), ("body_b", body_b)):
+            if check_int(label, b) >= self._n_bodies:
+                raise InputError(f"{label} {b} does not exist (have {self._n_bodies})")
+        if body_a == body_b:
+            raise InputError(f"a spring needs two different bodies, got body_a = body_b = {body_a}")
+        pa, pb = check_vec3("point_a", point_a), check_vec3("point_b", point_b)
+        check_nonnegative("stiffness", stiffness)
+        check_nonnegative("damping", damping)
+        length = float(np.linalg.norm(pb - pa)) if rest_length is None else float(rest_length)
+        check_nonnegative("rest_length", length)
+        if any(s.name == name for s in self.springs):
+            raise InputError(f"spring name {name!r} is already used")
+        la = (pa - self.body_array("pos")[body_a]) @ massprops.quat_to_matrix(self.body_array("quat")[body_a])
+        lb = (pb - self.body_array("pos")[body_b]) @ massprops.quat_to_matrix(self.body_array("quat")[body_b])
+        self.springs.append(_Spring(name, body_a, la, body_b, lb, stiffness, damping, length, float(preload)))
+        return len(self.springs) - 1
+
+    # ---------------------------------------------------------------- finalize
+    def finalize(
+        self, device: str | None = None, n_worlds: int = 1, overrides: dict[str, object] | None = None
+    ) -> tuple[Model, State]:
+        """Build the device Model and initial State, replicating the scene into ``n_worlds`` worlds.
+
+        Args:
+            device: Warp device ("cpu", "cuda", "cuda:0", None for Warp's default).
+            n_worlds: number of independent copies of the scene.
+            overrides: per-world parameters, name -> values of length n_worlds:
+                ``material:<name>:<field>`` (fields: young, poisson, density, friction_angle [deg],
+                normal_cohesion, shear_cohesion, eta_roll, eta_twist, alpha_kr, alpha_ktw),
+                ``spring:<name>:<stiffness|damping|rest_length|preload>``, ``damping:<group>``,
+                ``body:<name>:velocity`` and ``body:<name>:angular_velocity`` (shape (n_worlds, 3)).
+        """
+        try:
+            dev = wp.get_device(device)
+        except Exception as exc:  # noqa: BLE001 - Warp raises several types here
+            raise InputError(f"device {device!r} is not available: {exc}") from None
+        n_worlds = check_int("n_worlds", n_worlds, low=1)
+        if not self.sphere_body and not self.meshes:
+            raise InputError("the scene has no spheres and no meshes")
+        tables = _world_tables(self, n_worlds, overrides or {})
+        return _assemble(self, dev, n_worlds, tables)
+
+
+def _per_world(name: str, values: object, n_worlds: int, shape: tuple[int, ...] = ()) -> np.ndarray:
+    arr = np.asarray(values, dtype=np.float64)
+    if arr.shape != (n_worlds, *shape):
+        raise InputError(f"override {name!r} must have shape {(n_worlds, *shape)}, got {arr.shape}")
+    check_finite(f"override {name!r}", arr)
+    return arr
+
+
+def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) -> dict[str, np.ndarray]:
+    """Per-world tables: materials (W, M) per field, damping (W, G), springs (W, S) per field, body velocities."""
+    nm, ns, nb = len(b.materials), len(b.springs), b._n_bodies
+    t: dict[str, np.ndarray] = {}
+    for f in MATERIAL_FIELDS:
+        t[f] = np.tile(np.array([getattr(m, f) for m in b.materials], dtype=np.float64), (n_worlds, 1))
+    t["damping"] = np.tile(np.array(b.group_damping, dtype=np.float64), (n_worlds, 1))
+    for f in ("stiffness", "damping", "rest_length", "preload"):
+        t["spring_" + f] = np.tile(np.array([getattr(s, f) for s in b.springs], dtype=np.float64), (n_worlds, 1))
+    t["vel"] = np.tile(b.body_array("vel").reshape(nb, 3), (n_worlds, 1, 1))
+    t["angvel"] = np.tile(b.body_array("angvel").reshape(nb, 3), (n_worlds, 1, 1))
+    spring_names = {s.name: i for i, s in enumerate(b.springs)}
+    for key, values in overrides.items():
+        parts = key.split(":")
+        if parts[0] == "material" and len(parts) == 3:
+            if parts[1] not in b.material_names:
+                raise InputError(f"override {key!r}: unknown material {parts[1]!r}")
+            check_choice(f"override {key!r} field", parts[2], MATERIAL_FIELDS)
+            col = _per_world(key, values, n_worlds)
+            for w, v in enumerate(col):  # validate each world's material like a user-built one
+                b.materials[b.material_names[parts[1]]].replace(**{parts[2]: float(v)})
+            t[parts[2]][:, b.material_names[parts[1]]] = col
+        elif parts[0] == "spring" and len(parts) == 3:
+            if parts[1] not in spring_names:
+                raise InputError(f"override {key!r}: unknown spring {parts[1]!r}")
+            check_choice(f"override {key!r} field", parts[2], ("stiffness", "damping", "rest_length", "preload"))
+            col = _per_world(key, values, n_worlds)
+            if parts[2] != "preload":
+                check_nonnegative(f"override {key!r}", col)
+            t["spring_" + parts[2]][:, spring_names[parts[1]]] = col
+        elif parts[0] == "damping" and len(parts) == 2:
+            if parts[1] not in b.groups:
+                raise InputError(f"override {key!r}: unknown group {parts[1]!r}")
+            col = _per_world(key, values, n_worlds)
+            if np.any((col < 0) | (col >= 1)):
+                raise InputError(f"override {key!r}: local damping must be in [0, 1), got {col.tolist()}")
+            t["damping"][:, b.groups[parts[1]]] = col
+        elif parts[0] == "body" and len(parts) == 3 and parts[2] in ("velocity", "angular_velocity"):
+            if parts[1] not in b.body_names:
+                raise InputError(f"override {key!r}: unknown body {parts[1]!r}")
+            t["vel" if parts[2] == "velocity" else "angvel"][:, b.body_names[parts[1]]] = _per_world(
+                key, values, n_worlds, (3,)
+            )
+        else:
+            raise InputError(
+                f"unknown override {key!r}; expected material:<name>:<field>, spring:<name>:<field>, "
+                "damping:<group> or body:<name>:velocity|angular_velocity"
+            )
+    return t
+
+
+def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.ndarray]) -> tuple[Model, State]:
+    nb = b._n_bodies
+    nm = len(b.materials)
+    ng = len(b.groups)
+    sph_body = np.concatenate(b.sphere_body) if b.sphere_body else np.zeros(0, np.int32)
+    sph_off = np.concatenate(b.sphere_offset) if b.sphere_offset else np.zeros((0, 3))
+    sph_rad = np.concatenate(b.sphere_radius) if b.sphere_radius else np.zeros(0)
+    sph_mat = np.concatenate(b.sphere_material) if b.sphere_material else np.zeros(0, np.int32)
+    ns = len(sph_rad)
+
+    # bodies: masses scale with the per-world density of the body's material
+    mass0 = b.body_array("mass")
+    inertia0 = b.body_array("inertia").reshape(nb, 3)
+    dmat = b.body_array("density_material").astype(np.int64)
+    base_rho = np.array([m.density for m in b.materials])
+    scale = np.ones((W, nb))
+    has = dmat >= 0
+    if nm:
+        scale[:, has] = t["density"][:, dmat[has]] / base_rho[dmat[has]]
+    mass = (scale * mass0).reshape(-1)
+    inertia = (scale[:, :, None] * inertia0).reshape(-1, 3)
+    flags = b.body_array("blocked").astype(np.int32)
+    iso = np.ptp(inertia0, axis=1) <= 1e-12 * inertia0.max(axis=1)
+    flags = flags | np.where(iso, 0, FLAG_ASPHERICAL).astype(np.int32)
+    blocked_all = (flags & ALL_DOFS) == ALL_DOFS
+    if np.any((mass0 <= 0) & ~blocked_all):
+        raise InputError(f"body {int(np.argmax((mass0 <= 0) & ~blocked_all))} has no mass but free DoFs")
+
+    pos = np.tile(b.body_array("pos").reshape(nb, 3), (W, 1))
+    quat = np.tile(b.body_array("quat").reshape(nb, 4), (W, 1))
+    vel = t["vel"].reshape(-1, 3)
+    angvel = t["angvel"].reshape(-1, 3)
+    angmom = np.zeros_like(angvel)
+    for i in np.nonzero(np.tile(~blocked_all, W))[0]:
+        angmom[i] = massprops.world_inertia(inertia[i], quat[i]) @ angvel[i]
+    world_of_body = np.repeat(np.arange(W, dtype=np.int32), nb)
+
+    def arr(a: np.ndarray, dtype: object) -> wp.array:
+        return wp.array(np.ascontiguousarray(a), dtype=dtype, device=dev)
+
+    # spheres
+    sphere_body = (np.tile(sph_body, W) + np.repeat(np.arange(W) * nb, ns)).astype(np.int32)
+    sphere_world = np.repeat(np.arange(W, dtype=np.int32), ns)
+
+    # meshes: one warp.Mesh per distinct geometry, shared by the world replicas
+    warp_meshes, geom_ids, tri_offsets, tris = [], [], [], []
+    n_tri = 0
+    for m in b.meshes:
+        wm = wp.Mesh(
+            points=wp.array(m.vertices_local.astype(np.float32), dtype=wp.vec3f, device=dev),
+            indices=wp.array(m.faces.reshape(-1), dtype=wp.int32, device=dev),
+        )
+        warp_meshes.append(wm)
+        geom_ids.append(wm.id)
+        tri_offsets.append(n_tri)
+        tris.append(m.vertices_local[m.faces].reshape(-1, 3))
+        n_tri += len(m.faces)
+    nmesh = len(b.meshes)
+    mesh_body = np.array([m.body for m in b.meshes], dtype=np.int64)
+    mesh_body_all = (np.tile(mesh_body, W) + np.repeat(np.arange(W) * nb, nmesh)).astype(np.int32)
+    tri_vertices = np.concatenate(tris) if tris else np.zeros((3, 3))
+
+    # springs
+    ns_ = len(b.springs)
+    sa = np.array([s.body_a for s in b.springs], dtype=np.int64)
+    sb = np.array([s.body_b for s in b.springs], dtype=np.int64)
+    off = np.repeat(np.arange(W) * nb, ns_)
+
+    mats = {f: t[f].reshape(-1) for f in MATERIAL_FIELDS}
+    mat_flags = np.tile(np.array([m.flags for m in b.materials], dtype=np.int32), W)
+    model = Model(
+        device=dev,
+        n_worlds=W,
+        bodies_per_world=nb,
+        spheres_per_world=ns,
+        meshes_per_world=nmesh,
+        springs_per_world=ns_,
+        n_materials=nm,
+        n_groups=ng,
+        gravity=b.gravity,
+        body_world=arr(world_of_body, wp.int32),
+        body_group=arr(np.tile(b.body_array("group").astype(np.int32), W), wp.int32),
+        body_flags=arr(np.tile(flags, W), wp.int32),
+        body_mass=arr(mass, wp.float64),
+        body_inertia=arr(inertia, wp.vec3d),
+        sphere_body=arr(sphere_body, wp.int32),
+        sphere_world=arr(sphere_world, wp.int32),
+        sphere_material=arr(np.tile(sph_mat, W), wp.int32),
+        sphere_radius=arr(np.tile(sph_rad, W).astype(np.float32), wp.float32),
+        sphere_offset=arr(np.tile(sph_off, (W, 1)).astype(np.float32), wp.vec3f),
+        mesh_body=arr(mesh_body_all, wp.int32),
+        mesh_world=arr(np.repeat(np.arange(W, dtype=np.int32), nmesh), wp.int32),
+        mesh_material=arr(np.tile(np.array([m.material for m in b.meshes], dtype=np.int32), W), wp.int32),
+        mesh_ids=arr(np.tile(np.array(geom_ids, dtype=np.uint64), W), wp.uint64),
+        mesh_tri_offset=arr(np.tile(np.array(tri_offsets, dtype=np.int32), W), wp.int32),
+        tri_vertices=arr(tri_vertices.astype(np.float32), wp.vec3f),
+        world_mesh_start=arr(np.arange(W, dtype=np.int32) * nmesh, wp.int32),
+        mat_young=arr(mats["young"].astype(np.float32), wp.float32),
+        mat_poisson=arr(mats["poisson"].astype(np.float32), wp.float32),
+        mat_friction=arr(np.radians(mats["friction_angle"]).astype(np.float32), wp.float32),
+        mat_normal_cohesion=arr(mats["normal_cohesion"].astype(np.float32), wp.float32),
+        mat_shear_cohesion=arr(mats["shear_cohesion"].astype(np.float32), wp.float32),
+        mat_eta_roll=arr(mats["eta_roll"].astype(np.float32), wp.float32),
+        mat_eta_twist=arr(mats["eta_twist"].astype(np.float32), wp.float32),
+        mat_alpha_kr=arr(mats["alpha_kr"].astype(np.float32), wp.float32),
+        mat_alpha_ktw=arr(mats["alpha_ktw"].astype(np.float32), wp.float32),
+        mat_flags=arr(mat_flags, wp.int32),
+        group_damping=arr(t["damping"].reshape(-1).astype(np.float32), wp.float32),
+        spring_body_a=arr((np.tile(sa, W) + off).astype(np.int32), wp.int32),
+        spring_body_b=arr((np.tile(sb, W) + off).astype(np.int32), wp.int32),
+        spring_point_a=arr(np.tile(np.array([s.point_a for s in b.springs]).reshape(ns_, 3), (W, 1)), wp.vec3f),
+        spring_point_b=arr(np.tile(np.array([s.point_b for s in b.springs]).reshape(ns_, 3), (W, 1)), wp.vec3f),
+        spring_stiffness=arr(t["spring_stiffness"].reshape(-1).astype(np.float32), wp.float32),
+        spring_damping=arr(t["spring_damping"].reshape(-1).astype(np.float32), wp.float32),
+        spring_rest_length=arr(t["spring_rest_length"].reshape(-1).astype(np.float32), wp.float32),
+        spring_preload=arr(t["spring_preload"].reshape(-1).astype(np.float32), wp.float32),
+        names={
+            "body": dict(b.body_names),
+            "material": dict(b.material_names),
+            "group": dict(b.groups),
+            "mesh": {m.name: i for i, m in enumerate(b.meshes)},
+            "spring": {s.name: i for i, s in enumerate(b.springs)},
+        },
+        warp_meshes=warp_meshes,
+        max_radius=float(sph_rad.max()) if ns else 0.0,
+    )
+    model.host = {
+        "sphere_radius": np.tile(sph_rad, W),
+        "sphere_body": sphere_body,
+        "sphere_world": sphere_world,
+        "body_mass": mass,
+        "body_inertia": inertia,
+        "body_group": np.tile(b.body_array("group").astype(np.int32), W),
+        "body_flags": np.tile(flags, W),
+        "body_world": world_of_body,
+        "mesh_body": mesh_body_all,
+        "mesh_vertices_local": [m.vertices_local for m in b.meshes],
+        "mesh_faces": [m.faces for m in b.meshes],
+        "material_young": mats["young"],
+        "material_density": mats["density"],
+        "material_poisson": mats["poisson"],
+        "sphere_material": np.tile(sph_mat, W),
+        "spring_stiffness": t["spring_stiffness"].reshape(-1),
+    }
+    state = State(
+        body_pos=arr(pos, wp.vec3d),
+        body_quat=arr(quat, wp.quatd),
+        body_vel=arr(vel, wp.vec3d),
+        body_angvel=arr(angvel, wp.vec3d),
+        body_angmom=arr(angmom, wp.vec3d),
+    )
+    return model, state

@@ -1,0 +1,419 @@
+"""Narrow phase and contact law: one kernel per contact kind, one thread per sphere over its candidate list.
+
+Sphere-sphere (Yade's Ig2_Sphere_Sphere_ScGeom6D): n = (x2 - x1)/|x2 - x1|, un = R1 + R2 - |x2 - x1|, contact point
+C = x1 + (R1 - un/2) n, relative velocity with Yade's anti-ratcheting factor.
+
+Sphere-triangle (Yade's Ig2_Facet_Sphere_ScGeom6D, facet = body 1 with contact radius 2R): the closest point of the
+triangle (face, edge or vertex) in the mesh's body frame; n from the facet to the sphere centre; C = x - (R - un/2) n.
+Unlike Yade, a sphere meeting the shared edge or vertex of neighbouring triangles of one mesh gets ONE contact: an
+edge or vertex contact is dropped when a triangle sharing that feature touches the sphere with its face, and edge or
+vertex contacts at the same point are merged (the lowest triangle keeps it). When the face owning a contact changes
+(a sphere rolling across a diagonal), the new contact inherits the old one's history if their normals agree.
+
+Forces and torques are accumulated into per-body arrays (atomics); torques are about the body's centre of mass.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from .broadphase import sphere_in_body_frame
+from .contact_law import (
+    ACTIVE,
+    Hist,
+    closest_point_triangle,
+    cohfrict_law,
+    elastic_energy,
+    empty_hist,
+    make_phys,
+    new_hist,
+    set_cohesion,
+)
+
+wp.set_module_options({"enable_backward": False})
+
+# energy accumulator slots per world (see observers.ENERGY_TERMS)
+E_DAMPING = wp.constant(0)
+E_SLIDING = wp.constant(1)
+E_ROLLING = wp.constant(2)
+E_SPRING_DAMPER = wp.constant(3)
+N_ENERGY = 4
+
+
+@wp.struct
+class Materials:
+    """Per-world material tables, each float32 or int32 of shape (n_worlds * n_materials,)."""
+
+    young: wp.array(dtype=float)
+    poisson: wp.array(dtype=float)
+    friction: wp.array(dtype=float)
+    normal_coh: wp.array(dtype=float)
+    shear_coh: wp.array(dtype=float)
+    eta_roll: wp.array(dtype=float)
+    eta_twist: wp.array(dtype=float)
+    alpha_kr: wp.array(dtype=float)
+    alpha_ktw: wp.array(dtype=float)
+    flags: wp.array(dtype=int)
+    n_materials: int
+
+
+@wp.struct
+class LawOptions:
+    """Switches of the contact law (device scalars, so changing them needs no recompile)."""
+
+    dt: float
+    always_moment: int  # Yade's always_use_moment_law
+    cohesion_on_new: int  # Yade's setCohesionOnNewContacts
+    track_energy: int
+
+
+@wp.func
+def phys_of(mats: Materials, world: int, mi: int, mj: int, r1: float, r2: float):
+    off = world * mats.n_materials
+    return make_phys(
+        off + mi, off + mj, r1, r2, mats.young, mats.poisson, mats.friction, mats.normal_coh, mats.shear_coh,
+        mats.eta_roll, mats.eta_twist, mats.alpha_kr, mats.alpha_ktw, mats.flags
+    )
+
+
+@wp.kernel
+def sphere_sphere_kernel(
+    # Model:
+    sphere_body: wp.array(dtype=int),
+    sphere_world: wp.array(dtype=int),
+    sphere_material: wp.array(dtype=int),
+    radius: wp.array(dtype=float),
+    mats: Materials,
+    opts: LawOptions,
+    # Data in:
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    sphere_vel: wp.array(dtype=wp.vec3f),
+    sphere_angvel: wp.array(dtype=wp.vec3f),
+    sphere_arm: wp.array(dtype=wp.vec3f),
+    start: wp.array(dtype=int),
+    count: wp.array(dtype=int),
+    other: wp.array(dtype=int),
+    cohesion_now: wp.array(dtype=int),
+    # Data in/out:
+    hist: wp.array(dtype=Hist),
+    # Data out:
+    body_force: wp.array(dtype=wp.vec3f),
+    body_torque: wp.array(dtype=wp.vec3f),
+    energy: wp.array(dtype=wp.float64),
+):
+    i = wp.tid()
+    n_i = count[i]
+    if n_i == 0:
+        return
+    bi = sphere_body[i]
+    w = sphere_world[i]
+    xi = sphere_pos[i]
+    r1 = radius[i]
+    vi = sphere_vel[i]
+    wi = sphere_angvel[i]
+    f_i = wp.vec3f(0.0)
+    t_i = wp.vec3f(0.0)
+    now = cohesion_now[0]
+    for k in range(start[i], start[i] + n_i):
+        h = hist[k]
+        j = other[k]
+        d = sphere_pos[j] - xi
+        dist = wp.length(d)
+        r2 = radius[j]
+        un = float(wp.float64(r1 + r2) - dist)
+        active = h.flags & ACTIVE
+        if active == 0 and un < 0.0:
+            continue
+        n = wp.vec3f(d / dist)
+        p = phys_of(mats, w, sphere_material[i], sphere_material[j], r1, r2)
+        is_new = int(0)
+        if active == 0:
+            h = new_hist(p, n, wp.max(opts.cohesion_on_new, now))
+            is_new = int(1)
+        elif now != 0:
+            h = set_cohesion(h, p)
+        wj = sphere_angvel[j]
+        alpha = (r1 + r2) / (r1 + r2 - un)
+        v12 = alpha * (sphere_vel[j] - vi) - wp.cross(r1 * wi + r2 * wj, n)
+        out = cohfrict_law(h, p, is_new, n, un, v12, wi + wj, wj - wi, opts.dt, opts.always_moment)
+        hist[k] = out.hist
+        if out.alive == 0:
+            continue
+        arm_i = sphere_arm[i] + (r1 - 0.5 * un) * n
+        arm_j = sphere_arm[j] - (r2 - 0.5 * un) * n
+        f_i += out.force
+        t_i += wp.cross(arm_i, out.force) - out.moment
+        bj = sphere_body[j]
+        wp.atomic_add(body_force, bj, -out.force)
+        wp.atomic_add(body_torque, bj, wp.cross(arm_j, -out.force) + out.moment)
+        if opts.track_energy != 0:
+            wp.atomic_add(energy, w * 4 + E_SLIDING, wp.float64(out.dissip_slide))
+            wp.atomic_add(energy, w * 4 + E_ROLLING, wp.float64(out.dissip_roll))
+    wp.atomic_add(body_force, bi, f_i)
+    wp.atomic_add(body_torque, bi, t_i)
+
+
+# ----------------------------------------------------------------------------- sphere-triangle
+@wp.struct
+class TriGeom:
+    """Sphere-triangle geometry in the mesh body's frame."""
+
+    normal: wp.vec3f  # from the triangle to the sphere centre
+    point: wp.vec3f  # closest point of the triangle
+    un: float  # overlap [m]
+    feature: int  # 0 face, 1 edge, 2 vertex
+
+
+@wp.func
+def tri_geom(p: wp.vec3f, r: float, tri_vertices: wp.array(dtype=wp.vec3f), t: int) -> TriGeom:
+    a = tri_vertices[3 * t]
+    b = tri_vertices[3 * t + 1]
+    c = tri_vertices[3 * t + 2]
+    cp = closest_point_triangle(p, a, b, c)
+    g = TriGeom()
+    g.point = wp.vec3f(cp[0], cp[1], cp[2])
+    g.feature = int(cp[3])
+    if g.feature == 0:
+        nf = wp.normalize(wp.cross(b - a, c - a))
+        s = wp.dot(p - a, nf)
+        if s < 0.0:
+            nf = -nf
+            s = -s
+        g.normal = nf
+        g.un = r - s
+    else:
+        dv = p - g.point
+        dl = wp.length(dv)
+        g.normal = dv / wp.max(dl, 1.0e-30)
+        g.un = r - dl
+    return g
+
+
+@wp.func
+def entry_geom(
+    k: int,
+    p_world: wp.vec3d,
+    r: float,
+    mesh: wp.array(dtype=int),
+    face: wp.array(dtype=int),
+    mesh_body: wp.array(dtype=int),
+    mesh_tri_offset: wp.array(dtype=int),
+    tri_vertices: wp.array(dtype=wp.vec3f),
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+) -> TriGeom:
+    m = mesh[k]
+    b = mesh_body[m]
+    p = sphere_in_body_frame(p_world, body_pos[b], body_quat[b])
+    return tri_geom(p, r, tri_vertices, mesh_tri_offset[m] + face[k])
+
+
+@wp.func
+def suppressed(
+    k: int,
+    g: TriGeom,
+    k0: int,
+    k1: int,
+    p_world: wp.vec3d,
+    r: float,
+    mesh: wp.array(dtype=int),
+    face: wp.array(dtype=int),
+    mesh_body: wp.array(dtype=int),
+    mesh_tri_offset: wp.array(dtype=int),
+    tri_vertices: wp.array(dtype=wp.vec3f),
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+) -> int:
+    """1 if entry k's edge/vertex contact belongs to a neighbour's face contact or duplicates a lower entry."""
+    if g.feature == 0:
+        return 0
+    tol = 1.0e-5 * r
+    for k2 in range(k0, k1):
+        if k2 == k or mesh[k2] != mesh[k]:
+            continue
+        g2 = entry_geom(k2, p_world, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos, body_quat)
+        if g2.un < 0.0:
+            continue
+        if g2.feature == 0:
+            # does our closest point (an edge or vertex) lie on the touching triangle k2?
+            cp = closest_point_triangle(
+                g.point,
+                tri_vertices[3 * (mesh_tri_offset[mesh[k2]] + face[k2])],
+                tri_vertices[3 * (mesh_tri_offset[mesh[k2]] + face[k2]) + 1],
+                tri_vertices[3 * (mesh_tri_offset[mesh[k2]] + face[k2]) + 2],
+            )
+            if wp.length(wp.vec3f(cp[0], cp[1], cp[2]) - g.point) <= tol:
+                return 1
+        elif k2 < k and wp.length(g2.point - g.point) <= tol:
+            return 1
+    return 0
+
+
+@wp.kernel
+def sphere_triangle_kernel(
+    # Model:
+    sphere_body: wp.array(dtype=int),
+    sphere_world: wp.array(dtype=int),
+    sphere_material: wp.array(dtype=int),
+    radius: wp.array(dtype=float),
+    mesh_body: wp.array(dtype=int),
+    mesh_material: wp.array(dtype=int),
+    mesh_tri_offset: wp.array(dtype=int),
+    tri_vertices: wp.array(dtype=wp.vec3f),
+    mats: Materials,
+    opts: LawOptions,
+    # Data in:
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    sphere_vel: wp.array(dtype=wp.vec3f),
+    sphere_angvel: wp.array(dtype=wp.vec3f),
+    sphere_arm: wp.array(dtype=wp.vec3f),
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    body_vel: wp.array(dtype=wp.vec3d),
+    body_angvel: wp.array(dtype=wp.vec3d),
+    start: wp.array(dtype=int),
+    count: wp.array(dtype=int),
+    mesh: wp.array(dtype=int),
+    face: wp.array(dtype=int),
+    cohesion_now: wp.array(dtype=int),
+    # Data in/out:
+    hist: wp.array(dtype=Hist),
+    # Data out:
+    body_force: wp.array(dtype=wp.vec3f),
+    body_torque: wp.array(dtype=wp.vec3f),
+    mesh_force: wp.array(dtype=wp.vec3f),
+    mesh_torque: wp.array(dtype=wp.vec3f),
+    energy: wp.array(dtype=wp.float64),
+):
+    i = wp.tid()
+    n_i = count[i]
+    if n_i == 0:
+        return
+    k0 = start[i]
+    k1 = k0 + n_i
+    x = sphere_pos[i]
+    r = radius[i]
+    w = sphere_world[i]
+    vs = sphere_vel[i]
+    ws = sphere_angvel[i]
+    now = cohesion_now[0]
+    f_s = wp.vec3f(0.0)
+    t_s = wp.vec3f(0.0)
+    # pass 1: contacts that exist now (inheriting history where the owning face changed) get the law
+    for k in range(k0, k1):
+        g = entry_geom(k, x, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos, body_quat)
+        h = hist[k]
+        active = h.flags & ACTIVE
+        if active == 0 and g.un < 0.0:
+            continue
+        if suppressed(k, g, k0, k1, x, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
+                      body_quat) == 1:
+            continue
+        m = mesh[k]
+        b = mesh_body[m]
+        q = body_quat[b]
+        n = wp.vec3f(wp.quat_rotate(q, wp.vec3d(g.normal)))
+        # facet = body 1 with contact radius 2R (Yade)
+        p = phys_of(mats, w, mesh_material[m], sphere_material[i], 2.0 * r, r)
+        is_new = int(0)
+        if active == 0:
+            is_new = int(1)
+            h = new_hist(p, n, wp.max(opts.cohesion_on_new, now))
+            # inherit from a contact of the same mesh that existed last step and no longer does
+            for k2 in range(k0, k1):
+                h2 = hist[k2]
+                if k2 != k and mesh[k2] == m and (h2.flags & ACTIVE) != 0 and wp.dot(h2.normal, n) > 0.99:
+                    g2 = entry_geom(k2, x, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
+                                    body_quat)
+                    if suppressed(k2, g2, k0, k1, x, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices,
+                                  body_pos, body_quat) == 1:
+                        h = h2
+                        is_new = int(0)
+        elif now != 0:
+            h = set_cohesion(h, p)
+        arm_s = -(r - 0.5 * g.un) * n  # C - x_sphere
+        arm_m = wp.vec3f(x - body_pos[b]) + arm_s  # C - X_mesh_body
+        vm = wp.vec3f(body_vel[b])
+        wm = wp.vec3f(body_angvel[b])
+        v12 = (vs + wp.cross(ws, arm_s)) - (vm + wp.cross(wm, arm_m))
+        out = cohfrict_law(h, p, is_new, n, g.un, v12, wm + ws, ws - wm, opts.dt, opts.always_moment)
+        hist[k] = out.hist
+        if out.alive == 0:
+            continue
+        tm = wp.cross(arm_m, out.force) - out.moment
+        wp.atomic_add(body_force, b, out.force)
+        wp.atomic_add(body_torque, b, tm)
+        wp.atomic_add(mesh_force, m, out.force)
+        wp.atomic_add(mesh_torque, m, tm)
+        f_s -= out.force
+        t_s += wp.cross(sphere_arm[i] + arm_s, -out.force) + out.moment
+        if opts.track_energy != 0:
+            wp.atomic_add(energy, w * 4 + E_SLIDING, wp.float64(out.dissip_slide))
+            wp.atomic_add(energy, w * 4 + E_ROLLING, wp.float64(out.dissip_roll))
+    # pass 2: clear the history of entries that are not contacts any more
+    for k in range(k0, k1):
+        if (hist[k].flags & ACTIVE) == 0:
+            continue
+        g = entry_geom(k, x, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos, body_quat)
+        if suppressed(k, g, k0, k1, x, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
+                      body_quat) == 1:
+            hist[k] = empty_hist()
+    wp.atomic_add(body_force, sphere_body[i], f_s)
+    wp.atomic_add(body_torque, sphere_body[i], t_s)
+
+
+# ----------------------------------------------------------------------------- elastic energy (observer)
+@wp.kernel
+def sphere_sphere_elastic_kernel(
+    sphere_world: wp.array(dtype=int),
+    sphere_material: wp.array(dtype=int),
+    radius: wp.array(dtype=float),
+    mats: Materials,
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    start: wp.array(dtype=int),
+    count: wp.array(dtype=int),
+    other: wp.array(dtype=int),
+    hist: wp.array(dtype=Hist),
+    out: wp.array(dtype=wp.float64),
+):
+    i = wp.tid()
+    for k in range(start[i], start[i] + count[i]):
+        h = hist[k]
+        if (h.flags & ACTIVE) == 0:
+            continue
+        j = other[k]
+        un = float(wp.float64(radius[i] + radius[j]) - wp.length(sphere_pos[j] - sphere_pos[i]))
+        p = phys_of(mats, sphere_world[i], sphere_material[i], sphere_material[j], radius[i], radius[j])
+        wp.atomic_add(out, sphere_world[i], wp.float64(elastic_energy(h, p, un)))
+
+
+@wp.kernel
+def sphere_triangle_elastic_kernel(
+    sphere_world: wp.array(dtype=int),
+    sphere_material: wp.array(dtype=int),
+    radius: wp.array(dtype=float),
+    mesh_body: wp.array(dtype=int),
+    mesh_material: wp.array(dtype=int),
+    mesh_tri_offset: wp.array(dtype=int),
+    tri_vertices: wp.array(dtype=wp.vec3f),
+    mats: Materials,
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    start: wp.array(dtype=int),
+    count: wp.array(dtype=int),
+    mesh: wp.array(dtype=int),
+    face: wp.array(dtype=int),
+    hist: wp.array(dtype=Hist),
+    out: wp.array(dtype=wp.float64),
+):
+    i = wp.tid()
+    r = radius[i]
+    for k in range(start[i], start[i] + count[i]):
+        h = hist[k]
+        if (h.flags & ACTIVE) == 0:
+            continue
+        g = entry_geom(k, sphere_pos[i], r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
+                       body_quat)
+        p = phys_of(mats, sphere_world[i], mesh_material[mesh[k]], sphere_material[i], 2.0 * r, r)
+        wp.atomic_add(out, sphere_world[i], wp.float64(elastic_energy(h, p, g.un)))

@@ -1,0 +1,245 @@
+"""Leapfrog integration of rigid bodies (Yade's NewtonIntegrator) and the update of their spheres.
+
+Per body, with F, T the summed contact and spring forces and torques (torques about the centre of mass):
+- translation: a = F/m + g on free axes (0 on blocked ones); Cundall local damping
+  a_i <- a_i (1 - lambda sgn(a_i (v_i + dt a_i / 2))); v <- v + dt a; x <- x + dt v.
+- rotation, three cases:
+  * spherical inertia, free: alpha = T/I, damped like a; omega <- omega + dt alpha; q rotated by |omega| dt.
+  * aspherical, free: Yade's Allen-Tildesley scheme on the world angular momentum L (torque damped by
+    T_i <- T_i (1 - lambda sgn(T_i omega_i))).
+  * any rotation blocked: the free components solve I_ff alpha_f = (T - omega x I omega)_f with the world-frame
+    inertia; blocked components keep their (imposed) angular velocity. (Yade's aspherical scheme would leak
+    rotation into blocked axes for a body with products of inertia, e.g. a tool hinged about one axis.)
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from .contacts import E_DAMPING, E_SPRING_DAMPER
+from .model import ALL_DOFS, FLAG_ASPHERICAL, ROT_DOFS
+
+wp.set_module_options({"enable_backward": False})
+
+
+@wp.func
+def damp(a: wp.vec3d, v: wp.vec3d, dt: wp.float64, lam: wp.float64) -> wp.vec3d:
+    """Cundall local damping of an acceleration (Yade's cundallDamp2nd)."""
+    out = a
+    for k in range(3):
+        s = a[k] * (v[k] + wp.float64(0.5) * dt * a[k])
+        if s > wp.float64(0.0):
+            out[k] = a[k] * (wp.float64(1.0) - lam)
+        elif s < wp.float64(0.0):
+            out[k] = a[k] * (wp.float64(1.0) + lam)
+    return out
+
+
+@wp.func
+def quat_integrate(q: wp.quatd, omega: wp.vec3d, dt: wp.float64) -> wp.quatd:
+    """Rotate q by the angle |omega| dt about omega (world frame)."""
+    angle = wp.length(omega) * dt
+    if angle > wp.float64(0.0):
+        dq = wp.quat_from_axis_angle(wp.normalize(omega), angle)
+        return wp.normalize(dq * q)
+    return q
+
+
+@wp.func
+def dot_q(w_b: wp.vec3d, q: wp.quatd) -> wp.quatd:
+    """dq/dt for a body-frame angular velocity: q * (w_b, 0) / 2 (Yade's DotQ)."""
+    return wp.float64(0.5) * (q * wp.quatd(w_b[0], w_b[1], w_b[2], wp.float64(0.0)))
+
+
+@wp.func
+def cw_div(a: wp.vec3d, b: wp.vec3d) -> wp.vec3d:
+    return wp.vec3d(a[0] / b[0], a[1] / b[1], a[2] / b[2])
+
+
+@wp.kernel
+def integrate_bodies_kernel(
+    # Model:
+    body_world: wp.array(dtype=int),
+    body_group: wp.array(dtype=int),
+    body_flags: wp.array(dtype=int),
+    body_mass: wp.array(dtype=wp.float64),
+    body_inertia: wp.array(dtype=wp.vec3d),
+    group_damping: wp.array(dtype=float),
+    n_groups: int,
+    gravity: wp.vec3d,
+    dt: wp.float64,
+    track_energy: int,
+    # Data in:
+    body_force: wp.array(dtype=wp.vec3f),
+    body_torque: wp.array(dtype=wp.vec3f),
+    # Data in/out:
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    body_vel: wp.array(dtype=wp.vec3d),
+    body_angvel: wp.array(dtype=wp.vec3d),
+    body_angmom: wp.array(dtype=wp.vec3d),
+    energy: wp.array(dtype=wp.float64),
+):
+    b = wp.tid()
+    flags = body_flags[b]
+    v = body_vel[b]
+    omega = body_angvel[b]
+    if (flags & ALL_DOFS) == ALL_DOFS:
+        # fully prescribed motion
+        body_pos[b] = body_pos[b] + dt * v
+        body_quat[b] = quat_integrate(body_quat[b], omega, dt)
+        return
+    w = body_world[b]
+    lam = wp.float64(group_damping[w * n_groups + body_group[b]])
+    m = body_mass[b]
+    f = wp.vec3d(body_force[b])
+    a = f / m + gravity
+    for k in range(3):
+        if (flags & (1 << k)) != 0:
+            a[k] = wp.float64(0.0)
+    a_d = damp(a, v, dt, lam)
+    if track_energy != 0 and lam > wp.float64(0.0):
+        e = wp.float64(0.0)
+        for k in range(3):
+            e += m * wp.abs(a_d[k] - a[k]) * wp.abs(v[k] + wp.float64(0.5) * dt * a[k]) * dt
+        wp.atomic_add(energy, w * 4 + E_DAMPING, e)
+    v = v + dt * a_d
+    body_vel[b] = v
+    body_pos[b] = body_pos[b] + dt * v
+
+    t = wp.vec3d(body_torque[b])
+    inertia = body_inertia[b]
+    q = body_quat[b]
+    rot_blocked = flags & ROT_DOFS
+    if rot_blocked == ROT_DOFS:
+        body_quat[b] = quat_integrate(q, omega, dt)
+        return
+    if rot_blocked != 0:
+        # constrained rotation about the free world axes
+        r = wp.quat_to_matrix(q)
+        iw = r * wp.diag(inertia) * wp.transpose(r)
+        rhs = t - wp.cross(omega, iw * omega)
+        mat = iw
+        for k in range(3):
+            if (flags & (8 << k)) != 0:
+                rhs[k] = wp.float64(0.0)
+                for l in range(3):
+                    mat[k, l] = wp.float64(0.0)
+                    mat[l, k] = wp.float64(0.0)
+                mat[k, k] = wp.float64(1.0)
+        alpha = wp.inverse(mat) * rhs
+        alpha_d = damp(alpha, omega, dt, lam)
+        omega = omega + dt * alpha_d
+        body_angvel[b] = omega
+        body_angmom[b] = iw * omega
+        body_quat[b] = quat_integrate(q, omega, dt)
+        return
+    if (flags & FLAG_ASPHERICAL) == 0:
+        alpha = damp(t / inertia[0], omega, dt, lam)
+        if track_energy != 0 and lam > wp.float64(0.0):
+            e = wp.float64(0.0)
+            for k in range(3):
+                e += inertia[0] * wp.abs(alpha[k] - t[k] / inertia[0]) * wp.abs(omega[k]) * dt
+            wp.atomic_add(energy, w * 4 + E_DAMPING, e)
+        omega = omega + dt * alpha
+        body_angvel[b] = omega
+        body_angmom[b] = inertia[0] * omega
+        body_quat[b] = quat_integrate(q, omega, dt)
+        return
+    # aspherical, free: Yade's leapfrogAsphericalRotate with the torque damped first (cundallDamp1st)
+    t_d = t
+    for k in range(3):
+        s = t[k] * omega[k]
+        if s > wp.float64(0.0):
+            t_d[k] = t[k] * (wp.float64(1.0) - lam)
+        elif s < wp.float64(0.0):
+            t_d[k] = t[k] * (wp.float64(1.0) + lam)
+    if track_energy != 0 and lam > wp.float64(0.0):
+        wp.atomic_add(energy, w * 4 + E_DAMPING, wp.abs(wp.dot(t - t_d, omega)) * dt)
+    l_mom = body_angmom[b]
+    l_n = l_mom + wp.float64(0.5) * dt * t_d
+    w_b_n = cw_div(wp.quat_rotate_inv(q, l_n), inertia)
+    q_half = q + wp.float64(0.5) * dt * dot_q(w_b_n, q)
+    l_mom = l_mom + dt * t_d
+    w_b_half = cw_div(wp.quat_rotate_inv(q, l_mom), inertia)
+    q_new = wp.normalize(q + dt * dot_q(w_b_half, q_half))
+    body_angmom[b] = l_mom
+    body_angvel[b] = wp.quat_rotate(q_new, w_b_half)
+    body_quat[b] = q_new
+
+
+@wp.kernel
+def update_spheres_kernel(
+    # Model:
+    sphere_body: wp.array(dtype=int),
+    sphere_offset: wp.array(dtype=wp.vec3f),
+    # Data in:
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    body_vel: wp.array(dtype=wp.vec3d),
+    body_angvel: wp.array(dtype=wp.vec3d),
+    # Data out:
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    sphere_vel: wp.array(dtype=wp.vec3f),
+    sphere_angvel: wp.array(dtype=wp.vec3f),
+    sphere_arm: wp.array(dtype=wp.vec3f),
+):
+    """Sphere centres and velocities from their bodies: x = X + R(q) p, v = V + Omega x (x - X)."""
+    i = wp.tid()
+    b = sphere_body[i]
+    arm = wp.quat_rotate(body_quat[b], wp.vec3d(sphere_offset[i]))
+    sphere_pos[i] = body_pos[b] + arm
+    omega = body_angvel[b]
+    sphere_vel[i] = wp.vec3f(body_vel[b] + wp.cross(omega, arm))
+    sphere_angvel[i] = wp.vec3f(omega)
+    sphere_arm[i] = wp.vec3f(arm)
+
+
+@wp.kernel
+def spring_kernel(
+    # Model:
+    spring_body_a: wp.array(dtype=int),
+    spring_body_b: wp.array(dtype=int),
+    spring_point_a: wp.array(dtype=wp.vec3f),
+    spring_point_b: wp.array(dtype=wp.vec3f),
+    stiffness: wp.array(dtype=float),
+    damping: wp.array(dtype=float),
+    rest_length: wp.array(dtype=float),
+    preload: wp.array(dtype=float),
+    body_world: wp.array(dtype=int),
+    dt: float,
+    track_energy: int,
+    # Data in:
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    body_vel: wp.array(dtype=wp.vec3d),
+    body_angvel: wp.array(dtype=wp.vec3d),
+    # Data out:
+    body_force: wp.array(dtype=wp.vec3f),
+    body_torque: wp.array(dtype=wp.vec3f),
+    spring_force: wp.array(dtype=float),
+    energy: wp.array(dtype=wp.float64),
+):
+    """Linear spring-dashpot: F = preload + k (L - L0) + c dL/dt along a->b (tension > 0) pulls a and b together."""
+    s = wp.tid()
+    a = spring_body_a[s]
+    b = spring_body_b[s]
+    ra = wp.quat_rotate(body_quat[a], wp.vec3d(spring_point_a[s]))
+    rb = wp.quat_rotate(body_quat[b], wp.vec3d(spring_point_b[s]))
+    d = (body_pos[b] + rb) - (body_pos[a] + ra)
+    length = wp.length(d)
+    u = wp.vec3f(0.0, 0.0, 1.0)
+    if length > wp.float64(0.0):
+        u = wp.vec3f(d / length)
+    va = body_vel[a] + wp.cross(body_angvel[a], ra)
+    vb = body_vel[b] + wp.cross(body_angvel[b], rb)
+    rate = wp.dot(wp.vec3f(vb - va), u)
+    f = preload[s] + stiffness[s] * (float(length) - rest_length[s]) + damping[s] * rate
+    spring_force[s] = f
+    fa = f * u
+    wp.atomic_add(body_force, a, fa)
+    wp.atomic_add(body_torque, a, wp.cross(wp.vec3f(ra), fa))
+    wp.atomic_add(body_force, b, -fa)
+    wp.atomic_add(body_torque, b, wp.cross(wp.vec3f(rb), -fa))
+    if track_energy != 0:
+        wp.atomic_add(energy, body_world[a] * 4 + E_SPRING_DAMPER, wp.float64(damping[s] * rate * rate * dt))

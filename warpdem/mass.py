@@ -1,0 +1,131 @@
+"""Mass properties of rigid bodies: spheres, clumps (Yade's rule) and triangle meshes, and principal axes.
+
+Conventions: an inertia tensor is the 3x3 matrix I = sum m (|r|^2 1 - r r^T) [kg m^2] about the centre of mass,
+in the world frame; its off-diagonal entries are the NEGATIVE products of inertia (I_xy = -sum m x y). A body
+stores its principal moments and the rotation (quaternion x, y, z, w) from its principal frame to the world.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import InputError, check_finite, check_points, check_positive
+
+
+def sphere_mass(radius: float, density: float) -> tuple[float, float]:
+    """Mass [kg] and moment of inertia [kg m^2] of a solid sphere: m = rho 4/3 pi r^3, I = 2/5 m r^2."""
+    m = density * 4.0 / 3.0 * np.pi * radius**3
+    return m, 0.4 * m * radius**2
+
+
+def clump_mass(centres: np.ndarray, radii: np.ndarray, densities: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """Yade's clump rule: mass = sum of member masses (overlaps counted twice), inertia by parallel axes.
+
+    Args:
+        centres: member centres [m], shape (k, 3).
+        radii: member radii [m], shape (k,).
+        densities: member densities [kg/m^3], shape (k,).
+
+    Returns:
+        (mass [kg], centre of mass [m] shape (3,), inertia tensor about the centre of mass [kg m^2] shape (3, 3)).
+    """
+    centres = np.asarray(centres, dtype=np.float64)
+    masses = densities * 4.0 / 3.0 * np.pi * radii**3
+    mass = float(masses.sum())
+    com = (masses[:, None] * centres).sum(axis=0) / mass
+    inertia = np.zeros((3, 3))
+    for c, m, r in zip(centres - com, masses, radii, strict=True):
+        inertia += 0.4 * m * r**2 * np.eye(3) + m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+    return mass, com, inertia
+
+
+def mesh_mass(vertices: np.ndarray, faces: np.ndarray, density: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass properties of a closed triangle mesh of uniform density, computed by trimesh.
+
+    Args:
+        vertices: [m], shape (nv, 3). faces: vertex indices, shape (nf, 3). density: [kg/m^3].
+
+    Returns:
+        (mass [kg], centre of mass [m] (3,), inertia tensor about the centre of mass, world axes [kg m^2] (3, 3)).
+    """
+    import trimesh
+
+    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+    if not mesh.is_watertight:
+        raise InputError("mesh must be closed (watertight) to compute its mass properties; give mass, com and inertia")
+    mesh.density = density
+    return float(mesh.mass), np.asarray(mesh.center_mass, dtype=np.float64), np.asarray(mesh.moment_inertia)
+
+
+def parallel_axis(inertia_origin: np.ndarray, mass: float, com: np.ndarray) -> np.ndarray:
+    """Move an inertia tensor from the origin to the centre of mass: I_c = I_o - m (|c|^2 1 - c c^T)."""
+    com = np.asarray(com, dtype=np.float64)
+    return np.asarray(inertia_origin, dtype=np.float64) - mass * (np.dot(com, com) * np.eye(3) - np.outer(com, com))
+
+
+def principal_axes(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Principal moments [kg m^2] (3,) and quaternion (x, y, z, w) rotating the principal frame to the world.
+
+    Raises InputError if the tensor is not symmetric positive definite or violates the triangle inequality.
+    """
+    inertia = np.asarray(inertia, dtype=np.float64)
+    check_finite("inertia", inertia)
+    if inertia.shape != (3, 3) or not np.allclose(inertia, inertia.T, rtol=1e-9, atol=1e-14 * np.abs(inertia).max()):
+        raise InputError(f"inertia must be a symmetric 3x3 tensor, got {inertia.tolist()}")
+    moments, axes = np.linalg.eigh(inertia)
+    check_positive("inertia principal moments", moments)
+    tol = 1e-9 * moments.max()
+    if moments[0] + moments[1] < moments[2] - tol:
+        raise InputError(f"inertia principal moments {moments.tolist()} violate I1 + I2 >= I3")
+    if np.linalg.det(axes) < 0:
+        axes[:, 2] *= -1.0
+    return moments, matrix_to_quat(axes)
+
+
+def matrix_to_quat(m: np.ndarray) -> np.ndarray:
+    """Quaternion (x, y, z, w) of a proper rotation matrix (columns = rotated axes)."""
+    m = np.asarray(m, dtype=np.float64)
+    t = np.trace(m)
+    if t > 0:
+        s = 0.5 / np.sqrt(t + 1.0)
+        q = [(m[2, 1] - m[1, 2]) * s, (m[0, 2] - m[2, 0]) * s, (m[1, 0] - m[0, 1]) * s, 0.25 / s]
+    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
+        q = [0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s, (m[2, 1] - m[1, 2]) / s]
+    elif m[1, 1] > m[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
+        q = [(m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s, (m[0, 2] - m[2, 0]) / s]
+    else:
+        s = 2.0 * np.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
+        q = [(m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s, (m[1, 0] - m[0, 1]) / s]
+    q = np.asarray(q)
+    return q / np.linalg.norm(q)
+
+
+def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix of a quaternion (x, y, z, w)."""
+    x, y, z, w = np.asarray(q, dtype=np.float64) / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def world_inertia(moments: np.ndarray, quat: np.ndarray) -> np.ndarray:
+    """Inertia tensor in the world frame, R diag(I) R^T [kg m^2], from principal moments and orientation."""
+    r = quat_to_matrix(quat)
+    return r @ np.diag(moments) @ r.T
+
+
+def check_faces(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Validate a triangle mesh's arrays and return them as float64 (nv, 3) and int32 (nf, 3)."""
+    vertices = check_points("mesh vertices", vertices)
+    faces = np.asarray(faces)
+    if faces.ndim != 2 or faces.shape[1] != 3 or faces.shape[0] == 0:
+        raise InputError(f"mesh faces must have shape (n, 3) with n >= 1, got shape {faces.shape}")
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise InputError(f"mesh faces index vertices out of range [0, {len(vertices)}): {faces.min()}..{faces.max()}")
+    return vertices, faces.astype(np.int32)

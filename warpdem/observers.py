@@ -1,0 +1,287 @@
+"""Observers: quantities read off a running simulation, each a plain function ``f(sim) -> array``.
+
+Use them directly or pass them to :meth:`Simulation.run` (``observers={"ke": kinetic_energy}``) to record a time
+series. Per-world results have a leading axis of length n_worlds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import warp as wp
+
+from .contact_law import ACTIVE
+from .contacts import E_DAMPING, E_ROLLING, E_SLIDING, E_SPRING_DAMPER, sphere_sphere_elastic_kernel
+from .contacts import sphere_triangle_elastic_kernel
+from .mass import quat_to_matrix
+from .model import ALL_DOFS
+
+wp.set_module_options({"enable_backward": False})
+
+#: names of the accumulated dissipation terms, in the order of Simulation.energy's slots
+ENERGY_TERMS = {"damping": E_DAMPING, "sliding": E_SLIDING, "rolling": E_ROLLING, "spring_damper": E_SPRING_DAMPER}
+
+
+@wp.kernel
+def _kinetic_energy_kernel(
+    body_world: wp.array(dtype=int),
+    body_group: wp.array(dtype=int),
+    body_mass: wp.array(dtype=wp.float64),
+    body_inertia: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    body_vel: wp.array(dtype=wp.vec3d),
+    body_angvel: wp.array(dtype=wp.vec3d),
+    n_groups: int,
+    out: wp.array(dtype=wp.float64),
+):
+    """out[(world * n_groups + group) * 2 + {0: translational, 1: rotational}] += energy [J] (paper eq. 6)."""
+    b = wp.tid()
+    m = body_mass[b]
+    if m <= wp.float64(0.0):
+        return
+    slot = (body_world[b] * n_groups + body_group[b]) * 2
+    v = body_vel[b]
+    wp.atomic_add(out, slot, wp.float64(0.5) * m * wp.dot(v, v))
+    w_b = wp.quat_rotate_inv(body_quat[b], body_angvel[b])
+    inertia = body_inertia[b]
+    rot = inertia[0] * w_b[0] * w_b[0] + inertia[1] * w_b[1] * w_b[1] + inertia[2] * w_b[2] * w_b[2]
+    wp.atomic_add(out, slot + 1, wp.float64(0.5) * rot)
+
+
+def kinetic_energy_table(sim: object) -> np.ndarray:
+    """Kinetic energy [J] per world, group and kind, shape (n_worlds, n_groups, 2): [..., 0] translational
+    (m v^2 / 2), [..., 1] rotational (omega^T I omega / 2), for bodies with mass (the paper's eq. 6)."""
+    m, s = sim.model, sim.state
+    out = wp.zeros(m.n_worlds * m.n_groups * 2, dtype=wp.float64, device=m.device)
+    wp.launch(
+        _kinetic_energy_kernel, m.n_bodies,
+        inputs=[m.body_world, m.body_group, m.body_mass, m.body_inertia, s.body_quat, s.body_vel, s.body_angvel,
+                m.n_groups],
+        outputs=[out], device=m.device,
+    )
+    return out.numpy().reshape(m.n_worlds, m.n_groups, 2)
+
+
+def kinetic_energy(sim: object) -> np.ndarray:
+    """Total kinetic energy per world [J], shape (n_worlds,)."""
+    return kinetic_energy_table(sim).sum(axis=(1, 2))
+
+
+def group_kinetic_energy(group: str) -> Callable[[object], np.ndarray]:
+    """Observer: (translational, rotational) kinetic energy [J] of one body group per world, shape (n_worlds, 2)."""
+
+    def f(sim: object) -> np.ndarray:
+        return kinetic_energy_table(sim)[:, sim.model.group_index(group), :]
+
+    return f
+
+
+def gravity_potential(sim: object) -> np.ndarray:
+    """Potential energy of gravity per world, -sum m g . x [J], shape (n_worlds,) (free bodies only)."""
+    m = sim.model
+    mass = m.host["body_mass"]
+    free = (m.host["body_flags"] & ALL_DOFS) != ALL_DOFS
+    pot = -(mass * free) * (sim.state.body_pos.numpy() @ np.asarray(m.gravity))
+    return np.bincount(m.host["body_world"], weights=pot, minlength=m.n_worlds)
+
+
+def spring_elastic_energy(sim: object) -> np.ndarray:
+    """Elastic energy of the springs per world [J], shape (n_worlds,): P u + k u^2 / 2 with u = L - L0."""
+    m = sim.model
+    if m.n_springs == 0:
+        return np.zeros(m.n_worlds)
+    f = sim.spring_force.numpy().astype(np.float64)
+    k = m.spring_stiffness.numpy().astype(np.float64)
+    p = m.spring_preload.numpy().astype(np.float64)
+    # u from the force of the last step (dashpot part neglected): f = P + k u
+    u = np.where(k > 0, (f - p) / np.where(k > 0, k, 1.0), 0.0)
+    e = p * u + 0.5 * k * u**2
+    return np.bincount(np.repeat(np.arange(m.n_worlds), m.springs_per_world), weights=e, minlength=m.n_worlds)
+
+
+def contact_elastic_energy(sim: object) -> np.ndarray:
+    """Elastic energy stored in all contacts per world [J], shape (n_worlds,)."""
+    m, s = sim.model, sim.state
+    out = wp.zeros(m.n_worlds, dtype=wp.float64, device=m.device)
+    if m.n_spheres:
+        wp.launch(
+            sphere_sphere_elastic_kernel, m.n_spheres,
+            inputs=[m.sphere_world, m.sphere_material, m.sphere_radius, sim.materials, sim.sphere_pos,
+                    sim.ss.start, sim.ss.count, sim.ss.key_a, sim.ss.hist],
+            outputs=[out], device=m.device,
+        )
+    if m.n_spheres and m.n_meshes:
+        wp.launch(
+            sphere_triangle_elastic_kernel, m.n_spheres,
+            inputs=[m.sphere_world, m.sphere_material, m.sphere_radius, m.mesh_body, m.mesh_material,
+                    m.mesh_tri_offset, m.tri_vertices, sim.materials, sim.sphere_pos, s.body_pos, s.body_quat,
+                    sim.st.start, sim.st.count, sim.st.key_a, sim.st.key_b, sim.st.hist],
+            outputs=[out], device=m.device,
+        )
+    return out.numpy()
+
+
+def dissipated_energy(sim: object) -> dict[str, np.ndarray]:
+    """Energy dissipated since the start per world [J], by term (needs ``track_energy=True``)."""
+    e = sim.energy.numpy().reshape(sim.model.n_worlds, -1)
+    return {name: e[:, slot].copy() for name, slot in ENERGY_TERMS.items()}
+
+
+def energy_balance(sim: object) -> dict[str, np.ndarray]:
+    """All energy terms per world [J] and their sum ``total`` = kinetic + elastic + gravity + dissipated, which
+    stays constant for a scene without driven (kinematic) bodies; shape (n_worlds,) each."""
+    terms = {
+        "kinetic": kinetic_energy(sim),
+        "contact_elastic": contact_elastic_energy(sim),
+        "spring_elastic": spring_elastic_energy(sim),
+        "gravity": gravity_potential(sim),
+    }
+    terms.update({"dissipated_" + k: v for k, v in dissipated_energy(sim).items()})
+    terms["total"] = sum(terms.values())
+    return terms
+
+
+def contact_table(sim: object) -> dict[str, np.ndarray]:
+    """Active contacts on the host: body1/body2 (body indices), world, normal (k, 3), radius1/radius2 [m],
+    kn/ks [N/m], kr/ktw [N m/rad], kind (0 sphere-sphere, 1 sphere-triangle), sphere indices, shear force [N]."""
+    m = sim.model
+    ss = sim.ss.numpy()
+    rad = m.host["sphere_radius"]
+    rows = {k: [] for k in ("body1", "body2", "world", "normal", "radius1", "radius2", "kind", "sphere", "fs",
+                            "material1", "material2")}
+    owner = np.repeat(np.arange(m.n_spheres), ss["count"])
+    idx = np.concatenate([np.arange(s, s + c) for s, c in zip(ss["start"], ss["count"], strict=True)]) \
+        if m.n_spheres else np.zeros(0, int)
+    idx = idx.astype(np.int64)
+    h = ss["hist"][idx] if len(idx) else ss["hist"][:0]
+    act = (h["flags"] & ACTIVE) != 0 if len(idx) else np.zeros(0, bool)
+    i, j = owner[act], ss["key_a"][idx][act]
+    rows["body1"].append(m.host["sphere_body"][i])
+    rows["body2"].append(m.host["sphere_body"][j])
+    rows["world"].append(m.host["sphere_world"][i])
+    rows["normal"].append(np.asarray(h["normal"][act]).reshape(-1, 3))
+    rows["radius1"].append(rad[i])
+    rows["radius2"].append(rad[j])
+    rows["kind"].append(np.zeros(len(i), int))
+    rows["sphere"].append(i)
+    rows["fs"].append(np.asarray(h["fs"][act]).reshape(-1, 3))
+    rows["material1"].append(m.host["sphere_material"][i])
+    rows["material2"].append(m.host["sphere_material"][j])
+    if m.n_meshes:
+        st = sim.st.numpy()
+        owner = np.repeat(np.arange(m.n_spheres), st["count"])
+        idx = np.concatenate([np.arange(s, s + c) for s, c in zip(st["start"], st["count"], strict=True)])
+        idx = idx.astype(np.int64)
+        h = st["hist"][idx]
+        act = (h["flags"] & ACTIVE) != 0
+        i, mesh = owner[act], st["key_a"][idx][act]
+        rows["body1"].append(m.host["mesh_body"][mesh])
+        rows["body2"].append(m.host["sphere_body"][i])
+        rows["world"].append(m.host["sphere_world"][i])
+        rows["normal"].append(np.asarray(h["normal"][act]).reshape(-1, 3))
+        rows["radius1"].append(2 * rad[i])
+        rows["radius2"].append(rad[i])
+        rows["kind"].append(np.ones(len(i), int))
+        rows["sphere"].append(i)
+        rows["fs"].append(np.asarray(h["fs"][act]).reshape(-1, 3))
+        mesh_mat = sim.model.mesh_material.numpy()
+        rows["material1"].append(mesh_mat[mesh])
+        rows["material2"].append(m.host["sphere_material"][i])
+    out = {k: np.concatenate(v) if v else np.zeros(0) for k, v in rows.items()}
+    out["normal"] = out["normal"].reshape(-1, 3)
+    # stiffnesses, as the kernels compute them
+    off = out["world"] * m.n_materials
+    e1 = m.host["material_young"][off + out["material1"]] * out["radius1"]
+    e2 = m.host["material_young"][off + out["material2"]] * out["radius2"]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out["kn"] = np.where(e1 + e2 > 0, 2 * e1 * e2 / (e1 + e2), 0.0)
+        p1 = e1 * m.host["material_poisson"][off + out["material1"]]
+        p2 = e2 * m.host["material_poisson"][off + out["material2"]]
+        out["ks"] = np.where(p1 + p2 > 0, 2 * p1 * p2 / (p1 + p2), 0.0)
+    akr = m.mat_alpha_kr.numpy().astype(float)
+    aktw = m.mat_alpha_ktw.numpy().astype(float)
+
+    def hmean(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where((a > 0) & (b > 0), 2 * a * b / (a + b), 0.0)
+
+    rr = out["radius1"] * out["radius2"] * out["ks"]
+    out["kr"] = rr * hmean(akr[off + out["material1"]], akr[off + out["material2"]])
+    out["ktw"] = rr * hmean(aktw[off + out["material1"]], aktw[off + out["material2"]])
+    return out
+
+
+def contact_count(sim: object) -> np.ndarray:
+    """Number of active contacts per world, shape (n_worlds, 2): [sphere-sphere, sphere-triangle]."""
+    ct = contact_table(sim)
+    out = np.zeros((sim.model.n_worlds, 2), dtype=np.int64)
+    np.add.at(out, (ct["world"].astype(int), ct["kind"].astype(int)), 1)
+    return out
+
+
+def coordination_number(group: str | None = None) -> Callable[[object], np.ndarray]:
+    """Observer: mean coordination number per world, shape (n_worlds,): 2 x (sphere-sphere contacts between
+    different bodies of the group) / (number of bodies of the group). A clump counts as one particle; each
+    member-member contact counts (as Yade counts interactions)."""
+
+    def f(sim: object) -> np.ndarray:
+        m = sim.model
+        ct = contact_table(sim)
+        groups = m.host["body_group"]
+        sel = ct["kind"] == 0
+        if group is not None:
+            g = m.group_index(group)
+            sel &= (groups[ct["body1"].astype(int)] == g) & (groups[ct["body2"].astype(int)] == g)
+            members = groups == g
+        else:
+            members = np.isin(np.arange(m.n_bodies), m.host["sphere_body"])
+        n_contacts = np.bincount(ct["world"][sel].astype(int), minlength=m.n_worlds)
+        n_bodies = np.bincount(m.host["body_world"][members], minlength=m.n_worlds)
+        return 2.0 * n_contacts / np.maximum(n_bodies, 1)
+
+    return f
+
+
+def body_wrench(body: str, world: int | None = None) -> Callable[[object], np.ndarray]:
+    """Observer: force [N] and torque about the centre of mass [N m] on a named body in the last step (contacts and
+    springs), shape (n_worlds, 2, 3), or (2, 3) for one world."""
+
+    def f(sim: object) -> np.ndarray:
+        m = sim.model
+        idx = np.arange(m.n_worlds) * m.bodies_per_world + m.names["body"][body]
+        out = np.stack([sim.body_force.numpy()[idx], sim.body_torque.numpy()[idx]], axis=1).astype(np.float64)
+        return out if world is None else out[world]
+
+    return f
+
+
+def mesh_wrench(mesh: str, world: int | None = None) -> Callable[[object], np.ndarray]:
+    """Observer: contact force [N] and torque about its body's centre of mass [N m] on one mesh (e.g. the lower half
+    of a tool: its force along travel is the draught), shape (n_worlds, 2, 3), or (2, 3) for one world."""
+
+    def f(sim: object) -> np.ndarray:
+        m = sim.model
+        idx = np.arange(m.n_worlds) * m.meshes_per_world + m.names["mesh"][mesh]
+        out = np.stack([sim.mesh_force.numpy()[idx], sim.mesh_torque.numpy()[idx]], axis=1).astype(np.float64)
+        return out if world is None else out[world]
+
+    return f
+
+
+def body_point(body: str, point: object) -> Callable[[object], np.ndarray]:
+    """Observer: world position [m] of a point fixed to a named body, shape (n_worlds, 3). ``point`` is given in
+    the world at the initial pose [m] (3,); subtract the first record to get its displacement."""
+    point = np.asarray(point, dtype=np.float64)
+    cache: dict[str, np.ndarray] = {}
+
+    def f(sim: object) -> np.ndarray:
+        m = sim.model
+        idx = np.arange(m.n_worlds) * m.bodies_per_world + m.names["body"][body]
+        pos = sim.state.body_pos.numpy()[idx]
+        quat = sim.state.body_quat.numpy()[idx]
+        if "local" not in cache:  # the point in each body's frame, from the current (first) pose
+            cache["local"] = np.stack([quat_to_matrix(q).T @ (point - x) for x, q in zip(pos, quat, strict=True)])
+        return np.stack([x + quat_to_matrix(q) @ p for x, q, p in zip(pos, quat, cache["local"], strict=True)])
+
+    return f

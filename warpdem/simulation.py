@@ -1,0 +1,492 @@
+"""Simulation: one step = broad phase (when needed) -> contacts -> springs -> integration -> checks.
+
+    sim = Simulation(model, state, dt=1e-5)
+    sim.run(10_000, record_every=100, observers={"ke": observers.kinetic_energy})
+
+The caller picks the device through the Model. On CUDA a chunk of steps is captured once in a CUDA graph (the
+rebuild decision stays on the device through ``wp.capture_if``) and replayed; on the CPU the same kernels run on
+Warp's CPU backend, one thread per launch, so CPU runs are deterministic.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+import warp as wp
+
+from . import broadphase as bp
+from .contacts import (
+    N_ENERGY,
+    LawOptions,
+    Materials,
+    sphere_sphere_kernel,
+    sphere_triangle_kernel,
+)
+from .errors import InputError, SimulationError, check_positive
+from .integrator import integrate_bodies_kernel, spring_kernel, update_spheres_kernel
+from .model import Model, State
+from .timestep import critical_timestep
+
+wp.set_module_options({"enable_backward": False})
+
+FAULT_NAMES = {1: "nan", 2: "speed", 3: "escaped"}
+_NO_FAULT = 2**31 - 1
+
+
+@wp.kernel
+def _begin_step_kernel(
+    skin: float,
+    disp: wp.array(dtype=float),
+    flag_out: wp.array(dtype=int),
+    counters: wp.array(dtype=int),
+):
+    """Decide whether to rebuild the candidate lists and count steps (counters: step, rebuilds)."""
+    ds = disp[0]
+    if ds + wp.max(ds, disp[1]) > skin:
+        flag_out[0] = 1
+        counters[1] = counters[1] + 1
+    else:
+        flag_out[0] = 0
+    disp[0] = 0.0
+    disp[1] = 0.0
+    counters[0] = counters[0] + 1
+
+
+@wp.kernel
+def _list_total_kernel(start: wp.array(dtype=int), count: wp.array(dtype=int), slot: int, out: wp.array(dtype=int)):
+    n = start.shape[0]
+    if n > 0:
+        wp.atomic_max(out, slot, start[n - 1] + count[n - 1])
+
+
+@wp.kernel
+def _check_bodies_kernel(
+    body_flags: wp.array(dtype=int),
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_vel: wp.array(dtype=wp.vec3d),
+    body_angvel: wp.array(dtype=wp.vec3d),
+    max_speed: wp.float64,
+    lower: wp.vec3d,
+    upper: wp.vec3d,
+    counters: wp.array(dtype=int),
+    fault: wp.array(dtype=int),
+):
+    """Record the first body (lowest index) that is NaN, too fast or out of bounds: fault = (body, cause, step)."""
+    b = wp.tid()
+    x = body_pos[b]
+    v = body_vel[b]
+    cause = int(0)
+    s = x[0] + x[1] + x[2] + v[0] + v[1] + v[2] + body_angvel[b][0] + body_angvel[b][1] + body_angvel[b][2]
+    if wp.isnan(s) or wp.isinf(s):
+        cause = 1
+    elif wp.length(v) > max_speed:
+        cause = 2
+    else:
+        for k in range(3):
+            if x[k] < lower[k] or x[k] > upper[k]:
+                cause = 3
+    if cause != 0:
+        old = wp.atomic_min(fault, 0, b)
+        if b < old:
+            fault[1] = cause
+            fault[2] = counters[0]
+
+
+class Simulation:
+    """Time stepping of a Model/State pair.
+
+    Args:
+        model, state: from :meth:`ModelBuilder.finalize`.
+        dt: time step [s]; refused above the P-wave critical step unless ``force_dt``.
+        skin: neighbour skin [m] (default 0.2 x the mean sphere radius).
+        always_use_moment_law: apply rolling/twisting moments on non-cohesive contacts too (Yade's flag).
+        cohesion_on_new_contacts: every new contact gets cohesion (Yade's setCohesionOnNewContacts).
+        track_energy: accumulate dissipation by damping, sliding, rolling and spring dashpots (costs atomics).
+        max_speed: a body faster than this [m/s] stops the run as unstable.
+        bounds: (lower (3,), upper (3,)) [m]; a body leaving it stops the run (default: the initial bounding box
+            grown by its size plus 1 m on every side).
+        capacity_factor: candidate-list capacity as a multiple of the first build's needs.
+        graph_steps: steps per captured CUDA graph (the host checks faults and capacities between graphs).
+    """
+
+    def __init__(
+        self,
+        model: Model,
+        state: State,
+        dt: float,
+        *,
+        skin: float | None = None,
+        force_dt: bool = False,
+        always_use_moment_law: bool = False,
+        cohesion_on_new_contacts: bool = False,
+        track_energy: bool = False,
+        max_speed: float = 50.0,
+        bounds: tuple[object, object] | None = None,
+        capacity_factor: float = 2.0,
+        graph_steps: int = 200,
+    ) -> None:
+        check_positive("dt", dt)
+        check_positive("max_speed", max_speed)
+        self.model = model
+        self.state = state
+        self.device = model.device
+        self.dt = float(dt)
+        self.dt_critical = critical_timestep(model)
+        if self.dt > self.dt_critical and not force_dt:
+            raise InputError(
+                f"dt = {dt:.4g} s exceeds the critical time step {self.dt_critical:.4g} s "
+                "(P-wave of the smallest sphere, or the stiffest spring); pass force_dt=True to run anyway"
+            )
+        radii = model.host["sphere_radius"]
+        self.skin = float(skin) if skin is not None else (0.2 * float(radii.mean()) if len(radii) else 1e-3)
+        check_positive("skin", self.skin)
+        self.always_use_moment_law = bool(always_use_moment_law)
+        self.cohesion_on_new_contacts = bool(cohesion_on_new_contacts)
+        self.track_energy = bool(track_energy)
+        self.max_speed = float(max_speed)
+        self.graph_steps = int(graph_steps)
+        self._capacity_factor = float(capacity_factor)
+        dev = self.device
+        ns, nb, nm = model.n_spheres, model.n_bodies, model.n_meshes
+
+        # per-step work arrays
+        self.sphere_pos = wp.zeros(ns, dtype=wp.vec3d, device=dev)
+        self.sphere_vel = wp.zeros(ns, dtype=wp.vec3f, device=dev)
+        self.sphere_angvel = wp.zeros(ns, dtype=wp.vec3f, device=dev)
+        self.sphere_arm = wp.zeros(ns, dtype=wp.vec3f, device=dev)
+        self.body_force = wp.zeros(nb, dtype=wp.vec3f, device=dev)
+        self.body_torque = wp.zeros(nb, dtype=wp.vec3f, device=dev)
+        self.mesh_force = wp.zeros(max(nm, 1), dtype=wp.vec3f, device=dev)
+        self.mesh_torque = wp.zeros(max(nm, 1), dtype=wp.vec3f, device=dev)
+        self.spring_force = wp.zeros(max(model.n_springs, 1), dtype=float, device=dev)
+        self.energy = wp.zeros(model.n_worlds * N_ENERGY, dtype=wp.float64, device=dev)
+        self.cohesion_now = wp.zeros(1, dtype=int, device=dev)
+        self.counters = wp.zeros(2, dtype=int, device=dev)  # steps, rebuilds (device side)
+        self.fault = wp.array([_NO_FAULT, 0, 0], dtype=int, device=dev)
+        self.list_stats = wp.zeros(4, dtype=int, device=dev)  # ss total, st total, ss overflow, st overflow
+        self._disp = wp.zeros(2, dtype=float, device=dev)
+        self._rebuild_flag = wp.zeros(1, dtype=int, device=dev)
+        self.build_pos = wp.zeros(ns, dtype=wp.vec3d, device=dev)
+        self.mesh_build_pos = wp.zeros(max(nm, 1), dtype=wp.vec3d, device=dev)
+        self.mesh_build_quat = wp.zeros(max(nm, 1), dtype=wp.quatd, device=dev)
+        rmax = [float(np.linalg.norm(v, axis=1).max()) for v in model.host["mesh_vertices_local"]]
+        self.mesh_rmax = wp.array(np.tile(np.array(rmax, dtype=np.float32), model.n_worlds) if nm else [0.0],
+                                  dtype=float, device=dev)
+
+        self.materials = Materials()
+        for name, arr in (
+            ("young", model.mat_young), ("poisson", model.mat_poisson), ("friction", model.mat_friction),
+            ("normal_coh", model.mat_normal_cohesion), ("shear_coh", model.mat_shear_cohesion),
+            ("eta_roll", model.mat_eta_roll), ("eta_twist", model.mat_eta_twist),
+            ("alpha_kr", model.mat_alpha_kr), ("alpha_ktw", model.mat_alpha_ktw), ("flags", model.mat_flags),
+        ):
+            setattr(self.materials, name, arr)
+        self.materials.n_materials = model.n_materials
+        self.options = LawOptions()
+        self.options.dt = self.dt
+        self.options.always_moment = int(self.always_use_moment_law)
+        self.options.cohesion_on_new = int(self.cohesion_on_new_contacts)
+        self.options.track_energy = int(self.track_energy)
+
+        self._update_spheres()
+        self._set_bounds(bounds)
+        # broad phase structures; the first build sizes the candidate lists
+        cell = 2.0 * model.max_radius + self.skin if ns else 1.0
+        self._cell = cell
+        dim = int(min(256, max(8, round((max(ns, 1) / max(model.n_worlds, 1)) ** (1 / 3) * 2))))
+        self.grid = wp.HashGrid(dim, dim, dim, device=dev, dtype=wp.float64) if ns else None
+        if self.grid is not None:
+            self.grid.reserve(ns, with_groups=True)
+        self.ss = bp.PairList(ns, 16, dev, two_keys=False)
+        self.ss_new = bp.PairList(ns, 16, dev, two_keys=False)
+        self.st = bp.PairList(ns, 16, dev, two_keys=True)
+        self.st_new = bp.PairList(ns, 16, dev, two_keys=True)
+        self._rebuild_checked()
+        self._graph = None
+        self._graph_key = None
+
+    # ------------------------------------------------------------------ helpers
+    def _set_bounds(self, bounds: tuple[object, object] | None) -> None:
+        if bounds is None:
+            pts = [self.state.body_pos.numpy()]
+            if self.model.n_spheres:
+                pts.append(self.sphere_pos.numpy())
+            allp = np.concatenate(pts)
+            lo, hi = allp.min(axis=0), allp.max(axis=0)
+            grow = (hi - lo).max() + 1.0
+            lo, hi = lo - grow, hi + grow
+        else:
+            lo, hi = np.asarray(bounds[0], float), np.asarray(bounds[1], float)
+            if lo.shape != (3,) or hi.shape != (3,) or np.any(lo >= hi):
+                raise InputError(f"bounds must be (lower (3,), upper (3,)) with lower < upper, got {bounds!r}")
+        self.bounds = (lo, hi)
+
+    def _update_spheres(self) -> None:
+        m = self.model
+        if m.n_spheres == 0:
+            return
+        wp.launch(
+            update_spheres_kernel,
+            m.n_spheres,
+            inputs=[m.sphere_body, m.sphere_offset, self.state.body_pos, self.state.body_quat, self.state.body_vel,
+                    self.state.body_angvel],
+            outputs=[self.sphere_pos, self.sphere_vel, self.sphere_angvel, self.sphere_arm],
+            device=self.device,
+        )
+
+    # ------------------------------------------------------------------ broad phase
+    def _rebuild(self) -> None:
+        """Rebuild both candidate lists into scratch arrays, inherit history, copy back (capturable)."""
+        m = self.model
+        ns = m.n_spheres
+        if ns == 0:
+            return
+        dev = self.device
+        self.grid.build(self.sphere_pos, self._cell, groups=m.sphere_world)
+        common = [self.grid.id, m.sphere_body, m.sphere_world, m.sphere_radius, m.max_radius, self.skin]
+        old = [self.sphere_pos, self.ss.start, self.ss.count, self.ss.key_a, self.ss.hist]
+        wp.launch(bp._ss_count_kernel, ns, inputs=common + old, outputs=[self.ss_new.count], device=dev)
+        wp.utils.array_scan(self.ss_new.count, self.ss_new.start, inclusive=False)
+        wp.launch(
+            bp._ss_fill_kernel, ns,
+            inputs=common + [self.ss_new.capacity] + old + [self.ss_new.start],
+            outputs=[self.ss_new.count, self.ss_new.key_a, self.ss_new.hist, self.list_stats[2:3]],
+            device=dev,
+        )
+        wp.launch(_list_total_kernel, 1, inputs=[self.ss_new.start, self.ss_new.count, 0, self.list_stats], device=dev)
+        self.ss.copy_from(self.ss_new)
+        wp.copy(self.build_pos, self.sphere_pos)
+        if m.n_meshes == 0:
+            return
+        st_model = [m.sphere_body, m.sphere_world, m.sphere_radius, m.mesh_body, m.mesh_ids, m.mesh_tri_offset,
+                    m.tri_vertices, m.world_mesh_start, m.meshes_per_world, self.skin, self.st_new.capacity]
+        st_in = [self.sphere_pos, self.state.body_pos, self.state.body_quat, self.st.start, self.st.count,
+                 self.st.key_a, self.st.key_b, self.st.hist]
+        st_out = [self.st_new.count, self.st_new.key_a, self.st_new.key_b, self.st_new.hist, self.list_stats[3:4]]
+        wp.launch(bp._st_build_kernel, ns, inputs=st_model + [0] + st_in + [self.st_new.start], outputs=st_out,
+                  device=dev)
+        wp.utils.array_scan(self.st_new.count, self.st_new.start, inclusive=False)
+        wp.launch(bp._st_build_kernel, ns, inputs=st_model + [1] + st_in + [self.st_new.start], outputs=st_out,
+                  device=dev)
+        wp.launch(_list_total_kernel, 1, inputs=[self.st_new.start, self.st_new.count, 1, self.list_stats], device=dev)
+        self.st.copy_from(self.st_new)
+        wp.launch(bp._record_mesh_build_pose_kernel, m.n_meshes,
+                  inputs=[m.mesh_body, self.state.body_pos, self.state.body_quat],
+                  outputs=[self.mesh_build_pos, self.mesh_build_quat], device=dev)
+
+    def _rebuild_checked(self) -> None:
+        """Host-side rebuild that grows the lists until everything fits (not capturable)."""
+        for _ in range(8):
+            self.list_stats.zero_()
+            self._rebuild()
+            stats = self.list_stats.numpy()
+            if stats[2] == 0 and stats[3] == 0:
+                self._grow_if_needed(stats)
+                return
+            for lst, new, need in ((self.ss, self.ss_new, stats[2]), (self.st, self.st_new, stats[3])):
+                if need > 0:
+                    cap = int(need * self._capacity_factor) + 64
+                    lst.grow(cap)
+                    new.grow(cap)
+        raise SimulationError("candidate lists could not be sized", cause="capacity")
+
+    def _grow_if_needed(self, stats: np.ndarray) -> bool:
+        """Grow a list whose last build used more than 3/4 of its capacity; returns True if anything grew."""
+        grew = False
+        for lst, new, used in ((self.ss, self.ss_new, stats[0]), (self.st, self.st_new, stats[1])):
+            if used > 0.75 * lst.capacity:
+                cap = int(used * self._capacity_factor) + 64
+                lst.grow(cap)
+                new.grow(cap)
+                grew = True
+        if grew:
+            self._graph = None
+        return grew
+
+    # ------------------------------------------------------------------ the step
+    def _launch_step(self, host_rebuild: bool) -> None:
+        m, s, dev = self.model, self.state, self.device
+        ns = m.n_spheres
+        # broad phase when the displacements since the last build could hide a contact
+        if ns:
+            wp.launch(bp._sphere_displacement_kernel, ns, inputs=[self.sphere_pos, self.build_pos],
+                      outputs=[self._disp], device=dev)
+        if m.n_meshes:
+            wp.launch(bp._mesh_displacement_kernel, m.n_meshes,
+                      inputs=[m.mesh_body, self.mesh_rmax, s.body_pos, s.body_quat, self.mesh_build_pos,
+                              self.mesh_build_quat], outputs=[self._disp], device=dev)
+        wp.launch(_begin_step_kernel, 1, inputs=[self.skin, self._disp, self._rebuild_flag, self.counters],
+                  device=dev)
+        if host_rebuild:
+            if self._rebuild_flag.numpy()[0]:
+                self._rebuild_checked()
+        else:
+            wp.capture_if(self._rebuild_flag, on_true=self._rebuild)
+
+        self.body_force.zero_()
+        self.body_torque.zero_()
+        self.mesh_force.zero_()
+        self.mesh_torque.zero_()
+        if ns:
+            wp.launch(
+                sphere_sphere_kernel, ns,
+                inputs=[m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, self.materials,
+                        self.options, self.sphere_pos, self.sphere_vel, self.sphere_angvel, self.sphere_arm,
+                        self.ss.start, self.ss.count, self.ss.key_a, self.cohesion_now, self.ss.hist],
+                outputs=[self.body_force, self.body_torque, self.energy],
+                device=dev,
+            )
+        if ns and m.n_meshes:
+            wp.launch(
+                sphere_triangle_kernel, ns,
+                inputs=[m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, m.mesh_body,
+                        m.mesh_material, m.mesh_tri_offset, m.tri_vertices, self.materials, self.options,
+                        self.sphere_pos, self.sphere_vel, self.sphere_angvel, self.sphere_arm, s.body_pos,
+                        s.body_quat, s.body_vel, s.body_angvel, self.st.start, self.st.count, self.st.key_a,
+                        self.st.key_b, self.cohesion_now, self.st.hist],
+                outputs=[self.body_force, self.body_torque, self.mesh_force, self.mesh_torque, self.energy],
+                device=dev,
+            )
+        if m.n_springs:
+            wp.launch(
+                spring_kernel, m.n_springs,
+                inputs=[m.spring_body_a, m.spring_body_b, m.spring_point_a, m.spring_point_b, m.spring_stiffness,
+                        m.spring_damping, m.spring_rest_length, m.spring_preload, m.body_world, self.dt,
+                        int(self.track_energy), s.body_pos, s.body_quat, s.body_vel, s.body_angvel],
+                outputs=[self.body_force, self.body_torque, self.spring_force, self.energy],
+                device=dev,
+            )
+        wp.launch(
+            integrate_bodies_kernel, m.n_bodies,
+            inputs=[m.body_world, m.body_group, m.body_flags, m.body_mass, m.body_inertia, m.group_damping,
+                    m.n_groups, wp.vec3d(*m.gravity), wp.float64(self.dt), int(self.track_energy),
+                    self.body_force, self.body_torque],
+            outputs=[s.body_pos, s.body_quat, s.body_vel, s.body_angvel, s.body_angmom, self.energy],
+            device=dev,
+        )
+        wp.launch(
+            _check_bodies_kernel, m.n_bodies,
+            inputs=[m.body_flags, s.body_pos, s.body_vel, s.body_angvel, wp.float64(self.max_speed),
+                    wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1]), self.counters],
+            outputs=[self.fault], device=dev,
+        )
+        self.cohesion_now.zero_()
+        self._update_spheres()
+
+    def _check(self) -> None:
+        """Raise SimulationError on a recorded fault or list overflow; grow lists that are nearly full."""
+        fault = self.fault.numpy()
+        if fault[0] != _NO_FAULT:
+            self._raise_fault(fault)
+        stats = self.list_stats.numpy()
+        if stats[2] or stats[3]:
+            raise SimulationError(
+                f"contact candidate list overflow during a captured chunk before step {self.state.step} "
+                f"(needed {max(stats[2], stats[3])} entries): contacts may have been missed; restart from a "
+                "checkpoint with a larger capacity_factor",
+                step=self.state.step, cause="capacity",
+            )
+        self._grow_if_needed(stats)
+
+    def _raise_fault(self, fault: np.ndarray) -> None:
+        body, cause, step = int(fault[0]), FAULT_NAMES.get(int(fault[1]), "?"), int(fault[2])
+        x = self.state.body_pos.numpy()[body]
+        v = self.state.body_vel.numpy()[body]
+        world = body // self.model.bodies_per_world
+        hint = {
+            "nan": "a NaN appeared (time step too large for the contact or spring stiffness, or a degenerate input)",
+            "speed": f"speed {np.linalg.norm(v):.3g} m/s > max_speed {self.max_speed} m/s: energy blow-up, "
+            f"likely dt = {self.dt:.3g} s too large (critical {self.dt_critical:.3g} s) or an overlap too deep",
+            "escaped": "the body left the simulation bounds (flew off, or fell through a wall)",
+        }[cause]
+        raise SimulationError(
+            f"simulation unstable at step {step}: body {body} (world {world}) at x = {np.round(x, 6).tolist()} m, "
+            f"v = {np.round(v, 6).tolist()} m/s; {hint}",
+            step=step, body=body, cause=cause,
+        )
+
+    # ------------------------------------------------------------------ public API
+    def step(self) -> None:
+        """Advance one time step (no graph; checks for faults after the step)."""
+        self._launch_step(host_rebuild=True)
+        self.state.step += 1
+        self.state.time += self.dt
+        if self.device.is_cpu:
+            self._check()
+
+    def set_cohesion_now(self) -> None:
+        """Give cohesion to every existing contact of cohesive materials at the next step (Yade's setCohesionNow)."""
+        self.cohesion_now.fill_(1)
+
+    def _capture(self, n: int) -> object:
+        with wp.ScopedCapture(device=self.device) as capture:
+            for _ in range(n):
+                self._launch_step(host_rebuild=False)
+        return capture.graph
+
+    def advance(self, n_steps: int) -> None:
+        """Advance ``n_steps`` steps: graphs of ``graph_steps`` on CUDA, plain launches on the CPU."""
+        if self.device.is_cpu or self.graph_steps <= 1:
+            for _ in range(n_steps):
+                self.step()
+            return
+        done = 0
+        while done < n_steps:
+            k = min(self.graph_steps, n_steps - done)
+            if k < self.graph_steps:
+                for _ in range(k):
+                    self._launch_step(host_rebuild=False)
+            else:
+                if self._graph is None:
+                    self._graph = self._capture(k)
+                wp.capture_launch(self._graph)
+            done += k
+            self.state.step += k
+            self.state.time += k * self.dt
+            self._check()
+
+    def run(
+        self,
+        n_steps: int,
+        *,
+        record_every: int = 0,
+        observers: dict[str, Callable[[Simulation], object]] | None = None,
+        progress: Callable[[int, int], None] | None = None,
+    ) -> dict[str, np.ndarray]:
+        """Run ``n_steps`` steps, calling each observer every ``record_every`` steps (and at the start).
+
+        Returns a time series: {"time": (k,), "step": (k,), name: stacked observer values}.
+        """
+        observers = observers or {}
+        series: dict[str, list] = {"time": [], "step": [], **{k: [] for k in observers}}
+
+        def record() -> None:
+            series["time"].append(self.state.time)
+            series["step"].append(self.state.step)
+            for k, f in observers.items():
+                series[k].append(np.asarray(f(self)))
+
+        if record_every and observers:
+            record()
+        done = 0
+        chunk = record_every if record_every else n_steps
+        while done < n_steps:
+            k = min(chunk, n_steps - done)
+            self.advance(k)
+            done += k
+            if record_every and observers:
+                record()
+            if progress is not None:
+                progress(done, n_steps)
+        return {k: np.asarray(v) for k, v in series.items()}
+
+    @property
+    def rebuild_count(self) -> int:
+        """Number of broad-phase rebuilds since the start (excluding the initial build)."""
+        return int(self.counters.numpy()[1])
+
+    def critical_ratio(self) -> float:
+        """dt / critical time step."""
+        return self.dt / self.dt_critical if math.isfinite(self.dt_critical) else 0.0

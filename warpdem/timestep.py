@@ -1,0 +1,75 @@
+"""Time step estimates: the P-wave critical step and a contact-stiffness estimate (Yade's timesteppers)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .model import ALL_DOFS, Model
+
+
+def pwave_timestep(model: Model) -> float:
+    """Yade's PWaveTimeStep: min over spheres (and worlds) of r / sqrt(E / rho) [s]; inf without spheres."""
+    if model.n_spheres == 0:
+        return math.inf
+    mat = model.host["sphere_material"] + model.host["sphere_world"] * model.n_materials
+    e = model.host["material_young"][mat]
+    rho = model.host["material_density"][mat]
+    return float(np.min(model.host["sphere_radius"] / np.sqrt(e / rho)))
+
+
+def spring_timestep(model: Model) -> float:
+    """Stability limit of the spring connectors, 2 sqrt(m_red / k) [s] with m_red the reduced mass of the free
+    bodies (translation only; a stiff spring on a light lever arm can be stiffer than this suggests)."""
+    if model.n_springs == 0:
+        return math.inf
+    a = model.spring_body_a.numpy()
+    b = model.spring_body_b.numpy()
+    k = model.spring_stiffness.numpy().astype(np.float64)
+    mass = model.host["body_mass"]
+    free = (model.host["body_flags"] & ALL_DOFS) != ALL_DOFS
+    inv = np.where(free, 1.0 / np.where(mass > 0, mass, 1.0), 0.0)
+    inv_red = inv[a] + inv[b]
+    ok = (k > 0) & (inv_red > 0)
+    if not np.any(ok):
+        return math.inf
+    return float(np.min(2.0 * np.sqrt(1.0 / (inv_red[ok] * k[ok]))))
+
+
+def critical_timestep(model: Model) -> float:
+    """The step a simulation may not exceed without ``force_dt``: min of the P-wave and spring limits [s]."""
+    return min(pwave_timestep(model), spring_timestep(model))
+
+
+def stiffness_timestep(sim: object, safety: float = 0.8) -> float:
+    """Yade's GlobalStiffnessTimeStepper estimate from the current contacts [s].
+
+    Per body: K_i = sum (kn - ks) n_i^2 + ks (translation), K_R,i = sum ks R^2 (1 - n_i^2) + kr (1 - n_i^2) + ktw n_i^2
+    (rotation); dt = 1.41044 * safety * min sqrt(m / K_i), sqrt(I / K_R,i).
+    """
+    from .observers import contact_table
+
+    model = sim.model
+    ct = contact_table(sim)
+    if len(ct["kn"]) == 0:
+        return pwave_timestep(model)
+    nb = model.n_bodies
+    kt = np.zeros((nb, 3))
+    kr = np.zeros((nb, 3))
+    n2 = ct["normal"] ** 2
+    for side in ("body1", "body2"):
+        body = ct[side]
+        r = ct["radius1" if side == "body1" else "radius2"]
+        np.add.at(kt, body, (ct["kn"] - ct["ks"])[:, None] * n2 + ct["ks"][:, None])
+        np.add.at(kr, body, (ct["ks"] * r**2 + ct["kr"])[:, None] * (1 - n2) + ct["ktw"][:, None] * n2)
+    mass = model.host["body_mass"]
+    inertia = model.host["body_inertia"]
+    free = (model.host["body_flags"] & ALL_DOFS) != ALL_DOFS
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1 = np.where(kt > 0, mass[:, None] / kt, np.inf)
+        t2 = np.where(kr > 0, inertia / kr, np.inf)
+    dt2 = np.minimum(t1, t2)[free]
+    if dt2.size == 0 or not np.isfinite(dt2).any():
+        return pwave_timestep(model)
+    return float(1.41044 * safety * np.sqrt(np.min(dt2)))
