@@ -193,20 +193,16 @@ def _ss_fill_kernel(
 
 # ----------------------------------------------------------------------------- sphere-triangle lists
 @wp.func
-def sphere_in_body_frame(
-    x: wp.vec3d, body_pos: wp.vec3d, body_quat: wp.quatd
-) -> wp.vec3f:
-    """A world point expressed in a body's principal frame (float64 difference, then float32)."""
-    return wp.vec3f(wp.quat_rotate_inv(body_quat, x - body_pos))
+def sphere_in_body_frame(x: wp.vec3d, body_pos: wp.vec3d, body_quat: wp.quatd) -> wp.vec3d:
+    """A world point expressed in a body's principal frame [m]."""
+    return wp.quat_rotate_inv(body_quat, x - body_pos)
 
 
 @wp.func
-def triangle_distance(p: wp.vec3f, tri_vertices: wp.array(dtype=wp.vec3f), t: int) -> float:
-    a = tri_vertices[3 * t]
-    b = tri_vertices[3 * t + 1]
-    c = tri_vertices[3 * t + 2]
-    cp = closest_point_triangle(p, a, b, c)
-    return wp.length(p - wp.vec3f(cp[0], cp[1], cp[2]))
+def triangle_distance(p: wp.vec3d, tri_vertices: wp.array(dtype=wp.vec3d), t: int) -> float:
+    """Distance [m] from p to triangle t (both in the mesh body's frame)."""
+    cp = closest_point_triangle(p, tri_vertices[3 * t], tri_vertices[3 * t + 1], tri_vertices[3 * t + 2])
+    return float(wp.length(p - wp.vec3d(cp[0], cp[1], cp[2])))
 
 
 @wp.func
@@ -218,7 +214,7 @@ def _st_is_candidate(
     radius: wp.array(dtype=float),
     mesh_body: wp.array(dtype=int),
     mesh_tri_offset: wp.array(dtype=int),
-    tri_vertices: wp.array(dtype=wp.vec3f),
+    tri_vertices: wp.array(dtype=wp.vec3d),
     body_pos: wp.array(dtype=wp.vec3d),
     body_quat: wp.array(dtype=wp.quatd),
     skin: float,
@@ -239,7 +235,7 @@ def _st_build_kernel(
     mesh_body: wp.array(dtype=int),
     mesh_ids: wp.array(dtype=wp.uint64),
     mesh_tri_offset: wp.array(dtype=int),
-    tri_vertices: wp.array(dtype=wp.vec3f),
+    tri_vertices: wp.array(dtype=wp.vec3d),
     world_mesh_start: wp.array(dtype=int),
     meshes_per_world: int,
     skin: float,
@@ -281,7 +277,8 @@ def _st_build_kernel(
         if b == sphere_body[i]:
             continue
         p = sphere_in_body_frame(sphere_pos[i], body_pos[b], body_quat[b])
-        query = wp.mesh_query_aabb(mesh_ids[m], p - wp.vec3f(r), p + wp.vec3f(r))
+        pf = wp.vec3f(p)
+        query = wp.mesh_query_aabb(mesh_ids[m], pf - wp.vec3f(r), pf + wp.vec3f(r))
         f = int(0)
         while wp.mesh_query_aabb_next(query, f):
             if triangle_distance(p, tri_vertices, mesh_tri_offset[m] + f) < r and c < n:

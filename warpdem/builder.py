@@ -582,7 +582,7 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         mesh_material=arr(np.tile(np.array([m.material for m in b.meshes], dtype=np.int32), W), wp.int32),
         mesh_ids=arr(np.tile(np.array(geom_ids, dtype=np.uint64), W), wp.uint64),
         mesh_tri_offset=arr(np.tile(np.array(tri_offsets, dtype=np.int32), W), wp.int32),
-        tri_vertices=arr(tri_vertices.astype(np.float32), wp.vec3f),
+        tri_vertices=arr(tri_vertices, wp.vec3d),
         world_mesh_start=arr(np.arange(W, dtype=np.int32) * nmesh, wp.int32),
         mat_young=arr(mats["young"].astype(np.float32), wp.float32),
         mat_poisson=arr(mats["poisson"].astype(np.float32), wp.float32),

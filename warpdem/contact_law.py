@@ -184,6 +184,7 @@ def cohfrict_law(
     rel_angvel: wp.vec3f,
     dt: float,
     always_moment: int,
+    unp_max: float,
 ) -> LawOut:
     """One step of Law2_ScGeom6D_CohFrictPhys_CohesionMoment (incremental moments).
 
@@ -196,6 +197,8 @@ def cohfrict_law(
         ang_sum: omega1 + omega2 [rad/s] (for the twist part of the transport).
         rel_angvel: omega2 - omega1 [rad/s].
         dt: time step [s]. always_moment: apply moments on non-cohesive contacts too.
+        unp_max: a non-fragile contact is deleted when its plastic tensile displacement -unp exceeds this [m]
+            (Yade's unpMax: 0 by default, so it breaks at its first tensile yield; < 0 means never).
     """
     out = LawOut()
     out.hist = h
@@ -215,6 +218,10 @@ def cohfrict_law(
         # non-fragile: normal plasticity in tension
         fn = -h.an
         out.hist.unp = un + h.an / p.kn
+        if unp_max >= 0.0 and -out.hist.unp > unp_max:
+            out.alive = 0
+            out.hist = empty_hist()
+            return out
     fn_out = fn
 
     # transport the history to the current tangent plane (nothing to transport for a new contact)
@@ -296,45 +303,46 @@ def elastic_energy(h: Hist, p: Phys, un: float) -> float:
 
 
 @wp.func
-def closest_point_triangle(p: wp.vec3f, a: wp.vec3f, b: wp.vec3f, c: wp.vec3f) -> wp.vec4f:
-    """Closest point of triangle abc to p (Ericson, Real-Time Collision Detection 5.1.5).
+def closest_point_triangle(p: wp.vec3d, a: wp.vec3d, b: wp.vec3d, c: wp.vec3d) -> wp.vec4d:
+    """Closest point of triangle abc to p, in float64 (Ericson, Real-Time Collision Detection 5.1.5).
 
     Returns (x, y, z, feature) with feature 0 = face interior, 1 = edge, 2 = vertex.
     """
+    zero = wp.float64(0.0)
     ab = b - a
     ac = c - a
     ap = p - a
     d1 = wp.dot(ab, ap)
     d2 = wp.dot(ac, ap)
-    if d1 <= 0.0 and d2 <= 0.0:
-        return wp.vec4f(a[0], a[1], a[2], 2.0)
+    if d1 <= zero and d2 <= zero:
+        return wp.vec4d(a[0], a[1], a[2], wp.float64(2.0))
     bp = p - b
     d3 = wp.dot(ab, bp)
     d4 = wp.dot(ac, bp)
-    if d3 >= 0.0 and d4 <= d3:
-        return wp.vec4f(b[0], b[1], b[2], 2.0)
+    if d3 >= zero and d4 <= d3:
+        return wp.vec4d(b[0], b[1], b[2], wp.float64(2.0))
     vc = d1 * d4 - d3 * d2
-    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+    if vc <= zero and d1 >= zero and d3 <= zero:
         v = d1 / (d1 - d3)
         q = a + v * ab
-        return wp.vec4f(q[0], q[1], q[2], 1.0)
+        return wp.vec4d(q[0], q[1], q[2], wp.float64(1.0))
     cp = p - c
     d5 = wp.dot(ab, cp)
     d6 = wp.dot(ac, cp)
-    if d6 >= 0.0 and d5 <= d6:
-        return wp.vec4f(c[0], c[1], c[2], 2.0)
+    if d6 >= zero and d5 <= d6:
+        return wp.vec4d(c[0], c[1], c[2], wp.float64(2.0))
     vb = d5 * d2 - d1 * d6
-    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+    if vb <= zero and d2 >= zero and d6 <= zero:
         w = d2 / (d2 - d6)
         q = a + w * ac
-        return wp.vec4f(q[0], q[1], q[2], 1.0)
+        return wp.vec4d(q[0], q[1], q[2], wp.float64(1.0))
     va = d3 * d6 - d5 * d4
-    if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
+    if va <= zero and (d4 - d3) >= zero and (d5 - d6) >= zero:
         w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
         q = b + w * (c - b)
-        return wp.vec4f(q[0], q[1], q[2], 1.0)
-    denom = 1.0 / (va + vb + vc)
+        return wp.vec4d(q[0], q[1], q[2], wp.float64(1.0))
+    denom = wp.float64(1.0) / (va + vb + vc)
     v = vb * denom
     w = vc * denom
     q = a + ab * v + ac * w
-    return wp.vec4f(q[0], q[1], q[2], 0.0)
+    return wp.vec4d(q[0], q[1], q[2], zero)

@@ -64,6 +64,7 @@ class LawOptions:
     dt: float
     always_moment: int  # Yade's always_use_moment_law
     cohesion_on_new: int  # Yade's setCohesionOnNewContacts
+    unp_max: float  # Yade's unpMax [m]: non-fragile tensile break (< 0: never)
     track_energy: int
 
 
@@ -135,7 +136,7 @@ def sphere_sphere_kernel(
         wj = sphere_angvel[j]
         alpha = (r1 + r2) / (r1 + r2 - un)
         v12 = alpha * (sphere_vel[j] - vi) - wp.cross(r1 * wi + r2 * wj, n)
-        out = cohfrict_law(h, p, is_new, n, un, v12, wi + wj, wj - wi, opts.dt, opts.always_moment)
+        out = cohfrict_law(h, p, is_new, n, un, v12, wi + wj, wj - wi, opts.dt, opts.always_moment, opts.unp_max)
         hist[k] = out.hist
         if out.alive == 0:
             continue
@@ -159,33 +160,34 @@ class TriGeom:
     """Sphere-triangle geometry in the mesh body's frame."""
 
     normal: wp.vec3f  # from the triangle to the sphere centre
-    point: wp.vec3f  # closest point of the triangle
+    point: wp.vec3d  # closest point of the triangle
     un: float  # overlap [m]
     feature: int  # 0 face, 1 edge, 2 vertex
 
 
 @wp.func
-def tri_geom(p: wp.vec3f, r: float, tri_vertices: wp.array(dtype=wp.vec3f), t: int) -> TriGeom:
+def tri_geom(p: wp.vec3d, r: float, tri_vertices: wp.array(dtype=wp.vec3d), t: int) -> TriGeom:
+    """Geometry in float64 (a 2 m wall triangle and a micrometre overlap), returned as float32 normal and overlap."""
     a = tri_vertices[3 * t]
     b = tri_vertices[3 * t + 1]
     c = tri_vertices[3 * t + 2]
     cp = closest_point_triangle(p, a, b, c)
     g = TriGeom()
-    g.point = wp.vec3f(cp[0], cp[1], cp[2])
+    g.point = wp.vec3d(cp[0], cp[1], cp[2])
     g.feature = int(cp[3])
     if g.feature == 0:
         nf = wp.normalize(wp.cross(b - a, c - a))
         s = wp.dot(p - a, nf)
-        if s < 0.0:
+        if s < wp.float64(0.0):
             nf = -nf
             s = -s
-        g.normal = nf
-        g.un = r - s
+        g.normal = wp.vec3f(nf)
+        g.un = float(wp.float64(r) - s)
     else:
         dv = p - g.point
         dl = wp.length(dv)
-        g.normal = dv / wp.max(dl, 1.0e-30)
-        g.un = r - dl
+        g.normal = wp.vec3f(dv / wp.max(dl, wp.float64(1.0e-30)))
+        g.un = float(wp.float64(r) - dl)
     return g
 
 
@@ -198,7 +200,7 @@ def entry_geom(
     face: wp.array(dtype=int),
     mesh_body: wp.array(dtype=int),
     mesh_tri_offset: wp.array(dtype=int),
-    tri_vertices: wp.array(dtype=wp.vec3f),
+    tri_vertices: wp.array(dtype=wp.vec3d),
     body_pos: wp.array(dtype=wp.vec3d),
     body_quat: wp.array(dtype=wp.quatd),
 ) -> TriGeom:
@@ -220,14 +222,14 @@ def suppressed(
     face: wp.array(dtype=int),
     mesh_body: wp.array(dtype=int),
     mesh_tri_offset: wp.array(dtype=int),
-    tri_vertices: wp.array(dtype=wp.vec3f),
+    tri_vertices: wp.array(dtype=wp.vec3d),
     body_pos: wp.array(dtype=wp.vec3d),
     body_quat: wp.array(dtype=wp.quatd),
 ) -> int:
     """1 if entry k's edge/vertex contact belongs to a neighbour's face contact or duplicates a lower entry."""
     if g.feature == 0:
         return 0
-    tol = 1.0e-5 * r
+    tol = wp.float64(1.0e-5 * r)
     for k2 in range(k0, k1):
         if k2 == k or mesh[k2] != mesh[k]:
             continue
@@ -242,7 +244,7 @@ def suppressed(
                 tri_vertices[3 * (mesh_tri_offset[mesh[k2]] + face[k2]) + 1],
                 tri_vertices[3 * (mesh_tri_offset[mesh[k2]] + face[k2]) + 2],
             )
-            if wp.length(wp.vec3f(cp[0], cp[1], cp[2]) - g.point) <= tol:
+            if wp.length(wp.vec3d(cp[0], cp[1], cp[2]) - g.point) <= tol:
                 return 1
         elif k2 < k and wp.length(g2.point - g.point) <= tol:
             return 1
@@ -259,7 +261,7 @@ def sphere_triangle_kernel(
     mesh_body: wp.array(dtype=int),
     mesh_material: wp.array(dtype=int),
     mesh_tri_offset: wp.array(dtype=int),
-    tri_vertices: wp.array(dtype=wp.vec3f),
+    tri_vertices: wp.array(dtype=wp.vec3d),
     mats: Materials,
     opts: LawOptions,
     # Data in:
@@ -336,7 +338,7 @@ def sphere_triangle_kernel(
         vm = wp.vec3f(body_vel[b])
         wm = wp.vec3f(body_angvel[b])
         v12 = (vs + wp.cross(ws, arm_s)) - (vm + wp.cross(wm, arm_m))
-        out = cohfrict_law(h, p, is_new, n, g.un, v12, wm + ws, ws - wm, opts.dt, opts.always_moment)
+        out = cohfrict_law(h, p, is_new, n, g.un, v12, wm + ws, ws - wm, opts.dt, opts.always_moment, opts.unp_max)
         hist[k] = out.hist
         if out.alive == 0:
             continue
@@ -395,7 +397,7 @@ def sphere_triangle_elastic_kernel(
     mesh_body: wp.array(dtype=int),
     mesh_material: wp.array(dtype=int),
     mesh_tri_offset: wp.array(dtype=int),
-    tri_vertices: wp.array(dtype=wp.vec3f),
+    tri_vertices: wp.array(dtype=wp.vec3d),
     mats: Materials,
     sphere_pos: wp.array(dtype=wp.vec3d),
     body_pos: wp.array(dtype=wp.vec3d),

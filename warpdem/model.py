@@ -83,7 +83,7 @@ class Model:
     mesh_tri_offset: wp.array
     """offset of the instance's geometry in the triangle arrays, int32 (n_meshes,)."""
     tri_vertices: wp.array
-    """triangle vertices in the body frame [m], vec3f (n_triangles, 3) flattened as (3*n_triangles,)."""
+    """triangle vertices in the body frame [m], vec3d (n_triangles, 3) flattened as (3*n_triangles,)."""
     world_mesh_start: wp.array
     """first mesh instance of each world, int32 (n_worlds,)."""
 

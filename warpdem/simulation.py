@@ -103,6 +103,8 @@ class Simulation:
         skin: neighbour skin [m] (default 0.2 x the mean sphere radius).
         always_use_moment_law: apply rolling/twisting moments on non-cohesive contacts too (Yade's flag).
         cohesion_on_new_contacts: every new contact gets cohesion (Yade's setCohesionOnNewContacts).
+        unp_max: plastic tensile displacement [m] at which a non-fragile bond is deleted (Yade's unpMax, default 0:
+            at its first tensile yield); negative: never.
         track_energy: accumulate dissipation by damping, sliding, rolling and spring dashpots (costs atomics).
         max_speed: a body faster than this [m/s] stops the run as unstable.
         bounds: (lower (3,), upper (3,)) [m]; a body leaving it stops the run (default: the initial bounding box
@@ -121,6 +123,7 @@ class Simulation:
         force_dt: bool = False,
         always_use_moment_law: bool = False,
         cohesion_on_new_contacts: bool = False,
+        unp_max: float = 0.0,
         track_energy: bool = False,
         max_speed: float = 50.0,
         bounds: tuple[object, object] | None = None,
@@ -189,6 +192,7 @@ class Simulation:
         self.options.always_moment = int(self.always_use_moment_law)
         self.options.cohesion_on_new = int(self.cohesion_on_new_contacts)
         self.options.track_energy = int(self.track_energy)
+        self.options.unp_max = float(unp_max)
 
         self._update_spheres()
         self._set_bounds(bounds)
