@@ -25,3 +25,22 @@ def square(center: tuple[float, float, float], half: float, normal_tilt_deg: flo
 @pytest.fixture
 def device() -> str:
     return DEVICE
+
+
+def point_triangle_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Exact distance from points p to triangles abc, all broadcast (..., 3), by projection onto the plane when
+    the projection is inside, else the nearest of the three edges (an independent host-side reference)."""
+    n = np.cross(b - a, c - a)
+    n = n / np.linalg.norm(n, axis=-1, keepdims=True)
+    h = np.sum((p - a) * n, axis=-1)
+    q = p - h[..., None] * n
+    inside = np.ones(np.broadcast_shapes(p.shape, a.shape)[:-1], dtype=bool)
+    for e0, e1 in ((a, b), (b, c), (c, a)):
+        inside &= np.sum(np.cross(e1 - e0, q - e0) * n, axis=-1) >= 0
+    best = np.abs(h)
+    edge = np.full_like(best, np.inf)
+    for e0, e1 in ((a, b), (b, c), (c, a)):
+        d = e1 - e0
+        s = np.clip(np.sum((p - e0) * d, axis=-1) / np.sum(d * d, axis=-1), 0.0, 1.0)
+        edge = np.minimum(edge, np.linalg.norm(p - (e0 + s[..., None] * d), axis=-1))
+    return np.where(inside, best, edge)
