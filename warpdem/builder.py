@@ -422,8 +422,8 @@ class ModelBuilder:
         except Exception as exc:  # noqa: BLE001 - Warp raises several types here
             raise InputError(f"device {device!r} is not available: {exc}") from None
         n_worlds = check_int("n_worlds", n_worlds, low=1)
-        if not self.sphere_body and not self.meshes:
-            raise InputError("the scene has no spheres and no meshes")
+        if self._n_bodies == 0:
+            raise InputError("the scene has no bodies")
         tables = _world_tables(self, n_worlds, overrides or {})
         return _assemble(self, dev, n_worlds, tables)
 

@@ -53,8 +53,9 @@ def check_positive(name: str, value: object) -> None:
     check_finite(name, value)
     arr = np.asarray(value, dtype=np.float64)
     if np.any(arr <= 0.0):
-        bad = arr.reshape(-1)[np.argmax(arr.reshape(-1) <= 0.0)]
-        raise InputError(f"{name} must be > 0, got {bad!r}" + ("" if arr.ndim == 0 else f" in {_describe(value)}"))
+        bad = float(arr.reshape(-1)[np.argmax(arr.reshape(-1) <= 0.0)])
+        where = "" if arr.size == 1 else f" (in {_describe(value)})"
+        raise InputError(f"{name} must be > 0, got {bad!r}{where}")
 
 
 def check_nonnegative(name: str, value: object) -> None:
@@ -62,7 +63,7 @@ def check_nonnegative(name: str, value: object) -> None:
     check_finite(name, value)
     arr = np.asarray(value, dtype=np.float64)
     if np.any(arr < 0.0):
-        bad = arr.reshape(-1)[np.argmax(arr.reshape(-1) < 0.0)]
+        bad = float(arr.reshape(-1)[np.argmax(arr.reshape(-1) < 0.0)])
         raise InputError(f"{name} must be >= 0, got {bad!r}")
 
 

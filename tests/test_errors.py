@@ -1,0 +1,109 @@
+"""Bad input raises an InputError naming the parameter and its value; instability stops with step, body, cause."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import DEVICE, square
+
+import warpdem as wd
+
+GOOD = dict(young=1e7, poisson=0.3, density=2700.0, friction_angle=30.0)
+
+
+@pytest.mark.parametrize(
+    "field,value,words",
+    [
+        ("young", 0.0, "young"),
+        ("young", -1e7, "young"),
+        ("density", -5.0, "density"),
+        ("density", 0.0, "density"),
+        ("poisson", 1.5, "poisson"),
+        ("poisson", -0.1, "poisson"),
+        ("friction_angle", 90.0, "friction_angle"),
+        ("friction_angle", -1.0, "friction_angle"),
+        ("young", float("nan"), "young"),
+        ("normal_cohesion", float("inf"), "normal_cohesion"),
+        ("eta_roll", float("nan"), "eta_roll"),
+    ],
+)
+def test_bad_material(field: str, value: float, words: str) -> None:
+    with pytest.raises(wd.InputError, match=words) as e:
+        wd.Material(**{**GOOD, field: value})
+    assert repr(value) in str(e.value) or "finite" in str(e.value)
+
+
+def builder() -> wd.ModelBuilder:
+    b = wd.ModelBuilder()
+    b.add_material("m", wd.Material(**GOOD))
+    return b
+
+
+def test_bad_bodies_and_meshes() -> None:
+    b = builder()
+    with pytest.raises(wd.InputError, match=r"sphere radius must be > 0, got -0\.01"):
+        b.add_sphere((0, 0, 0), -0.01, "m")
+    with pytest.raises(wd.InputError, match="radius"):
+        b.add_sphere((0, 0, 0), 0.0, "m")
+    with pytest.raises(wd.InputError, match="sphere positions must be finite"):
+        b.add_sphere((0, np.nan, 0), 0.01, "m")
+    with pytest.raises(wd.InputError, match="velocit"):
+        b.add_sphere((0, 0, 0), 0.01, "m", velocity=(np.inf, 0, 0))
+    with pytest.raises(wd.InputError, match="mesh faces must have shape"):
+        b.add_mesh("empty", np.zeros((3, 3)), np.zeros((0, 3), dtype=int), "m")
+    with pytest.raises(wd.InputError, match="material 'clay' is not defined"):
+        b.add_sphere((0, 0, 0), 0.01, "clay")
+    with pytest.raises(wd.InputError, match="blocked"):
+        b.add_sphere((0, 0, 0), 0.01, "m", blocked="xq")
+    with pytest.raises(wd.InputError, match="gravity must be finite"):
+        wd.ModelBuilder(gravity=(0, 0, np.nan))
+
+
+def test_bad_mesh_file(tmp_path) -> None:
+    path = tmp_path / "empty.stl"
+    path.write_text("solid empty\nendsolid empty\n")
+    with pytest.raises((wd.InputError, ValueError)):
+        builder().add_mesh_file("tool", str(path), "m")
+
+
+def test_bad_device_and_world_table() -> None:
+    b = builder()
+    b.add_sphere((0, 0, 0), 0.01, "m")
+    with pytest.raises(wd.InputError, match="device 'tpu:3'"):
+        b.finalize("tpu:3")
+    with pytest.raises(wd.InputError, match=r"material:m:young.*shape \(3,\).*\(2,\)"):
+        b.finalize(DEVICE, n_worlds=3, overrides={"material:m:young": [1e7, 2e7]})
+    with pytest.raises(wd.InputError, match="friction_angle must be in"):
+        b.finalize(DEVICE, n_worlds=2, overrides={"material:m:friction_angle": [30.0, 95.0]})
+    with pytest.raises(wd.InputError, match="unknown override 'speed'"):
+        b.finalize(DEVICE, n_worlds=2, overrides={"speed": [1.0, 2.0]})
+    with pytest.raises(wd.InputError, match="n_worlds must be an integer >= 1, got 0"):
+        b.finalize(DEVICE, n_worlds=0)
+
+
+def test_time_step_above_critical_is_refused() -> None:
+    b = builder()
+    b.add_sphere((0, 0, 0), 0.01, "m")
+    model, state = b.finalize(DEVICE)
+    crit = wd.pwave_timestep(model)
+    assert crit == pytest.approx(0.01 / np.sqrt(1e7 / 2700.0))
+    with pytest.raises(wd.InputError, match="exceeds the critical time step"):
+        wd.Simulation(model, state, dt=2 * crit)
+    wd.Simulation(model, state, dt=2 * crit, force_dt=True)  # explicitly forced
+
+
+def test_unstable_run_stops_with_step_body_and_cause() -> None:
+    # Two deeply overlapping stiff spheres with a forced step 30x the critical one blow up.
+    b = builder()
+    b.add_sphere((0, 0, 0), 0.01, "m")
+    b.add_sphere((0.012, 0, 0), 0.01, "m")
+    v, f = square((0, 0, -0.05), 0.2)
+    b.add_mesh("floor", v, f, "m")
+    model, state = b.finalize(DEVICE)
+    sim = wd.Simulation(model, state, dt=30 * wd.pwave_timestep(model), force_dt=True)
+    with pytest.raises(wd.SimulationError) as e:
+        sim.advance(200)
+    err = e.value
+    assert err.cause in ("speed", "nan", "escaped")
+    assert err.body in (0, 1) and 0 < err.step <= 200
+    assert f"body {err.body}" in str(err) and f"step {err.step}" in str(err)
