@@ -519,9 +519,10 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
     quat = np.tile(b.body_array("quat").reshape(nb, 4), (W, 1))
     vel = t["vel"].reshape(-1, 3)
     angvel = t["angvel"].reshape(-1, 3)
-    angmom = np.zeros_like(angvel)
-    for i in np.nonzero(np.tile(~blocked_all, W))[0]:
-        angmom[i] = massprops.world_inertia(inertia[i], quat[i]) @ angvel[i]
+    # L = R diag(I) R^T omega, for every body at once
+    rot = massprops.quats_to_matrices(quat)
+    local = np.einsum("nji,nj->ni", rot, angvel) * inertia
+    angmom = np.einsum("nij,nj->ni", rot, local) * np.tile(~blocked_all, W)[:, None]
     world_of_body = np.repeat(np.arange(W, dtype=np.int32), nb)
 
     def arr(a: np.ndarray, dtype: object) -> wp.array:

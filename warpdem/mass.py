@@ -114,6 +114,21 @@ def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     )
 
 
+def quats_to_matrices(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices (n, 3, 3) of quaternions (n, 4) in (x, y, z, w) order."""
+    q = np.asarray(q, dtype=np.float64)
+    q = q / np.linalg.norm(q, axis=1, keepdims=True)
+    x, y, z, w = q.T
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=-1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=-1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=-1),
+        ],
+        axis=1,
+    )
+
+
 def world_inertia(moments: np.ndarray, quat: np.ndarray) -> np.ndarray:
     """Inertia tensor in the world frame, R diag(I) R^T [kg m^2], from principal moments and orientation."""
     r = quat_to_matrix(quat)
