@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 import warp as wp
@@ -9,7 +11,8 @@ import warp as wp
 wp.config.quiet = True
 wp.init()
 
-DEVICE = "cpu"
+#: tests run on Warp's CPU backend; WARPDEM_TEST_DEVICE=cuda runs the same suite on a GPU
+DEVICE = os.environ.get("WARPDEM_TEST_DEVICE", "cpu")
 
 
 def square(center: tuple[float, float, float], half: float, normal_tilt_deg: float = 0.0):
