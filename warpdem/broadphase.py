@@ -82,6 +82,15 @@ def _record_mesh_build_pose_kernel(
     build_quat_out[m] = body_quat_in[mesh_body[m]]
 
 
+@wp.kernel
+def allocate_blocks_kernel(count: wp.array(dtype=int), total: wp.array(dtype=int), start_out: wp.array(dtype=int)):
+    """Give each sphere a contiguous block of its ``count`` entries (an exclusive scan on the CPU, where threads
+    run in order; on CUDA the blocks' order varies but each sphere's entries stay sorted). Unlike
+    ``wp.utils.array_scan`` it allocates nothing, so it can run inside a conditional CUDA graph node."""
+    i = wp.tid()
+    start_out[i] = wp.atomic_add(total, 0, count[i])
+
+
 # ----------------------------------------------------------------------------- sphere-sphere lists
 @wp.func
 def _ss_is_candidate(

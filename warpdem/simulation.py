@@ -3,9 +3,10 @@
     sim = Simulation(model, state, dt=1e-5)
     sim.run(10_000, record_every=100, observers={"ke": observers.kinetic_energy})
 
-The caller picks the device through the Model. On CUDA a chunk of steps is captured once in a CUDA graph (the
-rebuild decision stays on the device through ``wp.capture_if``) and replayed; on the CPU the same kernels run on
-Warp's CPU backend, one thread per launch, so CPU runs are deterministic.
+The caller picks the device through the Model. On CUDA the kernels of a step are captured once in a CUDA graph and
+replayed; the broad-phase rebuild (whose hash-grid build cannot live in a conditional graph node) runs between
+graphs when the previous step flagged it. On the CPU the same kernels run on Warp's CPU backend, one thread per
+launch, so CPU runs are deterministic.
 """
 
 from __future__ import annotations
@@ -55,10 +56,9 @@ def _begin_step_kernel(
 
 
 @wp.kernel
-def _list_total_kernel(start: wp.array(dtype=int), count: wp.array(dtype=int), slot: int, out: wp.array(dtype=int)):
-    n = start.shape[0]
-    if n > 0:
-        wp.atomic_max(out, slot, start[n - 1] + count[n - 1])
+def _list_total_kernel(alloc_total: wp.array(dtype=int), slot: int, out: wp.array(dtype=int)):
+    """Record the entries a list needed at its last build (list_stats[slot]), for capacity monitoring."""
+    wp.atomic_max(out, slot, alloc_total[slot])
 
 
 @wp.kernel
@@ -91,7 +91,7 @@ def _check_bodies_kernel(
         old = wp.atomic_min(fault, 0, b)
         if b < old:
             fault[1] = cause
-            fault[2] = counters[0]
+            fault[2] = counters[0] + 1  # the step being completed (counted at its end)
 
 
 class Simulation:
@@ -110,7 +110,7 @@ class Simulation:
         bounds: (lower (3,), upper (3,)) [m]; a body leaving it stops the run (default: the initial bounding box
             grown by its size plus 1 m on every side).
         capacity_factor: candidate-list capacity as a multiple of the first build's needs.
-        graph_steps: steps per captured CUDA graph (the host checks faults and capacities between graphs).
+        graph_steps: on CUDA, the host checks for faults and list capacity every ``graph_steps`` steps.
     """
 
     def __init__(
@@ -170,6 +170,7 @@ class Simulation:
         self.fault = wp.array([_NO_FAULT, 0, 0], dtype=int, device=dev)
         self.list_stats = wp.zeros(4, dtype=int, device=dev)  # ss total, st total, ss overflow, st overflow
         self._disp = wp.zeros(2, dtype=float, device=dev)
+        self._alloc_total = wp.zeros(2, dtype=int, device=dev)
         self._rebuild_flag = wp.zeros(1, dtype=int, device=dev)
         self.build_pos = wp.zeros(ns, dtype=wp.vec3d, device=dev)
         self.mesh_build_pos = wp.zeros(max(nm, 1), dtype=wp.vec3d, device=dev)
@@ -207,9 +208,8 @@ class Simulation:
         self.ss_new = bp.PairList(ns, 16, dev, two_keys=False)
         self.st = bp.PairList(ns, 16, dev, two_keys=True)
         self.st_new = bp.PairList(ns, 16, dev, two_keys=True)
-        self._rebuild_checked()
         self._graph = None
-        self._graph_key = None
+        self._rebuild_checked()
 
     # ------------------------------------------------------------------ helpers
     def _set_bounds(self, bounds: tuple[object, object] | None) -> None:
@@ -252,14 +252,16 @@ class Simulation:
         common = [self.grid.id, m.sphere_body, m.sphere_world, m.sphere_radius, m.max_radius, self.skin]
         old = [self.sphere_pos, self.ss.start, self.ss.count, self.ss.key_a, self.ss.hist]
         wp.launch(bp._ss_count_kernel, ns, inputs=common + old, outputs=[self.ss_new.count], device=dev)
-        wp.utils.array_scan(self.ss_new.count, self.ss_new.start, inclusive=False)
+        self._alloc_total.zero_()
+        wp.launch(bp.allocate_blocks_kernel, ns, inputs=[self.ss_new.count, self._alloc_total[0:1]],
+                  outputs=[self.ss_new.start], device=dev)
         wp.launch(
             bp._ss_fill_kernel, ns,
             inputs=common + [self.ss_new.capacity] + old + [self.ss_new.start],
             outputs=[self.ss_new.count, self.ss_new.key_a, self.ss_new.hist, self.list_stats[2:3]],
             device=dev,
         )
-        wp.launch(_list_total_kernel, 1, inputs=[self.ss_new.start, self.ss_new.count, 0, self.list_stats], device=dev)
+        wp.launch(_list_total_kernel, 1, inputs=[self._alloc_total, 0, self.list_stats], device=dev)
         self.ss.copy_from(self.ss_new)
         wp.copy(self.build_pos, self.sphere_pos)
         if m.n_meshes == 0:
@@ -271,10 +273,11 @@ class Simulation:
         st_out = [self.st_new.count, self.st_new.key_a, self.st_new.key_b, self.st_new.hist, self.list_stats[3:4]]
         wp.launch(bp._st_build_kernel, ns, inputs=st_model + [0] + st_in + [self.st_new.start], outputs=st_out,
                   device=dev)
-        wp.utils.array_scan(self.st_new.count, self.st_new.start, inclusive=False)
+        wp.launch(bp.allocate_blocks_kernel, ns, inputs=[self.st_new.count, self._alloc_total[1:2]],
+                  outputs=[self.st_new.start], device=dev)
         wp.launch(bp._st_build_kernel, ns, inputs=st_model + [1] + st_in + [self.st_new.start], outputs=st_out,
                   device=dev)
-        wp.launch(_list_total_kernel, 1, inputs=[self.st_new.start, self.st_new.count, 1, self.list_stats], device=dev)
+        wp.launch(_list_total_kernel, 1, inputs=[self._alloc_total, 1, self.list_stats], device=dev)
         self.st.copy_from(self.st_new)
         wp.launch(bp._record_mesh_build_pose_kernel, m.n_meshes,
                   inputs=[m.mesh_body, self.state.body_pos, self.state.body_quat],
@@ -294,6 +297,7 @@ class Simulation:
                     cap = int(need * self._capacity_factor) + 64
                     lst.grow(cap)
                     new.grow(cap)
+                    self._graph = None  # the arrays moved: recapture
         raise SimulationError("candidate lists could not be sized", cause="capacity")
 
     def _grow_if_needed(self, stats: np.ndarray) -> bool:
@@ -310,25 +314,11 @@ class Simulation:
         return grew
 
     # ------------------------------------------------------------------ the step
-    def _launch_step(self, host_rebuild: bool) -> None:
+    def _launch_step(self) -> None:
+        """The kernels of one step (capturable): contacts, springs, integration, checks, and at the end the
+        decision whether the candidate lists must be rebuilt before the next step (``_rebuild_flag``)."""
         m, s, dev = self.model, self.state, self.device
         ns = m.n_spheres
-        # broad phase when the displacements since the last build could hide a contact
-        if ns:
-            wp.launch(bp._sphere_displacement_kernel, ns, inputs=[self.sphere_pos, self.build_pos],
-                      outputs=[self._disp], device=dev)
-        if m.n_meshes:
-            wp.launch(bp._mesh_displacement_kernel, m.n_meshes,
-                      inputs=[m.mesh_body, self.mesh_rmax, s.body_pos, s.body_quat, self.mesh_build_pos,
-                              self.mesh_build_quat], outputs=[self._disp], device=dev)
-        wp.launch(_begin_step_kernel, 1, inputs=[self.skin, self._disp, self._rebuild_flag, self.counters],
-                  device=dev)
-        if host_rebuild:
-            if self._rebuild_flag.numpy()[0]:
-                self._rebuild_checked()
-        else:
-            wp.capture_if(self._rebuild_flag, on_true=self._rebuild)
-
         self.body_force.zero_()
         self.body_torque.zero_()
         self.mesh_force.zero_()
@@ -378,6 +368,16 @@ class Simulation:
         )
         self.cohesion_now.zero_()
         self._update_spheres()
+        # broad phase next step? when the displacements since the last build could hide a contact
+        if ns:
+            wp.launch(bp._sphere_displacement_kernel, ns, inputs=[self.sphere_pos, self.build_pos],
+                      outputs=[self._disp], device=dev)
+        if m.n_meshes:
+            wp.launch(bp._mesh_displacement_kernel, m.n_meshes,
+                      inputs=[m.mesh_body, self.mesh_rmax, s.body_pos, s.body_quat, self.mesh_build_pos,
+                              self.mesh_build_quat], outputs=[self._disp], device=dev)
+        wp.launch(_begin_step_kernel, 1, inputs=[self.skin, self._disp, self._rebuild_flag, self.counters],
+                  device=dev)
 
     def _check(self) -> None:
         """Raise SimulationError on a recorded fault or list overflow; grow lists that are nearly full."""
@@ -413,8 +413,10 @@ class Simulation:
 
     # ------------------------------------------------------------------ public API
     def step(self) -> None:
-        """Advance one time step (no graph; checks for faults after the step)."""
-        self._launch_step(host_rebuild=True)
+        """Advance one time step (plain launches), rebuilding the candidate lists first if the last step asked."""
+        if self._rebuild_flag.numpy()[0]:
+            self._rebuild_checked()
+        self._launch_step()
         self.state.step += 1
         self.state.time += self.dt
         if self.device.is_cpu:
@@ -424,32 +426,26 @@ class Simulation:
         """Give cohesion to every existing contact of cohesive materials at the next step (Yade's setCohesionNow)."""
         self.cohesion_now.fill_(1)
 
-    def _capture(self, n: int) -> object:
-        with wp.ScopedCapture(device=self.device) as capture:
-            for _ in range(n):
-                self._launch_step(host_rebuild=False)
-        return capture.graph
-
     def advance(self, n_steps: int) -> None:
-        """Advance ``n_steps`` steps: graphs of ``graph_steps`` on CUDA, plain launches on the CPU."""
+        """Advance ``n_steps`` steps. On CUDA each step is one captured graph; between graphs the host reads the
+        rebuild flag (one small synchronisation per step) and rebuilds outside the graph when asked, and every
+        ``graph_steps`` steps it checks for faults and list capacity."""
         if self.device.is_cpu or self.graph_steps <= 1:
             for _ in range(n_steps):
                 self.step()
             return
-        done = 0
-        while done < n_steps:
-            k = min(self.graph_steps, n_steps - done)
-            if k < self.graph_steps:
-                for _ in range(k):
-                    self._launch_step(host_rebuild=False)
-            else:
-                if self._graph is None:
-                    self._graph = self._capture(k)
-                wp.capture_launch(self._graph)
-            done += k
-            self.state.step += k
-            self.state.time += k * self.dt
-            self._check()
+        for k in range(n_steps):
+            if self._rebuild_flag.numpy()[0]:
+                self._rebuild_checked()
+            if self._graph is None:
+                with wp.ScopedCapture(device=self.device) as capture:
+                    self._launch_step()
+                self._graph = capture.graph
+            wp.capture_launch(self._graph)
+            self.state.step += 1
+            self.state.time += self.dt
+            if (k + 1) % self.graph_steps == 0 or k == n_steps - 1:
+                self._check()
 
     def run(
         self,
