@@ -112,7 +112,8 @@ def test_mesh_in_body_frame_follows_rotation() -> None:
     verts = local @ quat_to_matrix(q).T + x0
     tri = verts[model.host["mesh_faces"][0]]
     st = sim.st.numpy()
-    found = {(i, int(st["key_b"][k])) for i in range(300) for k in range(st["start"][i], st["start"][i] + st["count"][i])}
+    found = {(i, int(st["key_b"][k])) for i in range(300)
+             for k in range(st["start"][i], st["start"][i] + st["count"][i])}
     x = sim.sphere_pos.numpy()
     # the lists are from the last rebuild; every pair in contact now must be listed
     gap = point_triangle_distance(x[:, None], tri[None, :, 0], tri[None, :, 1], tri[None, :, 2]) - 0.01

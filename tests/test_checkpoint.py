@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+from conftest import DEVICE
 from test_worlds import packing_scene
 
 import warpdem as wd
-from conftest import DEVICE
 
 
 def make() -> wd.Simulation:

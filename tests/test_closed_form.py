@@ -184,7 +184,10 @@ def test_clump_inertia_matches_trimesh() -> None:
     centres = np.array([[0.0, 0.0, 0.0], [0.014, 0.0, 0.004], [-0.006, 0.012, 0.0]])
     radii = np.array([0.010, 0.008, 0.012])
     mesh = trimesh.util.concatenate(
-        [trimesh.creation.icosphere(subdivisions=5, radius=r).apply_translation(c) for c, r in zip(centres, radii)]
+        [
+            trimesh.creation.icosphere(subdivisions=5, radius=r).apply_translation(c)
+            for c, r in zip(centres, radii, strict=True)
+        ]
     )
     mesh.density = RHO
     m, com, inertia = clump_mass(centres, radii, np.full(3, RHO))
@@ -207,7 +210,7 @@ def random_cloud(n: int, seed: int, box: float) -> tuple[np.ndarray, np.ndarray]
     while len(pos) < n:
         r = rng.uniform(0.004, 0.006)
         p = rng.uniform(-box, box, 3)
-        if all(np.linalg.norm(p - q) > r + s for q, s in zip(pos, rad)):
+        if all(np.linalg.norm(p - q) > r + s for q, s in zip(pos, rad, strict=True)):
             pos.append(p)
             rad.append(r)
     return np.array(pos), np.array(rad)

@@ -49,7 +49,8 @@ def test_world_in_batch_equals_solo_run() -> None:
 
 def test_same_packing_at_origin_and_2m_gives_same_forces() -> None:
     # Reference: translation invariance. With float64 positions the overlaps (~1e-6 m) are resolved to ~1e-16 m
-    # at 2 m, so contact forces agree to float32 precision (1e-4 of the largest force after 4000 steps of impact and settling). With float32
+    # at 2 m, so contact forces agree to float32 precision (1e-4 of the largest force after 4000 steps of impact
+    # and settling). With float32
     # positions the overlap resolution at 2 m would be ~2e-7 m, i.e. errors of tens of percent.
     results = []
     for offset in (np.zeros(3), np.array([2.0, -2.0, 2.0])):

@@ -19,7 +19,16 @@ import numpy as np
 import warp as wp
 
 from . import mass as massprops
-from .errors import InputError, check_choice, check_finite, check_int, check_nonnegative, check_points, check_positive, check_vec3
+from .errors import (
+    InputError,
+    check_choice,
+    check_finite,
+    check_int,
+    check_nonnegative,
+    check_points,
+    check_positive,
+    check_vec3,
+)
 from .materials import MATERIAL_FIELDS, Material
 from .model import ALL_DOFS, FLAG_ASPHERICAL, ROT_DOFS, Model, State, dof_mask
 
@@ -438,7 +447,7 @@ def _per_world(name: str, values: object, n_worlds: int, shape: tuple[int, ...] 
 
 def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) -> dict[str, np.ndarray]:
     """Per-world tables: materials (W, M) per field, damping (W, G), springs (W, S) per field, body velocities."""
-    nm, ns, nb = len(b.materials), len(b.springs), b._n_bodies
+    nb = b._n_bodies
     t: dict[str, np.ndarray] = {}
     for f in MATERIAL_FIELDS:
         t[f] = np.tile(np.array([getattr(m, f) for m in b.materials], dtype=np.float64), (n_worlds, 1))
@@ -455,7 +464,7 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
                 raise InputError(f"override {key!r}: unknown material {parts[1]!r}")
             check_choice(f"override {key!r} field", parts[2], MATERIAL_FIELDS)
             col = _per_world(key, values, n_worlds)
-            for w, v in enumerate(col):  # validate each world's material like a user-built one
+            for v in col:  # validate each world's material like a user-built one
                 b.materials[b.material_names[parts[1]]].replace(**{parts[2]: float(v)})
             t[parts[2]][:, b.material_names[parts[1]]] = col
         elif parts[0] == "spring" and len(parts) == 3:

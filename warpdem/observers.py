@@ -12,8 +12,14 @@ import numpy as np
 import warp as wp
 
 from .contact_law import ACTIVE
-from .contacts import E_DAMPING, E_ROLLING, E_SLIDING, E_SPRING_DAMPER, sphere_sphere_elastic_kernel
-from .contacts import sphere_triangle_elastic_kernel
+from .contacts import (
+    E_DAMPING,
+    E_ROLLING,
+    E_SLIDING,
+    E_SPRING_DAMPER,
+    sphere_sphere_elastic_kernel,
+    sphere_triangle_elastic_kernel,
+)
 from .mass import quat_to_matrix
 from .model import ALL_DOFS
 
