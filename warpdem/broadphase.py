@@ -123,8 +123,8 @@ def _ss_count_kernel(
     i = wp.tid()
     x = sphere_pos[i]
     query = wp.hash_grid_query(grid, x, wp.float64(radius[i] + max_radius + skin), sphere_world[i])
-    j = 0
-    c = 0
+    j = int(0)
+    c = int(0)
     while wp.hash_grid_query_next(query, j):
         if j > i and sphere_body[j] != sphere_body[i]:
             c += _ss_is_candidate(i, j, sphere_pos, radius, skin)
@@ -167,8 +167,8 @@ def _ss_fill_kernel(
         count_out[i] = n
     x = sphere_pos[i]
     query = wp.hash_grid_query(grid, x, wp.float64(radius[i] + max_radius + skin), sphere_world[i])
-    j = 0
-    c = 0
+    j = int(0)
+    c = int(0)
     while wp.hash_grid_query_next(query, j):
         if j > i and sphere_body[j] != sphere_body[i] and c < n:
             if _ss_is_candidate(i, j, sphere_pos, radius, skin) == 1:
@@ -269,8 +269,8 @@ def _st_build_kernel(
 ):
     """Count (fill = 0) or fill (fill = 1) the sphere-triangle candidates of sphere i."""
     i = wp.tid()
-    base = 0
-    n = 2147483647
+    base = int(0)
+    n = int(2147483647)
     if fill == 1:
         base = start_in[i]
         n = count_out[i]
@@ -278,7 +278,7 @@ def _st_build_kernel(
             wp.atomic_max(overflow_out, 0, base + n)
             n = wp.max(capacity - base, 0)
             count_out[i] = n
-    c = 0
+    c = int(0)
     r = radius[i] + skin
     m0 = world_mesh_start[sphere_world[i]]
     for m in range(m0, m0 + meshes_per_world):
@@ -288,7 +288,7 @@ def _st_build_kernel(
         p = sphere_in_body_frame(sphere_pos[i], body_pos[b], body_quat[b])
         pf = wp.vec3f(p)
         query = wp.mesh_query_aabb(mesh_ids[m], pf - wp.vec3f(r), pf + wp.vec3f(r))
-        f = 0
+        f = int(0)
         while wp.mesh_query_aabb_next(query, f):
             if triangle_distance(p, tri_vertices, mesh_tri_offset[m] + f) < r and c < n:
                 if fill == 1:

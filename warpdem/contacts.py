@@ -127,10 +127,10 @@ def sphere_sphere_kernel(
             continue
         n = wp.vec3f(d / dist)
         p = phys_of(mats, w, sphere_material[i], sphere_material[j], r1, r2)
-        is_new = 0
+        is_new = int(0)
         if active == 0:
             h = new_hist(p, n, wp.max(opts.cohesion_on_new, now))
-            is_new = 1
+            is_new = int(1)
         elif now != 0:
             h = set_cohesion(h, p)
         wj = sphere_angvel[j]
@@ -317,9 +317,9 @@ def sphere_triangle_kernel(
         n = wp.vec3f(wp.quat_rotate(q, wp.vec3d(g.normal)))
         # facet = body 1 with contact radius 2R (Yade)
         p = phys_of(mats, w, mesh_material[m], sphere_material[i], 2.0 * r, r)
-        is_new = 0
+        is_new = int(0)
         if active == 0:
-            is_new = 1
+            is_new = int(1)
             h = new_hist(p, n, wp.max(opts.cohesion_on_new, now))
             # inherit from a contact of the same mesh that existed last step and no longer does
             for k2 in range(k0, k1):
@@ -330,7 +330,7 @@ def sphere_triangle_kernel(
                     if suppressed(k2, g2, k0, k1, x, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices,
                                   body_pos, body_quat) == 1:
                         h = h2
-                        is_new = 0
+                        is_new = int(0)
         elif now != 0:
             h = set_cohesion(h, p)
         arm_s = -(r - 0.5 * g.un) * n  # C - x_sphere

@@ -77,7 +77,7 @@ def _check_bodies_kernel(
     b = wp.tid()
     x = body_pos[b]
     v = body_vel[b]
-    cause = 0
+    cause = int(0)
     s = x[0] + x[1] + x[2] + v[0] + v[1] + v[2] + body_angvel[b][0] + body_angvel[b][1] + body_angvel[b][2]
     if wp.isnan(s) or wp.isinf(s):
         cause = 1
