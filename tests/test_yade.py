@@ -39,7 +39,7 @@ EPS32 = 2.0**-24  # float32 unit round-off
 
 
 # ----------------------------------------------------------------------------------------------------- helpers
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _npz(name: str) -> dict[str, np.ndarray]:
     with np.load(REF / f"{name}.npz") as f:
         return {k: f[k] for k in f.files}
@@ -64,12 +64,19 @@ def _material(d: dict, prefix: str, **override: object) -> wd.Material:
     if prefix + "normal_cohesion" not in d:  # only stored-less for non-cohesive materials, where it never enters
         assert not cohesive and prefix + "shear_cohesion" not in d
     kw = dict(
-        young=get("young"), poisson=get("poisson"), density=get("density"),
+        young=get("young"),
+        poisson=get("poisson"),
+        density=get("density"),
         friction_angle=float(np.degrees(get("friction_angle"))),
-        normal_cohesion=get("normal_cohesion", 0.0), shear_cohesion=get("shear_cohesion", 0.0),
-        eta_roll=get("eta_roll", -1.0), eta_twist=get("eta_twist", -1.0),
-        alpha_kr=get("alpha_kr", 2.0), alpha_ktw=get("alpha_ktw", 2.0),
-        moment_law=bool(get("moment_rotation_law")), fragile=bool(get("fragile", True)), cohesive=cohesive,
+        normal_cohesion=get("normal_cohesion", 0.0),
+        shear_cohesion=get("shear_cohesion", 0.0),
+        eta_roll=get("eta_roll", -1.0),
+        eta_twist=get("eta_twist", -1.0),
+        alpha_kr=get("alpha_kr", 2.0),
+        alpha_ktw=get("alpha_ktw", 2.0),
+        moment_law=bool(get("moment_rotation_law")),
+        fragile=bool(get("fragile", True)),
+        cohesive=cohesive,
     )
     kw.update(override)
     return wd.Material(**kw)
@@ -84,12 +91,13 @@ def _add_facets(b: wd.ModelBuilder, vertices: np.ndarray, material: str) -> None
 def _entry(lst: object, sphere: int, key: int) -> dict | None:
     """Copy of the history of the candidate-list entry (sphere, key_a == key), or None if not listed."""
     s, c = int(lst.start.numpy()[sphere]), int(lst.count.numpy()[sphere])
-    hit = np.nonzero(lst.key_a.numpy()[s:s + c] == key)[0]
+    hit = np.nonzero(lst.key_a.numpy()[s : s + c] == key)[0]
     if len(hit) == 0:
         return None
-    h = lst.hist.numpy()[s + hit[0]:s + hit[0] + 1].copy()[0]  # .numpy() is a view on the CPU: copy
+    h = lst.hist.numpy()[s + hit[0] : s + hit[0] + 1].copy()[0]  # .numpy() is a view on the CPU: copy
     return {f: np.array(h[f], dtype=np.float64) for f in ("fs", "mb", "mtw", "normal", "unp", "an", "as_")} | {
-        "flags": int(h["flags"])}
+        "flags": int(h["flags"])
+    }
 
 
 def _assert_close(name: str, got: np.ndarray, ref: np.ndarray, tol: np.ndarray, steps: np.ndarray) -> float:
@@ -114,12 +122,24 @@ def _pair_sim(fragile: bool, always: bool, unp_max: float) -> wd.Simulation:
     b = wd.ModelBuilder(gravity=tuple(d["gravity"]))
     b.add_material("m", _material(d, "mat_", fragile=fragile))
     for i in range(2):
-        b.add_sphere(d["pos0"][i], float(d["radius"][i]), "m", velocity=d["vel0"][i],
-                     angular_velocity=d["angvel0"][i], blocked=str(d["blocked_dofs"]))
+        b.add_sphere(
+            d["pos0"][i],
+            float(d["radius"][i]),
+            "m",
+            velocity=d["vel0"][i],
+            angular_velocity=d["angvel0"][i],
+            blocked=str(d["blocked_dofs"]),
+        )
     b.set_local_damping("default", float(d["damping"]))
     model, state = b.finalize(DEVICE)
-    sim = wd.Simulation(model, state, dt=float(d["dt"]), always_use_moment_law=always, unp_max=unp_max,
-                        cohesion_on_new_contacts=bool(d["set_cohesion_on_new_contacts"]))
+    sim = wd.Simulation(
+        model,
+        state,
+        dt=float(d["dt"]),
+        always_use_moment_law=always,
+        unp_max=unp_max,
+        cohesion_on_new_contacts=bool(d["set_cohesion_on_new_contacts"]),
+    )
     # Yade: ip2.setCohesionNow before the first step (cohesion_set_iter = 0); the contact is created with cohesion
     # in that step. warpdem's set_cohesion_now() acts in the next step, also on contacts created in it.
     assert bool(d["set_cohesion_now"]) and int(d["cohesion_set_iter"]) == 0
@@ -127,7 +147,7 @@ def _pair_sim(fragile: bool, always: bool, unp_max: float) -> wd.Simulation:
     return sim
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _pair_run(prefix: str, unp_max: float | None = None, stop_at_break: bool = False) -> dict:
     """Run one cohesive_pair variant; per-record arrays plus the per-step event steps (Yade's definitions)."""
     d = _npz("cohesive_pair")
@@ -140,8 +160,23 @@ def _pair_run(prefix: str, unp_max: float | None = None, stop_at_break: bool = F
     steps = d[prefix + "step"]
     n_steps = int(d[prefix + "n_steps"]) if not stop_at_break else 10**9
     rec_index = {int(s): i for i, s in enumerate(steps)}
-    keys = ("f0", "t0", "f1", "t1", "pos", "quat", "exists", "cohesive", "fs", "mb", "mtw", "normal", "unp", "an",
-            "as_")
+    keys = (
+        "f0",
+        "t0",
+        "f1",
+        "t1",
+        "pos",
+        "quat",
+        "exists",
+        "cohesive",
+        "fs",
+        "mb",
+        "mtw",
+        "normal",
+        "unp",
+        "an",
+        "as_",
+    )
     out: dict = {k: [] for k in keys}
     coh_broken = brk = -1
     seen = False
@@ -252,8 +287,11 @@ def test_cohesive_pair(prefix: str) -> None:
         # pre-breakage records (quadratic; its error here is 2e-8 N, checked against a per-step Yade run) to the
         # step before breakage and to the breaking step.
         pre = np.nonzero(ex_y & (steps < y_coh))[0][-3:]
-        margin = d[prefix + "shear_adhesion"][pre] + fn_y[pre] * tanphi \
+        margin = (
+            d[prefix + "shear_adhesion"][pre]
+            + fn_y[pre] * tanphi
             - np.linalg.norm(d[prefix + "shear_force"][pre], axis=1)
+        )
         fit = np.polyfit(steps[pre].astype(float), margin, 2)
         m_before, m_at = np.polyval(fit, y_coh - 1.0), np.polyval(fit, float(y_coh))
         assert m_before >= 0 > m_at, "extrapolated Yade margin inconsistent with its breakage step"
@@ -303,10 +341,12 @@ def test_cohesive_pair(prefix: str) -> None:
     errs["Fn"] = _assert_close("normal force", fn_w[both], fn_y_vec[both], tol_fn, sb)
     errs["normal"] = _assert_close("normal", w["normal"][both], normal_y[both], 1e-6, sb)  # float32 unit vector
     errs["Fs"] = _assert_close("shear force", w["fs"][both], d[prefix + "shear_force"][both], tol_fs[both], sb)
-    errs["Mb"] = _assert_close("bending moment", w["mb"][both], d[prefix + "moment_bending"][both],
-                               tol_mb[both] + extra_mb * stale[both], sb)
-    errs["Mtw"] = _assert_close("twisting moment", w["mtw"][both], d[prefix + "moment_twist"][both],
-                                tol_mt[both] + extra_mt * stale[both], sb)
+    errs["Mb"] = _assert_close(
+        "bending moment", w["mb"][both], d[prefix + "moment_bending"][both], tol_mb[both] + extra_mb * stale[both], sb
+    )
+    errs["Mtw"] = _assert_close(
+        "twisting moment", w["mtw"][both], d[prefix + "moment_twist"][both], tol_mt[both] + extra_mt * stale[both], sb
+    )
     # forces and torques on the bodies at every record (zero where no contact); the torque includes the moments
     # only where the moment law is applied, so stale moments do not enter it
     sm = same
@@ -319,8 +359,13 @@ def test_cohesive_pair(prefix: str) -> None:
     if prefix == "nonfragile_":
         # plastic normal displacement: unp = un + a_n/kn, un carries the radius offset delta
         # (float32: un and un + a_n/kn each rounded, kn rounded: < 2 ulp; 4 allowed)
-        errs["unp"] = _assert_close("unp", w["unp"][both], d["nonfragile_unp"][both],
-                                    delta + 4 * _ulp32(np.nanmax(np.abs(d["nonfragile_unp"]))), sb)
+        errs["unp"] = _assert_close(
+            "unp",
+            w["unp"][both],
+            d["nonfragile_unp"][both],
+            delta + 4 * _ulp32(np.nanmax(np.abs(d["nonfragile_unp"]))),
+            sb,
+        )
         assert np.nanmin(d["nonfragile_unp"]) < -5e-5  # the run does go deep into tensile plasticity
     # prescribed motion x += v dt (float64, both codes): positions to round-off (<= 2e4 additions of 2^-53
     # relative at 0.03 m: < 1e-13 m; 1e-12 allowed); orientation: q <- dq(|w| dt) q per step in both codes, <= 2e4
@@ -329,18 +374,24 @@ def test_cohesive_pair(prefix: str) -> None:
     q_y = d[prefix + "ori"][..., [1, 2, 3, 0]]
     dq = np.minimum(np.abs(w["quat"] - q_y).max(axis=-1), np.abs(w["quat"] + q_y).max(axis=-1))
     errs["ori"] = _assert_close("orientation", dq, 0.0, 1e-11, steps)
-    print(f"cohesive_pair[{prefix or 'main'}] events (warpdem/Yade): cohesion broken "
-          f"{w['cohesion_broken_step']}/{y_coh}, deleted {w['break_step']}/{y_brk}; max errors "
-          + ", ".join(f"{k} {v:.2e}" for k, v in errs.items()))
+    print(
+        f"cohesive_pair[{prefix or 'main'}] events (warpdem/Yade): cohesion broken "
+        f"{w['cohesion_broken_step']}/{y_coh}, deleted {w['break_step']}/{y_brk}; max errors "
+        + ", ".join(f"{k} {v:.2e}" for k, v in errs.items())
+    )
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "float32 sphere radii: Model.sphere_radius is float32, so sphere_sphere_kernel's overlap "
-    "un = float(float64(r1 + r2) - dist) (contacts.py; likewise tri_geom's float64(r) - s) uses "
-    "f32(f32(R1) + f32(R2)) = R1 + R2 - 4.47e-10 m for R = 0.01 m: Fn is low by kn*delta = 1e5 N/m * 4.47e-10 m "
-    "= 4.47e-5 N at every record of cohesive_pair (37x the float32 arithmetic error, 1.2e-6 N), and the shear "
-    "breakage (step 9613 vs 9614) and deletion (10000 vs 10001) happen one step early. Fix: keep radii (or R1 + R2) "
-    "in float64 when computing the overlap."))
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "float32 sphere radii: Model.sphere_radius is float32, so sphere_sphere_kernel's overlap "
+        "un = float(float64(r1 + r2) - dist) (contacts.py; likewise tri_geom's float64(r) - s) uses "
+        "f32(f32(R1) + f32(R2)) = R1 + R2 - 4.47e-10 m for R = 0.01 m: Fn is low by kn*delta = 1e5 N/m * 4.47e-10 m "
+        "= 4.47e-5 N at every record of cohesive_pair (37x the float32 arithmetic error, 1.2e-6 N), and the shear "
+        "breakage (step 9613 vs 9614) and deletion (10000 vs 10001) happen one step early. "
+        "Fix: keep radii (or R1 + R2) in float64 when computing the overlap."
+    ),
+)
 def test_cohesive_pair_normal_force_without_radius_rounding() -> None:
     # Reference: tests/reference/cohesive_pair.npz, main run. This test documents an engine precision defect: it
     # allows only float32 ARITHMETIC error on Fn, 1e-6 of max |Fn| (a few round-offs of 2^-24 with margin; the
@@ -394,9 +445,13 @@ def _slide_run(prefix: str) -> dict:
     b.set_local_damping("default", float(d["damping"]))
     model, state = b.finalize(DEVICE)
     assert model.host["body_mass"][sid] == pytest.approx(float(d["sphere_mass"]), rel=1e-12)
-    sim = wd.Simulation(model, state, dt=float(d["dt"]),
-                        cohesion_on_new_contacts=bool(d["set_cohesion_on_new_contacts"]),
-                        always_use_moment_law=bool(d["always_use_moment_law"]))
+    sim = wd.Simulation(
+        model,
+        state,
+        dt=float(d["dt"]),
+        cohesion_on_new_contacts=bool(d["set_cohesion_on_new_contacts"]),
+        always_use_moment_law=bool(d["always_use_moment_law"]),
+    )
     out: dict = {k: [] for k in ("pos", "vel", "force", "exists")}
     s = 0
     for target in d[prefix + "step"]:
@@ -453,17 +508,23 @@ def test_facet_slide(prefix: str) -> None:
     dx, dv = w["pos"] - d[prefix + "pos"], w["vel"] - d[prefix + "vel"]
     errs = {
         "F": _assert_close("contact force", w["force"], d[prefix + "force"], tol_f, steps),
-        "Fn": _assert_close("normal force", w["force"] @ n,  # facet 0's contact (Fn = 0 where none)
-                            np.nan_to_num(np.einsum("ij,ij->i", d[prefix + "normal_force"][:, 0],
-                                                    d[prefix + "contact_normal"][:, 0])), tol_f, steps),
+        "Fn": _assert_close(
+            "normal force",
+            w["force"] @ n,  # facet 0's contact (Fn = 0 where none)
+            np.nan_to_num(np.einsum("ij,ij->i", d[prefix + "normal_force"][:, 0], d[prefix + "contact_normal"][:, 0])),
+            tol_f,
+            steps,
+        ),
         "x_n": _assert_close("normal position", dx @ n, 0.0, tol_xn, steps),
         "v_n": _assert_close("normal velocity", dv @ n, 0.0, tol_vn, steps),
         "x_t": _assert_close("in-plane position", dx - np.outer(dx @ n, n), 0.0, tol_xt, steps),
         "v_t": _assert_close("in-plane velocity", dv - np.outer(dv @ n, n), 0.0, tol_vt, steps),
     }
     disp = (d[prefix + "pos"][-1] - d["sphere_pos0"]) @ e1
-    print(f"facet_slide[{prefix or 'slide'}] displacement along e1 {disp:.6e} m (Yade), max errors "
-          + ", ".join(f"{k} {v:.2e}" for k, v in errs.items()))
+    print(
+        f"facet_slide[{prefix or 'slide'}] displacement along e1 {disp:.6e} m (Yade), max errors "
+        + ", ".join(f"{k} {v:.2e}" for k, v in errs.items())
+    )
 
 
 # ================================================================================================ 3. clump drop
@@ -472,13 +533,23 @@ def _clump_build(damping: float) -> tuple[wd.Simulation, int]:
     b = wd.ModelBuilder(gravity=tuple(d["gravity"]))
     b.add_material("m", _material(d, ""))
     _add_facets(b, d["facet_vertices"], "m")
-    cid = b.add_clump(d["member_pos0"], d["member_radius"], "m", velocity=d["clump_vel0"],
-                      angular_velocity=d["clump_angvel0"], group="clump")
+    cid = b.add_clump(
+        d["member_pos0"],
+        d["member_radius"],
+        "m",
+        velocity=d["clump_vel0"],
+        angular_velocity=d["clump_angvel0"],
+        group="clump",
+    )
     b.set_local_damping("clump", damping)
     model, state = b.finalize(DEVICE)
-    sim = wd.Simulation(model, state, dt=float(d["dt"]),
-                        cohesion_on_new_contacts=bool(d["set_cohesion_on_new_contacts"]),
-                        always_use_moment_law=bool(d["always_use_moment_law"]))
+    sim = wd.Simulation(
+        model,
+        state,
+        dt=float(d["dt"]),
+        cohesion_on_new_contacts=bool(d["set_cohesion_on_new_contacts"]),
+        always_use_moment_law=bool(d["always_use_moment_law"]),
+    )
     return sim, cid
 
 
@@ -496,26 +567,29 @@ def test_clump_mass_and_inertia() -> None:
     np.testing.assert_allclose(h["body_inertia"][cid], d["clump_inertia"], rtol=1e-9)
     np.testing.assert_allclose(np.sort(h["body_inertia"][cid]), d["check_inertia_principal"], rtol=1e-9)
     state = sim.state.numpy()
-    np.testing.assert_allclose(state["body_pos"][cid], d["clump_pos0"], rtol=0,
-                               atol=1e-12 * np.abs(d["member_pos0"]).max())
+    np.testing.assert_allclose(
+        state["body_pos"][cid], d["clump_pos0"], rtol=0, atol=1e-12 * np.abs(d["member_pos0"]).max()
+    )
     rot_w = quat_to_matrix(state["body_quat"][cid])
     q = d["clump_ori0"]
     rot_y = quat_to_matrix(np.r_[q[1:], q[0]])
     # same principal frame up to the (arbitrary) sign of each axis
     np.testing.assert_allclose(np.abs(rot_w.T @ rot_y), np.eye(3), rtol=0, atol=1e-9)
     world_i = rot_w @ np.diag(h["body_inertia"][cid]) @ rot_w.T
-    np.testing.assert_allclose(world_i, rot_y @ np.diag(d["clump_inertia"]) @ rot_y.T, rtol=0,
-                               atol=1e-9 * d["clump_inertia"].max())
+    np.testing.assert_allclose(
+        world_i, rot_y @ np.diag(d["clump_inertia"]) @ rot_y.T, rtol=0, atol=1e-9 * d["clump_inertia"].max()
+    )
     off_w = sim.sphere_arm.numpy().astype(np.float64)  # member offsets R p_i in the world frame
     off_y = d["member_local_pos"] @ rot_y.T
     tol = 2 * _ulp32(np.abs(off_y).max())
     np.testing.assert_allclose(off_w, off_y, rtol=0, atol=tol)
     np.testing.assert_allclose(sim.sphere_pos.numpy(), d["member_pos0"], rtol=0, atol=tol)
-    np.testing.assert_allclose(state["body_angmom"][cid], d["clump_angmom0"], rtol=1e-12,
-                               atol=1e-12 * np.abs(d["clump_angmom0"]).max())
+    np.testing.assert_allclose(
+        state["body_angmom"][cid], d["clump_angmom0"], rtol=1e-12, atol=1e-12 * np.abs(d["clump_angmom0"]).max()
+    )
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _clump_run(prefix: str) -> dict:
     d = _npz("clump_drop")
     sim, cid = _clump_build(float(d["damping"] if prefix == "" else d["damped_damping"]))
@@ -584,10 +658,16 @@ def test_clump_drop(prefix: str) -> None:
     errs["free pos"] = _assert_close("free flight position", w["pos"][p0], d[prefix + "pos"][p0], tol_x0[p0], steps[p0])
     errs["free vel"] = _assert_close("free flight velocity", w["vel"][p0], d[prefix + "vel"][p0], tol_v0[p0], steps[p0])
     w_scale = np.abs(d[prefix + "angvel"][p0]).max()
-    errs["free angvel"] = _assert_close("free flight angular velocity", w["angvel"][p0], d[prefix + "angvel"][p0],
-                                        1e-12 * w_scale, steps[p0])
-    errs["free members"] = _assert_close("free flight member positions", w["member_pos"][p0],
-                                         d[prefix + "member_pos"][p0], tol_x0[p0] + member_tol, steps[p0])
+    errs["free angvel"] = _assert_close(
+        "free flight angular velocity", w["angvel"][p0], d[prefix + "angvel"][p0], 1e-12 * w_scale, steps[p0]
+    )
+    errs["free members"] = _assert_close(
+        "free flight member positions",
+        w["member_pos"][p0],
+        d[prefix + "member_pos"][p0],
+        tol_x0[p0] + member_tol,
+        steps[p0],
+    )
 
     # phase 1
     p1 = slice(k1, k2)
@@ -597,43 +677,66 @@ def test_clump_drop(prefix: str) -> None:
     dl_imp = np.abs(d[prefix + "angmom"][episode] - d[prefix + "angmom"][k1 - 1]).max()
     tol_v1 = tol_v0 + 1e-5 * dv_imp
     tol_x1 = tol_x0 + 1e-5 * dv_imp * (t - t[k1 - 1])
-    errs["impact1 vel"] = _assert_close("velocity after impact 1", w["vel"][p1], d[prefix + "vel"][p1], tol_v1[p1],
-                                        steps[p1])
-    errs["impact1 angvel"] = _assert_close("angular velocity after impact 1", w["angvel"][p1],
-                                           d[prefix + "angvel"][p1], 1e-5 * dw_imp, steps[p1])
-    errs["impact1 angmom"] = _assert_close("angular momentum after impact 1", w["angmom"][p1],
-                                           d[prefix + "angmom"][p1], 1e-5 * dl_imp, steps[p1])
-    errs["impact1 pos"] = _assert_close("position after impact 1", w["pos"][p1], d[prefix + "pos"][p1], tol_x1[p1],
-                                        steps[p1])
-    errs["impact1 members"] = _assert_close("member positions after impact 1", w["member_pos"][p1],
-                                            d[prefix + "member_pos"][p1], tol_x1[p1] + member_tol, steps[p1])
+    errs["impact1 vel"] = _assert_close(
+        "velocity after impact 1", w["vel"][p1], d[prefix + "vel"][p1], tol_v1[p1], steps[p1]
+    )
+    errs["impact1 angvel"] = _assert_close(
+        "angular velocity after impact 1", w["angvel"][p1], d[prefix + "angvel"][p1], 1e-5 * dw_imp, steps[p1]
+    )
+    errs["impact1 angmom"] = _assert_close(
+        "angular momentum after impact 1", w["angmom"][p1], d[prefix + "angmom"][p1], 1e-5 * dl_imp, steps[p1]
+    )
+    errs["impact1 pos"] = _assert_close(
+        "position after impact 1", w["pos"][p1], d[prefix + "pos"][p1], tol_x1[p1], steps[p1]
+    )
+    errs["impact1 members"] = _assert_close(
+        "member positions after impact 1",
+        w["member_pos"][p1],
+        d[prefix + "member_pos"][p1],
+        tol_x1[p1] + member_tol,
+        steps[p1],
+    )
 
     # phase 2
     p2 = np.arange(k2, len(steps))
-    only_y, only_w = set(np.nonzero(imp_y)[0]) - set(np.nonzero(imp_w)[0]), set(np.nonzero(imp_w)[0]) - set(
-        np.nonzero(imp_y)[0])
+    only_y, only_w = (
+        set(np.nonzero(imp_y)[0]) - set(np.nonzero(imp_w)[0]),
+        set(np.nonzero(imp_w)[0]) - set(np.nonzero(imp_y)[0]),
+    )
     for a, other in ((only_y, imp_w), (only_w, imp_y)):
         for k in a:
-            assert other[max(k - 1, 0):k + 2].any(), f"impact around step {steps[k]} in only one code"
+            assert other[max(k - 1, 0) : k + 2].any(), f"impact around step {steps[k]} in only one code"
     flight = p2[(d[prefix + "n_interactions"][p2] == 0) & (w["n_contacts"][p2] == 0)]
     pos_tol = 0.01 * d["member_radius"].min()
     errs["late pos"] = _assert_close("late positions", w["pos"][p2], d[prefix + "pos"][p2], pos_tol, steps[p2])
-    errs["late members"] = _assert_close("late member positions", w["member_pos"][p2], d[prefix + "member_pos"][p2],
-                                         pos_tol, steps[p2])
-    errs["late vel"] = _assert_close("late velocity (in flight)", w["vel"][flight], d[prefix + "vel"][flight],
-                                     0.01 * np.abs(d[prefix + "vel"]).max(), steps[flight])
-    errs["late angvel"] = _assert_close("late angular velocity (in flight)", w["angvel"][flight],
-                                        d[prefix + "angvel"][flight], 0.01 * np.abs(d[prefix + "angvel"]).max(),
-                                        steps[flight])
+    errs["late members"] = _assert_close(
+        "late member positions", w["member_pos"][p2], d[prefix + "member_pos"][p2], pos_tol, steps[p2]
+    )
+    errs["late vel"] = _assert_close(
+        "late velocity (in flight)",
+        w["vel"][flight],
+        d[prefix + "vel"][flight],
+        0.01 * np.abs(d[prefix + "vel"]).max(),
+        steps[flight],
+    )
+    errs["late angvel"] = _assert_close(
+        "late angular velocity (in flight)",
+        w["angvel"][flight],
+        d[prefix + "angvel"][flight],
+        0.01 * np.abs(d[prefix + "angvel"]).max(),
+        steps[flight],
+    )
     for half in np.array_split(p2, 2):
         ke_y, ke_w = d[prefix + "kinetic_energy"][half].mean(), w["ke"][half].mean()
         assert ke_w == pytest.approx(ke_y, rel=0.01), (steps[half[0]], ke_w, ke_y)
-    print(f"clump_drop[{prefix or 'undamped'}] impacts at records {np.nonzero(imp_y)[0].tolist()}, max errors "
-          + ", ".join(f"{k} {v:.2e}" for k, v in errs.items()))
+    print(
+        f"clump_drop[{prefix or 'undamped'}] impacts at records {np.nonzero(imp_y)[0].tolist()}, max errors "
+        + ", ".join(f"{k} {v:.2e}" for k, v in errs.items())
+    )
 
 
 # ================================================================================================ 4. cohesive packing
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _packing_run() -> dict:
     d = _npz("cohesive_packing")
     b = wd.ModelBuilder(gravity=tuple(d["gravity"]))
@@ -645,9 +748,13 @@ def _packing_run() -> dict:
     b.set_local_damping("spheres", float(d["damping"]))
     model, state = b.finalize(DEVICE)
     np.testing.assert_allclose(model.host["body_mass"][ids], d["sphere_mass"], rtol=1e-12)
-    sim = wd.Simulation(model, state, dt=float(d["dt"]),
-                        cohesion_on_new_contacts=bool(d["set_cohesion_on_new_contacts"]),
-                        always_use_moment_law=bool(d["always_use_moment_law"]))
+    sim = wd.Simulation(
+        model,
+        state,
+        dt=float(d["dt"]),
+        cohesion_on_new_contacts=bool(d["set_cohesion_on_new_contacts"]),
+        always_use_moment_law=bool(d["always_use_moment_law"]),
+    )
     if bool(d["set_cohesion_now"]):
         sim.set_cohesion_now()
     floor = [int(j) for j in d["floor_facet_ids"]]
@@ -665,7 +772,8 @@ def _packing_run() -> dict:
         out["n_ss"].append(int(cc[0]))
         out["n_sf"].append(int(cc[1]))
         ss = sim.ss.numpy()
-        idx = np.concatenate([np.arange(a, a + c) for a, c in zip(ss["start"], ss["count"])]).astype(np.int64)
+        rows = [np.arange(a, a + c) for a, c in zip(ss["start"], ss["count"], strict=True)]
+        idx = np.concatenate(rows).astype(np.int64)
         out["n_coh"].append(int(((ss["hist"]["flags"][idx] & 3) == 3).sum()))  # active and cohesive
         out["z_ss"].append(float(z_ss(sim)[0]))
         out["ke"].append(float(obs.kinetic_energy(sim)[0]))
@@ -715,27 +823,35 @@ def test_cohesive_packing() -> None:
     tol_v = 2 * g * dlam * t + 1e-4 * v_scale * (t >= t[k_sf - 1]) + 1e-12
     tol_x = g * dlam * t**2 + 1e-4 * v_scale * np.maximum(t - t[k_sf - 1], 0.0) + 1e-12
     errs["early pos"] = _assert_close("early positions", w["pos"][early], d["pos"][early], tol_x[early], steps[early])
-    errs["early vel"] = _assert_close("early velocities", w["vel"][early], d["vel"][early],
-                                      tol_v[early] + 2 * _ulp32(v_scale), steps[early])  # npz velocities are f32
-    errs["early KE"] = _assert_close("early kinetic energy", w["ke"][early] / d["kinetic_energy"][early], 1.0, 2e-4,
-                                     steps[early])
+    errs["early vel"] = _assert_close(
+        "early velocities", w["vel"][early], d["vel"][early], tol_v[early] + 2 * _ulp32(v_scale), steps[early]
+    )  # npz velocities are f32
+    errs["early KE"] = _assert_close(
+        "early kinetic energy", w["ke"][early] / d["kinetic_energy"][early], 1.0, 2e-4, steps[early]
+    )
     for k in ("n_ss", "n_sf"):
         assert np.array_equal(w[k][early], d[k][early]), k
     np.testing.assert_allclose(w["z_ss"], 2.0 * w["n_ss"] / n)  # the observer counts like Yade's coordination_ss
 
     # ---- long horizon
     z_w = (2 * w["n_ss"] + w["n_sf"]) / n
-    series = {"n_ss": (w["n_ss"], d["n_ss"], 1.0), "cohesive bonds": (w["n_coh"], d["n_ss_cohesive"], 1.0),
-              "n_sf": (w["n_sf"], d["n_sf"], 1.0), "Z": (z_w, d["coordination"], 2.0 / n),
-              "Z_ss": (w["z_ss"], d["coordination_ss"], 2.0 / n)}
+    series = {
+        "n_ss": (w["n_ss"], d["n_ss"], 1.0),
+        "cohesive bonds": (w["n_coh"], d["n_ss_cohesive"], 1.0),
+        "n_sf": (w["n_sf"], d["n_sf"], 1.0),
+        "Z": (z_w, d["coordination"], 2.0 / n),
+        "Z_ss": (w["z_ss"], d["coordination_ss"], 2.0 / n),
+    }
     quarter = len(steps) // 4
     windows = [slice(2 * quarter, 3 * quarter), slice(3 * quarter, len(steps))]
     for name, (sw, sy, floor_tol) in series.items():
         for win in windows:
             diff = abs(sw[win].mean() - sy[win].mean())
             tol = max(sy[win].std(), floor_tol)
-            assert diff <= tol, f"{name} over steps {steps[win][0]}-{steps[win][-1]}: {sw[win].mean():.3f} vs " \
+            assert diff <= tol, (
+                f"{name} over steps {steps[win][0]}-{steps[win][-1]}: {sw[win].mean():.3f} vs "
                 f"{sy[win].mean():.3f} (tol {tol:.3f})"
+            )
             errs[f"{name} {steps[win][0]}"] = diff
     for win in windows:
         lw, ly = np.log(w["ke"][win]), np.log(d["kinetic_energy"][win])
