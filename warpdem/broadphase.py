@@ -59,17 +59,6 @@ def _mesh_displacement_kernel(
 
 
 @wp.kernel
-def _decide_rebuild_kernel(skin: float, disp: wp.array(dtype=float), flag_out: wp.array(dtype=int)):
-    ds = disp[0]
-    if ds + wp.max(ds, disp[1]) > skin:
-        flag_out[0] = 1
-    else:
-        flag_out[0] = 0
-    disp[0] = 0.0
-    disp[1] = 0.0
-
-
-@wp.kernel
 def _record_mesh_build_pose_kernel(
     mesh_body: wp.array(dtype=int),
     body_pos_in: wp.array(dtype=wp.vec3d),

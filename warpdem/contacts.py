@@ -37,7 +37,7 @@ E_DAMPING = wp.constant(0)
 E_SLIDING = wp.constant(1)
 E_ROLLING = wp.constant(2)
 E_SPRING_DAMPER = wp.constant(3)
-N_ENERGY = 4
+N_ENERGY = wp.constant(4)  # slots per world in the energy accumulator
 
 
 @wp.struct
@@ -148,8 +148,8 @@ def sphere_sphere_kernel(
         wp.atomic_add(body_force, bj, -out.force)
         wp.atomic_add(body_torque, bj, wp.cross(arm_j, -out.force) + out.moment)
         if opts.track_energy != 0:
-            wp.atomic_add(energy, w * 4 + E_SLIDING, wp.float64(out.dissip_slide))
-            wp.atomic_add(energy, w * 4 + E_ROLLING, wp.float64(out.dissip_roll))
+            wp.atomic_add(energy, w * N_ENERGY + E_SLIDING, wp.float64(out.dissip_slide))
+            wp.atomic_add(energy, w * N_ENERGY + E_ROLLING, wp.float64(out.dissip_roll))
     wp.atomic_add(body_force, bi, f_i)
     wp.atomic_add(body_torque, bi, t_i)
 
@@ -350,8 +350,8 @@ def sphere_triangle_kernel(
         f_s -= out.force
         t_s += wp.cross(sphere_arm[i] + arm_s, -out.force) + out.moment
         if opts.track_energy != 0:
-            wp.atomic_add(energy, w * 4 + E_SLIDING, wp.float64(out.dissip_slide))
-            wp.atomic_add(energy, w * 4 + E_ROLLING, wp.float64(out.dissip_roll))
+            wp.atomic_add(energy, w * N_ENERGY + E_SLIDING, wp.float64(out.dissip_slide))
+            wp.atomic_add(energy, w * N_ENERGY + E_ROLLING, wp.float64(out.dissip_roll))
     # pass 2: clear the history of entries that are not contacts any more
     for k in range(k0, k1):
         if (hist[k].flags & ACTIVE) == 0:

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from .contacts import E_DAMPING, E_SPRING_DAMPER
+from .contacts import E_DAMPING, E_SPRING_DAMPER, N_ENERGY
 from .model import ALL_DOFS, FLAG_ASPHERICAL, ROT_DOFS
 
 wp.set_module_options({"enable_backward": False})
@@ -102,7 +102,7 @@ def integrate_bodies_kernel(
         e = wp.float64(0.0)
         for k in range(3):
             e += m * wp.abs(a_d[k] - a[k]) * wp.abs(v[k] + wp.float64(0.5) * dt * a[k]) * dt
-        wp.atomic_add(energy, w * 4 + E_DAMPING, e)
+        wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, e)
     v = v + dt * a_d
     body_vel[b] = v
     body_pos[b] = body_pos[b] + dt * v
@@ -140,7 +140,7 @@ def integrate_bodies_kernel(
             e = wp.float64(0.0)
             for k in range(3):
                 e += inertia[0] * wp.abs(alpha[k] - t[k] / inertia[0]) * wp.abs(omega[k]) * dt
-            wp.atomic_add(energy, w * 4 + E_DAMPING, e)
+            wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, e)
         omega = omega + dt * alpha
         body_angvel[b] = omega
         body_angmom[b] = inertia[0] * omega
@@ -155,7 +155,7 @@ def integrate_bodies_kernel(
         elif s < wp.float64(0.0):
             t_d[k] = t[k] * (wp.float64(1.0) + lam)
     if track_energy != 0 and lam > wp.float64(0.0):
-        wp.atomic_add(energy, w * 4 + E_DAMPING, wp.abs(wp.dot(t - t_d, omega)) * dt)
+        wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, wp.abs(wp.dot(t - t_d, omega)) * dt)
     l_mom = body_angmom[b]
     l_n = l_mom + wp.float64(0.5) * dt * t_d
     w_b_n = cw_div(wp.quat_rotate_inv(q, l_n), inertia)
@@ -242,4 +242,4 @@ def spring_kernel(
     wp.atomic_add(body_force, b, -fa)
     wp.atomic_add(body_torque, b, wp.cross(wp.vec3f(rb), -fa))
     if track_energy != 0:
-        wp.atomic_add(energy, body_world[a] * 4 + E_SPRING_DAMPER, wp.float64(damping[s] * rate * rate * dt))
+        wp.atomic_add(energy, body_world[a] * N_ENERGY + E_SPRING_DAMPER, wp.float64(damping[s] * rate * rate * dt))

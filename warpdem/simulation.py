@@ -37,13 +37,14 @@ _NO_FAULT = 2**31 - 1
 
 
 @wp.kernel
-def _begin_step_kernel(
+def _end_step_kernel(
     skin: float,
     disp: wp.array(dtype=float),
     flag_out: wp.array(dtype=int),
     counters: wp.array(dtype=int),
 ):
-    """Decide whether to rebuild the candidate lists and count steps (counters: step, rebuilds)."""
+    """At the end of a step: decide whether to rebuild the candidate lists before the next one, and count steps
+    (counters: steps, rebuilds)."""
     ds = disp[0]
     if ds + wp.max(ds, disp[1]) > skin:
         flag_out[0] = 1
@@ -300,6 +301,11 @@ class Simulation:
                     self._graph = None  # the arrays moved: recapture
         raise SimulationError("candidate lists could not be sized", cause="capacity")
 
+    def _rebuild_if_flagged(self) -> None:
+        """Rebuild (host side, growing lists as needed) if the last step flagged it; one flag read per step."""
+        if self._rebuild_flag.numpy()[0]:
+            self._rebuild_checked()
+
     def _grow_if_needed(self, stats: np.ndarray) -> bool:
         """Grow a list whose last build used more than 3/4 of its capacity; returns True if anything grew."""
         grew = False
@@ -376,7 +382,7 @@ class Simulation:
             wp.launch(bp._mesh_displacement_kernel, m.n_meshes,
                       inputs=[m.mesh_body, self.mesh_rmax, s.body_pos, s.body_quat, self.mesh_build_pos,
                               self.mesh_build_quat], outputs=[self._disp], device=dev)
-        wp.launch(_begin_step_kernel, 1, inputs=[self.skin, self._disp, self._rebuild_flag, self.counters],
+        wp.launch(_end_step_kernel, 1, inputs=[self.skin, self._disp, self._rebuild_flag, self.counters],
                   device=dev)
 
     def _check(self) -> None:
@@ -414,8 +420,7 @@ class Simulation:
     # ------------------------------------------------------------------ public API
     def step(self) -> None:
         """Advance one time step (plain launches), rebuilding the candidate lists first if the last step asked."""
-        if self._rebuild_flag.numpy()[0]:
-            self._rebuild_checked()
+        self._rebuild_if_flagged()
         self._launch_step()
         self.state.step += 1
         self.state.time += self.dt
@@ -435,8 +440,7 @@ class Simulation:
                 self.step()
             return
         for k in range(n_steps):
-            if self._rebuild_flag.numpy()[0]:
-                self._rebuild_checked()
+            self._rebuild_if_flagged()
             if self._graph is None:
                 with wp.ScopedCapture(device=self.device) as capture:
                     self._launch_step()
