@@ -77,9 +77,7 @@ def run_demo(args: argparse.Namespace) -> int:
     solid = float(np.sum(4 / 3 * np.pi * r**3))
     porosity = 1 - solid / (box[0] * box[1] * top)
     coord = float(wd.observers.coordination_number("soil")(sim)[0])
-    # 2. cut: the settled bed (positions, velocities, contact history) continues with the blade added
-    ck = out / "deposited.npz"
-    wd.checkpoint.save(sim, ck)
+    # 2. cut: the settled bodies continue in a scene with the blade added (contacts re-form, with cohesion)
     b2 = demo.build(args.particles, args.seed, box=box)
     demo.add_blade(b2, (box[0], box[1], top), args.depth, args.speed)
     model2, state2 = b2.finalize(device)
