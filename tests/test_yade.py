@@ -14,10 +14,9 @@ and with one mesh per floor the clump's velocity after that impact differs from 
 Precision facts used in the tolerances (all measured or derived in the comments of each test):
 - warpdem stores radii, forces, moments and contact history in float32 (unit round-off EPS32 = 2^-24 ~ 6e-8) and
   positions, velocities and the integration in float64, like Yade's doubles.
-- The float32 radius makes every overlap smaller by delta = R1 + R2 - f32(f32(R1) + f32(R2)) (4.5e-10 m for two
-  r = 0.01 m spheres), i.e. a constant normal-force offset kn*delta (4.5e-5 N in cohesive_pair). This is an engine
-  precision defect (overlaps are meant to be resolved in float64); the tolerances account for it explicitly and
-  test_cohesive_pair_normal_force_without_radius_rounding (strict xfail) documents it.
+- Radii are float64 and overlaps are differences of float64 lengths, as in Yade, so warpdem and Yade see the same
+  overlap to float64 round-off (session 1 kept float32 radii, whose rounding shifted every overlap by 4.5e-10 m
+  for r = 0.01 m; test_cohesive_pair_normal_force_without_radius_rounding now guards against its return).
 - Cundall damping coefficients are float32 too: a free fall under damping lam differs by g*|lam - f32(lam)|*t.
 """
 
@@ -242,8 +241,8 @@ def test_cohesive_pair(prefix: str) -> None:
     # Reference: tests/reference/cohesive_pair.npz (cohesive_pair.py), runs '', 'noalways_', 'nonfragile_'.
     # The motion is prescribed (both spheres have every DoF blocked), so warpdem and Yade see the same geometry at
     # every step and the comparison is tight, record by record. Tolerances:
-    # - Fn: kn*delta (float32 radii shift the overlap by delta = 4.47e-10 m: a constant 4.47e-5 N) + 1e-6 of the
-    #   largest |Fn| (a float32 evaluation of kn*(un - unp): a few round-offs of 2^-24, with margin).
+    # - Fn: 1e-6 of the largest |Fn| (a float32 evaluation of kn*(un - unp): a few round-offs of 2^-24, with
+    #   margin); the overlap itself is float64 in both engines (delta = 0 below keeps the formulas general).
     # - Fs, Mb, Mtw are incremental: each step rounds the running float32 value three times (two subtractions
     #   transporting it to the new tangent plane, one adding the increment), half an ulp each, so after s steps
     #   1.5 * s * ulp32(max |value|), plus the Fn error passed on through the caps (tan(phi)*dFn for the Coulomb
@@ -251,15 +250,13 @@ def test_cohesive_pair(prefix: str) -> None:
     # - body force = -(Fn n + Fs): sum of both; torque = (C - x0) x f0 - M with |C - x0| <= R.
     # - event steps (cohesion breakage, contact deletion) must be Yade's, or one step off only where Yade's own
     #   distance to the threshold in the neighbouring step is smaller than warpdem's error bound (see
-    #   _allowed_steps); in the main run Yade's shear margin one step before breaking is 2.2e-5 N < 2.6e-5 N
-    #   = tan(phi)*kn*delta, and Yade's overlap one step before deletion is 1.98e-12 m < delta, so warpdem breaks
-    #   and deletes one step earlier (9613 and 10000 instead of 9614 and 10001) purely because of float32 radii.
+    #   _allowed_steps).
     d = _npz("cohesive_pair")
     w = _pair_run(prefix)
     steps = d[prefix + "step"]
     ex_y = d[prefix + "exists"]
     R = float(d["radius"].max())
-    delta = float(d["radius"].sum()) - _f32(_f32(d["radius"][0]) + _f32(d["radius"][1]))
+    delta = 0.0  # float64 radii: no offset of the overlap
     first = np.argmax(ex_y)
     kn, tanphi = float(d[prefix + "kn"][first]), float(d[prefix + "tan_friction"][first])
     roll, twist = float(d[prefix + "max_roll_pl"][first]), float(d[prefix + "max_twist_pl"][first])
@@ -381,46 +378,33 @@ def test_cohesive_pair(prefix: str) -> None:
     )
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "float32 sphere radii: Model.sphere_radius is float32, so sphere_sphere_kernel's overlap "
-        "un = float(float64(r1 + r2) - dist) (contacts.py; likewise tri_geom's float64(r) - s) uses "
-        "f32(f32(R1) + f32(R2)) = R1 + R2 - 4.47e-10 m for R = 0.01 m: Fn is low by kn*delta = 1e5 N/m * 4.47e-10 m "
-        "= 4.47e-5 N at every record of cohesive_pair (37x the float32 arithmetic error, 1.2e-6 N), and the shear "
-        "breakage (step 9613 vs 9614) and deletion (10000 vs 10001) happen one step early. "
-        "Fix: keep radii (or R1 + R2) in float64 when computing the overlap."
-    ),
-)
 def test_cohesive_pair_normal_force_without_radius_rounding() -> None:
-    # Reference: tests/reference/cohesive_pair.npz, main run. This test documents an engine precision defect: it
-    # allows only float32 ARITHMETIC error on Fn, 1e-6 of max |Fn| (a few round-offs of 2^-24 with margin; the
-    # residual is 1.2e-6 N = 1.2e-7 of max |Fn| when body 1 starts delta closer), not the float32 rounding of the
-    # radii themselves, which shifts every overlap by delta (see test_cohesive_pair for the full comparison).
-    # Diagnosis check (done while writing this test): starting body 1 delta closer to body 0, so that warpdem's
-    # float32-radius overlap equals Yade's, gives a 1.2e-6 N error and Yade's exact event steps 9614 and 10001.
+    # Reference: tests/reference/cohesive_pair.npz, main run, with Yade's exact event steps 9614 (cohesion broken)
+    # and 10001 (deleted). Allows only float32 ARITHMETIC error on Fn, 1e-6 of max |Fn| (a few round-offs of 2^-24
+    # with margin). Regression guard: float32 radii (session 1) shifted every overlap by 4.47e-10 m, gave a
+    # 4.47e-5 N offset here (37x this bound) and broke/deleted the bond one step early.
     d = _npz("cohesive_pair")
     w = _pair_run("")
     both = d["exists"] & w["exists"]
     fn_y = d["normal_force"][both]
     err = np.abs(-w["f0"][both] - w["fs"][both] - fn_y).max()
     assert err <= 1e-6 * np.abs(fn_y).max(), f"normal force error {err:.3e} N"
+    assert (w["cohesion_broken_step"], w["break_step"]) == (int(d["cohesion_broken_step"]), int(d["break_step"]))
 
 
 def test_cohesive_pair_nonfragile_default_unp_max() -> None:
     # Reference: cohesive_pair.npz key nonfragile_unpmax0_break_step (non-fragile bond, Yade's default unpMax = 0):
     # deleted at the first tensile yield, i.e. in the first step whose overlap un < -a_n/kn. un is known exactly
-    # from the prescribed motion (float64); warpdem's differs by delta (float32 radii) + float32 rounding, so the
-    # step may differ by one only if Yade's un is within that of the threshold in the neighbouring step.
+    # from the prescribed motion (float64); warpdem's differs by float32 rounding of un (< 1e-11 m), so the step may
+    # differ by one only if Yade's un is within that of the threshold in the neighbouring step.
     d = _npz("cohesive_pair")
     y = int(d["nonfragile_unpmax0_break_step"])
     w = _pair_run("nonfragile_", unp_max=0.0, stop_at_break=True)
-    delta = float(d["radius"].sum()) - _f32(_f32(d["radius"][0]) + _f32(d["radius"][1]))
     first = np.argmax(d["nonfragile_exists"])
     thr = -float(d["nonfragile_normal_adhesion"][first]) / float(d["nonfragile_kn"][first])
     u_before, u_at = float(_pair_un(y - 1)) - thr, float(_pair_un(y)) - thr
     assert u_before >= 0 > u_at, "Yade's deletion step inconsistent with un < -a_n/kn"
-    allowed = _allowed_steps(y, u_before, -u_at, delta + 1e-11)
+    allowed = _allowed_steps(y, u_before, -u_at, 1e-11)
     assert w["cohesion_broken_step"] < 0 and w["break_step"] in allowed, (w["break_step"], allowed)
 
 
@@ -432,14 +416,8 @@ def _slide_run(prefix: str) -> dict:
     b.add_material("facet", _material(d, "facet_"))
     b.add_material("sphere", _material(d, "sphere_", friction_angle=float(np.degrees(phi))))
     _add_facets(b, d["facet_vertices"], "facet")
-    n = d["plane_normal"]
     R = float(d["sphere_radius"])
-    # Zero initial overlap, as the scene specifies, in warpdem's own geometry: warpdem's contact radius is
-    # f32(R) = R - 2.2e-10 m, so the npz centre (at exactly R from the plane) would start with a 2.2e-10 m gap.
-    # That matters here and nowhere else: without viscous damping the sphere re-touches the plane (un ~ 0) at the
-    # top of every undamped normal oscillation, and a 2.2e-10 m offset changes the normal force history by up to
-    # 1.7e-4 N (9e-4 of 2mg cos(theta)) over 0.2 s. Placed at f32(R), warpdem's overlap is exactly Yade's.
-    pos0 = d["sphere_pos0"] - (R - _f32(R)) * n
+    pos0 = d["sphere_pos0"]  # at exactly R from the plane: zero initial overlap, as the scene specifies
     sid = b.add_sphere(pos0, R, "sphere", velocity=d["sphere_vel0"], blocked=str(d["sphere_blocked_dofs"]))
     assert sid == len(d["facet_vertices"])  # Yade: facets 0, 1, sphere 2
     b.set_local_damping("default", float(d["damping"]))
@@ -458,7 +436,7 @@ def _slide_run(prefix: str) -> dict:
         while s < target:
             sim.step()
             s += 1
-        out["pos"].append(state.body_pos.numpy()[sid] + (R - _f32(R)) * n)  # back to Yade's centre
+        out["pos"].append(state.body_pos.numpy()[sid].copy())
         out["vel"].append(state.body_vel.numpy()[sid].copy())
         out["force"].append(sim.body_force.numpy()[sid].astype(np.float64))
         ex = []
@@ -737,13 +715,15 @@ def test_clump_drop(prefix: str) -> None:
 
 # ================================================================================================ 4. cohesive packing
 @functools.cache
-def _packing_run() -> dict:
+def _packing_run(jitter: float = 0.0, seed: int = 0) -> dict:
+    """warpdem's run of cohesive_packing; ``jitter`` [m] displaces the initial centres randomly (ensemble runs)."""
     d = _npz("cohesive_packing")
     b = wd.ModelBuilder(gravity=tuple(d["gravity"]))
     b.add_material("facet", _material(d, "facet_"))
     b.add_material("sphere", _material(d, "sphere_"))
     _add_facets(b, d["facet_vertices"], "facet")
-    ids = b.add_spheres(d["pos0"], d["radius"], "sphere", velocities=d["vel0"], group="spheres")
+    pos0 = d["pos0"] + np.random.default_rng(seed).uniform(-jitter, jitter, d["pos0"].shape)
+    ids = b.add_spheres(pos0, d["radius"], "sphere", velocities=d["vel0"], group="spheres")
     assert ids[0] == int(d["first_sphere_id"])  # facets 0..9, spheres 10..49, as in Yade
     b.set_local_damping("spheres", float(d["damping"]))
     model, state = b.finalize(DEVICE)
@@ -795,8 +775,10 @@ def test_cohesive_packing() -> None:
     #   chaotic (the per-sphere difference reaches mm by step 12000), so we compare aggregate quantities:
     #   - contact counts (n_ss, cohesive bonds, n_sf), coordination Z = (2 n_ss + n_sf)/n and Z_ss = 2 n_ss/n
     #     (warpdem's coordination_number observer), averaged over the third and over the last quarter of the run:
-    #     difference within one standard deviation of Yade's own record-to-record fluctuation in that window (at
-    #     least one contact, or 2/n in Z), i.e. statistically indistinguishable from Yade's signal;
+    #     difference within two standard deviations of Yade's own record-to-record fluctuation in that window (at
+    #     least one contact, or 2/n in Z). Why two: these window means are themselves random across realizations;
+    #     five warpdem runs whose initial centres differ by 1e-9 m gave last-quarter n_ss means of 33.8-36.9
+    #     (a spread larger than Yade's one-sigma fluctuation, 2.5), with Yade's 33.1 at the low end;
     #   - kinetic energy: geometric mean over the same windows within one standard deviation of log(KE_Yade) there;
     #   - floor reaction: median over the last half within 3 MADs of Yade's (a spiky signal, hence robust
     #     statistics), and between 0.8 and 1.05 of the weight (the walls carry part of it by friction: 0.92 in Yade);
@@ -847,7 +829,7 @@ def test_cohesive_packing() -> None:
     for name, (sw, sy, floor_tol) in series.items():
         for win in windows:
             diff = abs(sw[win].mean() - sy[win].mean())
-            tol = max(sy[win].std(), floor_tol)
+            tol = max(2.0 * sy[win].std(), floor_tol)
             assert diff <= tol, (
                 f"{name} over steps {steps[win][0]}-{steps[win][-1]}: {sw[win].mean():.3f} vs "
                 f"{sy[win].mean():.3f} (tol {tol:.3f})"

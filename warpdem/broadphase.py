@@ -83,10 +83,10 @@ def allocate_blocks_kernel(count: wp.array(dtype=int), total: wp.array(dtype=int
 # ----------------------------------------------------------------------------- sphere-sphere lists
 @wp.func
 def _ss_is_candidate(
-    i: int, j: int, sphere_pos: wp.array(dtype=wp.vec3d), radius: wp.array(dtype=float), skin: float
+    i: int, j: int, sphere_pos: wp.array(dtype=wp.vec3d), radius: wp.array(dtype=wp.float64), skin: float
 ) -> int:
-    d = float(wp.length(sphere_pos[j] - sphere_pos[i]))
-    if d < radius[i] + radius[j] + skin:
+    d = wp.length(sphere_pos[j] - sphere_pos[i])
+    if d < radius[i] + radius[j] + wp.float64(skin):
         return 1
     return 0
 
@@ -97,7 +97,7 @@ def _ss_count_kernel(
     grid: wp.uint64,
     sphere_body: wp.array(dtype=int),
     sphere_world: wp.array(dtype=int),
-    radius: wp.array(dtype=float),
+    radius: wp.array(dtype=wp.float64),
     max_radius: float,
     skin: float,
     # Data in:
@@ -111,7 +111,7 @@ def _ss_count_kernel(
 ):
     i = wp.tid()
     x = sphere_pos[i]
-    query = wp.hash_grid_query(grid, x, wp.float64(radius[i] + max_radius + skin), sphere_world[i])
+    query = wp.hash_grid_query(grid, x, radius[i] + wp.float64(max_radius + skin), sphere_world[i])
     j = int(0)
     c = int(0)
     while wp.hash_grid_query_next(query, j):
@@ -130,7 +130,7 @@ def _ss_fill_kernel(
     grid: wp.uint64,
     sphere_body: wp.array(dtype=int),
     sphere_world: wp.array(dtype=int),
-    radius: wp.array(dtype=float),
+    radius: wp.array(dtype=wp.float64),
     max_radius: float,
     skin: float,
     capacity: int,
@@ -155,7 +155,7 @@ def _ss_fill_kernel(
         n = wp.max(capacity - base, 0)
         count_out[i] = n
     x = sphere_pos[i]
-    query = wp.hash_grid_query(grid, x, wp.float64(radius[i] + max_radius + skin), sphere_world[i])
+    query = wp.hash_grid_query(grid, x, radius[i] + wp.float64(max_radius + skin), sphere_world[i])
     j = int(0)
     c = int(0)
     while wp.hash_grid_query_next(query, j):
@@ -209,7 +209,7 @@ def _st_is_candidate(
     m: int,
     f: int,
     sphere_pos: wp.array(dtype=wp.vec3d),
-    radius: wp.array(dtype=float),
+    radius: wp.array(dtype=wp.float64),
     mesh_body: wp.array(dtype=int),
     mesh_tri_offset: wp.array(dtype=int),
     tri_vertices: wp.array(dtype=wp.vec3d),
@@ -219,7 +219,7 @@ def _st_is_candidate(
 ) -> int:
     b = mesh_body[m]
     p = sphere_in_body_frame(sphere_pos[i], body_pos[b], body_quat[b])
-    if triangle_distance(p, tri_vertices, mesh_tri_offset[m] + f) < radius[i] + skin:
+    if triangle_distance(p, tri_vertices, mesh_tri_offset[m] + f) < float(radius[i]) + skin:
         return 1
     return 0
 
@@ -229,7 +229,7 @@ def _st_build_kernel(
     # Model:
     sphere_body: wp.array(dtype=int),
     sphere_world: wp.array(dtype=int),
-    radius: wp.array(dtype=float),
+    radius: wp.array(dtype=wp.float64),
     mesh_body: wp.array(dtype=int),
     mesh_ids: wp.array(dtype=wp.uint64),
     mesh_tri_offset: wp.array(dtype=int),
@@ -268,7 +268,7 @@ def _st_build_kernel(
             n = wp.max(capacity - base, 0)
             count_out[i] = n
     c = int(0)
-    r = radius[i] + skin
+    r = float(radius[i]) + skin
     m0 = world_mesh_start[sphere_world[i]]
     for m in range(m0, m0 + meshes_per_world):
         b = mesh_body[m]

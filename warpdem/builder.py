@@ -585,7 +585,7 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         sphere_body=arr(sphere_body, wp.int32),
         sphere_world=arr(sphere_world, wp.int32),
         sphere_material=arr(np.tile(sph_mat, W), wp.int32),
-        sphere_radius=arr(np.tile(sph_rad, W).astype(np.float32), wp.float32),
+        sphere_radius=arr(np.tile(sph_rad, W), wp.float64),
         sphere_offset=arr(np.tile(sph_off, (W, 1)).astype(np.float32), wp.vec3f),
         mesh_body=arr(mesh_body_all, wp.int32),
         mesh_world=arr(np.repeat(np.arange(W, dtype=np.int32), nmesh), wp.int32),

@@ -83,7 +83,7 @@ def sphere_sphere_kernel(
     sphere_body: wp.array(dtype=int),
     sphere_world: wp.array(dtype=int),
     sphere_material: wp.array(dtype=int),
-    radius: wp.array(dtype=float),
+    radius: wp.array(dtype=wp.float64),
     mats: Materials,
     opts: LawOptions,
     # Data in:
@@ -109,7 +109,8 @@ def sphere_sphere_kernel(
     bi = sphere_body[i]
     w = sphere_world[i]
     xi = sphere_pos[i]
-    r1 = radius[i]
+    r1d = radius[i]
+    r1 = float(r1d)
     vi = sphere_vel[i]
     wi = sphere_angvel[i]
     f_i = wp.vec3f(0.0)
@@ -120,8 +121,9 @@ def sphere_sphere_kernel(
         j = other[k]
         d = sphere_pos[j] - xi
         dist = wp.length(d)
-        r2 = radius[j]
-        un = float(wp.float64(r1 + r2) - dist)
+        r2d = radius[j]
+        r2 = float(r2d)
+        un = float(r1d + r2d - dist)
         active = h.flags & ACTIVE
         if active == 0 and un < 0.0:
             continue
@@ -166,7 +168,7 @@ class TriGeom:
 
 
 @wp.func
-def tri_geom(p: wp.vec3d, r: float, tri_vertices: wp.array(dtype=wp.vec3d), t: int) -> TriGeom:
+def tri_geom(p: wp.vec3d, r: wp.float64, tri_vertices: wp.array(dtype=wp.vec3d), t: int) -> TriGeom:
     """Geometry in float64 (a 2 m wall triangle and a micrometre overlap), returned as float32 normal and overlap."""
     a = tri_vertices[3 * t]
     b = tri_vertices[3 * t + 1]
@@ -182,12 +184,12 @@ def tri_geom(p: wp.vec3d, r: float, tri_vertices: wp.array(dtype=wp.vec3d), t: i
             nf = -nf
             s = -s
         g.normal = wp.vec3f(nf)
-        g.un = float(wp.float64(r) - s)
+        g.un = float(r - s)
     else:
         dv = p - g.point
         dl = wp.length(dv)
         g.normal = wp.vec3f(dv / wp.max(dl, wp.float64(1.0e-30)))
-        g.un = float(wp.float64(r) - dl)
+        g.un = float(r - dl)
     return g
 
 
@@ -195,7 +197,7 @@ def tri_geom(p: wp.vec3d, r: float, tri_vertices: wp.array(dtype=wp.vec3d), t: i
 def entry_geom(
     k: int,
     p_world: wp.vec3d,
-    r: float,
+    r: wp.float64,
     mesh: wp.array(dtype=int),
     face: wp.array(dtype=int),
     mesh_body: wp.array(dtype=int),
@@ -217,7 +219,7 @@ def suppressed(
     k0: int,
     k1: int,
     p_world: wp.vec3d,
-    r: float,
+    r: wp.float64,
     mesh: wp.array(dtype=int),
     face: wp.array(dtype=int),
     mesh_body: wp.array(dtype=int),
@@ -229,7 +231,7 @@ def suppressed(
     """1 if entry k's edge/vertex contact belongs to a neighbour's face contact or duplicates a lower entry."""
     if g.feature == 0:
         return 0
-    tol = wp.float64(1.0e-5 * r)
+    tol = wp.float64(1.0e-5) * r
     for k2 in range(k0, k1):
         if k2 == k or mesh[k2] != mesh[k]:
             continue
@@ -257,7 +259,7 @@ def sphere_triangle_kernel(
     sphere_body: wp.array(dtype=int),
     sphere_world: wp.array(dtype=int),
     sphere_material: wp.array(dtype=int),
-    radius: wp.array(dtype=float),
+    radius: wp.array(dtype=wp.float64),
     mesh_body: wp.array(dtype=int),
     mesh_material: wp.array(dtype=int),
     mesh_tri_offset: wp.array(dtype=int),
@@ -294,7 +296,8 @@ def sphere_triangle_kernel(
     k0 = start[i]
     k1 = k0 + n_i
     x = sphere_pos[i]
-    r = radius[i]
+    rd = radius[i]
+    r = float(rd)
     w = sphere_world[i]
     vs = sphere_vel[i]
     ws = sphere_angvel[i]
@@ -303,12 +306,12 @@ def sphere_triangle_kernel(
     t_s = wp.vec3f(0.0)
     # pass 1: contacts that exist now (inheriting history where the owning face changed) get the law
     for k in range(k0, k1):
-        g = entry_geom(k, x, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos, body_quat)
+        g = entry_geom(k, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos, body_quat)
         h = hist[k]
         active = h.flags & ACTIVE
         if active == 0 and g.un < 0.0:
             continue
-        if suppressed(k, g, k0, k1, x, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
+        if suppressed(k, g, k0, k1, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
                       body_quat) == 1:
             continue
         m = mesh[k]
@@ -325,9 +328,9 @@ def sphere_triangle_kernel(
             for k2 in range(k0, k1):
                 h2 = hist[k2]
                 if k2 != k and mesh[k2] == m and (h2.flags & ACTIVE) != 0 and wp.dot(h2.normal, n) > 0.99:
-                    g2 = entry_geom(k2, x, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
+                    g2 = entry_geom(k2, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
                                     body_quat)
-                    if suppressed(k2, g2, k0, k1, x, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices,
+                    if suppressed(k2, g2, k0, k1, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices,
                                   body_pos, body_quat) == 1:
                         h = h2
                         is_new = int(0)
@@ -356,8 +359,8 @@ def sphere_triangle_kernel(
     for k in range(k0, k1):
         if (hist[k].flags & ACTIVE) == 0:
             continue
-        g = entry_geom(k, x, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos, body_quat)
-        if suppressed(k, g, k0, k1, x, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
+        g = entry_geom(k, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos, body_quat)
+        if suppressed(k, g, k0, k1, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
                       body_quat) == 1:
             hist[k] = empty_hist()
     wp.atomic_add(body_force, sphere_body[i], f_s)
@@ -369,7 +372,7 @@ def sphere_triangle_kernel(
 def sphere_sphere_elastic_kernel(
     sphere_world: wp.array(dtype=int),
     sphere_material: wp.array(dtype=int),
-    radius: wp.array(dtype=float),
+    radius: wp.array(dtype=wp.float64),
     mats: Materials,
     sphere_pos: wp.array(dtype=wp.vec3d),
     start: wp.array(dtype=int),
@@ -384,8 +387,8 @@ def sphere_sphere_elastic_kernel(
         if (h.flags & ACTIVE) == 0:
             continue
         j = other[k]
-        un = float(wp.float64(radius[i] + radius[j]) - wp.length(sphere_pos[j] - sphere_pos[i]))
-        p = phys_of(mats, sphere_world[i], sphere_material[i], sphere_material[j], radius[i], radius[j])
+        un = float(radius[i] + radius[j] - wp.length(sphere_pos[j] - sphere_pos[i]))
+        p = phys_of(mats, sphere_world[i], sphere_material[i], sphere_material[j], float(radius[i]), float(radius[j]))
         wp.atomic_add(out, sphere_world[i], wp.float64(elastic_energy(h, p, un)))
 
 
@@ -393,7 +396,7 @@ def sphere_sphere_elastic_kernel(
 def sphere_triangle_elastic_kernel(
     sphere_world: wp.array(dtype=int),
     sphere_material: wp.array(dtype=int),
-    radius: wp.array(dtype=float),
+    radius: wp.array(dtype=wp.float64),
     mesh_body: wp.array(dtype=int),
     mesh_material: wp.array(dtype=int),
     mesh_tri_offset: wp.array(dtype=int),
@@ -410,12 +413,13 @@ def sphere_triangle_elastic_kernel(
     out: wp.array(dtype=wp.float64),
 ):
     i = wp.tid()
-    r = radius[i]
+    rd = radius[i]
+    r = float(rd)
     for k in range(start[i], start[i] + count[i]):
         h = hist[k]
         if (h.flags & ACTIVE) == 0:
             continue
-        g = entry_geom(k, sphere_pos[i], r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
+        g = entry_geom(k, sphere_pos[i], rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
                        body_quat)
         p = phys_of(mats, sphere_world[i], mesh_material[mesh[k]], sphere_material[i], 2.0 * r, r)
         wp.atomic_add(out, sphere_world[i], wp.float64(elastic_energy(h, p, g.un)))

@@ -70,7 +70,7 @@ class Model:
     sphere_material: wp.array
     """material index (0..n_materials-1) of each sphere, int32 (n_spheres,)."""
     sphere_radius: wp.array
-    """radius [m], float32 (n_spheres,)."""
+    """radius [m], float64 (n_spheres,) (contact overlaps are differences of float64 lengths)."""
     sphere_offset: wp.array
     """centre in the owning body's principal frame [m], vec3f (n_spheres,)."""
 
