@@ -30,7 +30,7 @@ from .errors import (
     check_vec3,
 )
 from .materials import MATERIAL_FIELDS, Material
-from .model import ALL_DOFS, FLAG_ASPHERICAL, ROT_DOFS, Model, State, dof_mask
+from .model import ALL_DOFS, FLAG_ASPHERICAL, FLAG_PIVOT, ROT_DOFS, Model, State, dof_mask
 
 
 @dataclass
@@ -55,7 +55,7 @@ class _Spring:
     preload: float
 
 
-_BODY_FIELDS = ("pos", "quat", "vel", "angvel", "mass", "inertia", "density_material", "group", "blocked")
+_BODY_FIELDS = ("pos", "quat", "vel", "angvel", "mass", "inertia", "density_material", "group", "blocked", "pivot")
 
 
 class ModelBuilder:
@@ -141,8 +141,16 @@ class ModelBuilder:
         velocity: object,
         angular_velocity: object,
         name: str | None,
+        pivot: object | None = None,
     ) -> int:
         idx = self._n_bodies
+        if pivot is None:
+            piv = np.full(3, np.nan)
+        else:
+            piv = check_vec3("pivot", pivot)
+            if dof_mask(blocked) & ALL_DOFS & ~ROT_DOFS:
+                raise InputError(f"a hinged body's translation follows its pivot; blocked may only hold X, Y, Z, "
+                                 f"got {blocked!r}")
         self._push_bodies(
             pos=np.asarray(pos, dtype=np.float64)[None],
             quat=np.asarray(quat, dtype=np.float64)[None],
@@ -153,6 +161,7 @@ class ModelBuilder:
             density_material=np.array([density_material]),
             group=np.array([self._group(group)]),
             blocked=np.array([dof_mask(blocked)]),
+            pivot=piv[None],
         )
         if name is not None:
             if name in self.body_names:
@@ -230,6 +239,7 @@ class ModelBuilder:
             density_material=np.full(n, mat),
             group=np.full(n, gidx),
             blocked=np.full(n, mask),
+            pivot=np.full((n, 3), np.nan),
         )
         ids = np.arange(first, first + n, dtype=np.int32)
         if name is not None:
@@ -286,12 +296,13 @@ class ModelBuilder:
         group: str = "default",
         blocked: str = "xyzXYZ",
         name: str | None = None,
+        pivot: object | None = None,
     ) -> int:
         """Add a rigid body without geometry, e.g. a kinematic carriage that springs attach to.
 
         pos: centre of mass [m] (3,); mass [kg] (may be 0 only if every DoF is blocked); inertia: tensor about the
         centre of mass, world axes [kg m^2] (3, 3). By default every DoF is blocked and the body moves at
-        ``velocity`` [m/s] and ``angular_velocity`` [rad/s].
+        ``velocity`` [m/s] and ``angular_velocity`` [rad/s]. ``pivot`` [m] (3,): see :meth:`add_mesh`.
         """
         pos = check_vec3("pos", pos)
         mask = dof_mask(blocked)
@@ -303,7 +314,7 @@ class ModelBuilder:
                 raise InputError("inertia must be given for a rigid body with free rotations")
         else:
             moments, quat = massprops.principal_axes(inertia)
-        return self._add_body(pos, quat, mass, moments, -1, group, blocked, velocity, angular_velocity, name)
+        return self._add_body(pos, quat, mass, moments, -1, group, blocked, velocity, angular_velocity, name, pivot)
 
     def add_mesh(
         self,
@@ -321,6 +332,7 @@ class ModelBuilder:
         angular_velocity: object = (0.0, 0.0, 0.0),
         group: str | None = None,
         blocked: str | None = None,
+        pivot: object | None = None,
     ) -> int:
         """Add a triangle mesh (facets, both faces active) as a body, or attach it to an existing ``body``.
 
@@ -332,6 +344,10 @@ class ModelBuilder:
             mass, com, inertia: of a dynamic mesh [kg], [m] (3,), tensor about com in world axes [kg m^2] (3, 3).
                 If omitted they are computed by trimesh from the material's density (the mesh must be closed).
             velocity [m/s], angular_velocity [rad/s]: initial (or imposed, for blocked DoFs) velocities.
+            pivot: a dynamic body hinged at this world point [m] (3,): the pivot moves at ``velocity`` (a carriage
+                at constant speed), the body rotates about it (Euler's equations about the pivot, with the
+                rotations in ``blocked`` held at ``angular_velocity``) and its centre of mass follows. The paper's
+                tool: ``pivot=shank end, blocked="YZ"``.
         Returns the body index.
         """
         check_choice("kind", kind, ("static", "kinematic", "dynamic"))
@@ -351,14 +367,18 @@ class ModelBuilder:
                     m, c, inertia_c = float(mass), check_vec3("com", com), np.asarray(inertia, dtype=np.float64)
                 moments, quat = massprops.principal_axes(inertia_c)
                 blk = blocked or ""
+            elif pivot is not None:
+                raise InputError(f"only a dynamic mesh can have a pivot, got kind={kind!r}")
             else:
                 m, c = 0.0, vertices.mean(axis=0)
                 moments, quat = np.ones(3), np.array([0.0, 0.0, 0.0, 1.0])
                 blk = "xyzXYZ"
                 if blocked not in (None, "xyzXYZ"):
                     raise InputError(f"a {kind} mesh has every DoF blocked, got blocked={blocked!r}")
-            body = self._add_body(c, quat, m, moments, -1, grp, blk, velocity, angular_velocity, name)
+            body = self._add_body(c, quat, m, moments, -1, grp, blk, velocity, angular_velocity, name, pivot)
         else:
+            if pivot is not None:
+                raise InputError("pivot belongs to the body: give it when the body is made, not to an attached mesh")
             body = check_int("body", body)
             if body >= self._n_bodies:
                 raise InputError(f"body {body} does not exist (have {self._n_bodies})")
@@ -424,7 +444,8 @@ class ModelBuilder:
                 ``material:<name>:<field>`` (fields: young, poisson, density, friction_angle [deg],
                 normal_cohesion, shear_cohesion, eta_roll, eta_twist, alpha_kr, alpha_ktw),
                 ``spring:<name>:<stiffness|damping|rest_length|preload>``, ``damping:<group>``,
-                ``body:<name>:velocity`` and ``body:<name>:angular_velocity`` (shape (n_worlds, 3)).
+                ``body:<name>:velocity`` and ``body:<name>:angular_velocity`` (shape (n_worlds, 3); for a hinged
+                body, the pivot's velocity).
         """
         try:
             dev = wp.get_device(device)
@@ -520,14 +541,26 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
     flags = b.body_array("blocked").astype(np.int32)
     iso = np.ptp(inertia0, axis=1) <= 1e-12 * inertia0.max(axis=1)
     flags = flags | np.where(iso, 0, FLAG_ASPHERICAL).astype(np.int32)
+    pivot_world = b.body_array("pivot").reshape(nb, 3)
+    hinged = ~np.isnan(pivot_world[:, 0])
+    flags = flags | np.where(hinged, FLAG_PIVOT, 0).astype(np.int32)
     blocked_all = (flags & ALL_DOFS) == ALL_DOFS
     if np.any((mass0 <= 0) & ~blocked_all):
         raise InputError(f"body {int(np.argmax((mass0 <= 0) & ~blocked_all))} has no mass but free DoFs")
 
     pos = np.tile(b.body_array("pos").reshape(nb, 3), (W, 1))
     quat = np.tile(b.body_array("quat").reshape(nb, 4), (W, 1))
-    vel = t["vel"].reshape(-1, 3)
+    vel = t["vel"].reshape(-1, 3).copy()
     angvel = t["angvel"].reshape(-1, 3)
+    # a hinged body: `velocity` is its pivot's; the centre of mass moves at v_pivot + omega x (com - pivot)
+    body_rot0 = massprops.quats_to_matrices(b.body_array("quat").reshape(nb, 4))
+    pivot_local = np.where(hinged[:, None], np.einsum("nji,nj->ni", body_rot0,
+                                                      np.nan_to_num(pivot_world) - b.body_array("pos").reshape(nb, 3)),
+                           0.0)
+    hinged_all = np.tile(hinged, W)
+    pivot_vel = np.where(hinged_all[:, None], vel, 0.0)
+    arm = np.tile(np.nan_to_num(pivot_world) - b.body_array("pos").reshape(nb, 3), (W, 1))
+    vel[hinged_all] = pivot_vel[hinged_all] - np.cross(angvel[hinged_all], arm[hinged_all])
     # L = R diag(I) R^T omega, for every body at once
     rot = massprops.quats_to_matrices(quat)
     local = np.einsum("nji,nj->ni", rot, angvel) * inertia
@@ -582,6 +615,8 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         body_flags=arr(np.tile(flags, W), wp.int32),
         body_mass=arr(mass, wp.float64),
         body_inertia=arr(inertia, wp.vec3d),
+        body_pivot=arr(np.tile(pivot_local, (W, 1)), wp.vec3d),
+        body_pivot_vel=arr(pivot_vel, wp.vec3d),
         sphere_body=arr(sphere_body, wp.int32),
         sphere_world=arr(sphere_world, wp.int32),
         sphere_material=arr(np.tile(sph_mat, W), wp.int32),
@@ -631,6 +666,7 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         "body_inertia": inertia,
         "body_group": np.tile(b.body_array("group").astype(np.int32), W),
         "body_flags": np.tile(flags, W),
+        "body_pivot": np.tile(pivot_local, (W, 1)),
         "body_world": world_of_body,
         "mesh_body": mesh_body_all,
         "mesh_vertices_local": [m.vertices_local for m in b.meshes],

@@ -7,6 +7,10 @@ Per body, with F, T the summed contact and spring forces and torques (torques ab
   * spherical inertia, free: alpha = T/I, damped like a; omega <- omega + dt alpha; q rotated by |omega| dt.
   * aspherical, free: Yade's Allen-Tildesley scheme on the world angular momentum L (torque damped by
     T_i <- T_i (1 - lambda sgn(T_i omega_i))).
+  * hinged (FLAG_PIVOT): the body turns about a pivot that moves at a constant velocity (a carriage): Euler's
+    equations about the pivot, I_p alpha = T_p - omega x I_p omega with T_p the torque of contacts, springs and
+    gravity about the pivot and I_p = I_c + m (|r|^2 1 - r r^T) (r: pivot to centre of mass), blocked rotation
+    components held as below; the centre of mass then follows the pivot: x = p + R(q) r_body.
   * any rotation blocked: the free components solve I_ff alpha_f = (T - omega x I omega)_f with the world-frame
     inertia; blocked components keep their (imposed) angular velocity. (Yade's aspherical scheme would leak
     rotation into blocked axes for a body with products of inertia, e.g. a tool hinged about one axis.)
@@ -17,7 +21,7 @@ from __future__ import annotations
 import warp as wp
 
 from .contacts import E_DAMPING, E_SPRING_DAMPER, N_ENERGY
-from .model import ALL_DOFS, FLAG_ASPHERICAL, ROT_DOFS
+from .model import ALL_DOFS, FLAG_ASPHERICAL, FLAG_PIVOT, ROT_DOFS
 
 wp.set_module_options({"enable_backward": False})
 
@@ -56,6 +60,65 @@ def cw_div(a: wp.vec3d, b: wp.vec3d) -> wp.vec3d:
     return wp.vec3d(a[0] / b[0], a[1] / b[1], a[2] / b[2])
 
 
+@wp.func
+def solve_free_rotations(mat: wp.mat33d, rhs: wp.vec3d, flags: int) -> wp.vec3d:
+    """Angular acceleration from mat alpha = rhs with the blocked rotation components (flag bits 3..5) held at 0."""
+    m = mat
+    r = rhs
+    for k in range(3):
+        if (flags & (8 << k)) != 0:
+            r[k] = wp.float64(0.0)
+            for l in range(3):
+                m[k, l] = wp.float64(0.0)
+                m[l, k] = wp.float64(0.0)
+            m[k, k] = wp.float64(1.0)
+    return wp.inverse(m) * r
+
+
+@wp.func
+def integrate_hinged(
+    b: int,
+    flags: int,
+    m: wp.float64,
+    inertia: wp.vec3d,
+    pivot_local: wp.vec3d,
+    pivot_vel: wp.vec3d,
+    gravity: wp.vec3d,
+    dt: wp.float64,
+    lam: wp.float64,
+    f: wp.vec3d,
+    t: wp.vec3d,
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    body_vel: wp.array(dtype=wp.vec3d),
+    body_angvel: wp.array(dtype=wp.vec3d),
+    body_angmom: wp.array(dtype=wp.vec3d),
+) -> wp.float64:
+    """One leapfrog step of a body hinged at a pivot moving at constant velocity; returns the damping work [J]."""
+    q = body_quat[b]
+    omega = body_angvel[b]
+    rot = wp.quat_to_matrix(q)
+    arm = rot * pivot_local  # centre of mass -> pivot
+    p = body_pos[b] + arm
+    rc = -arm  # pivot -> centre of mass
+    t_p = t + wp.cross(rc, f + m * gravity)
+    i_c = rot * wp.diag(inertia) * wp.transpose(rot)
+    i_p = i_c + m * (wp.dot(rc, rc) * wp.identity(n=3, dtype=wp.float64) - wp.outer(rc, rc))
+    alpha = solve_free_rotations(i_p, t_p - wp.cross(omega, i_p * omega), flags)
+    alpha_d = damp(alpha, omega, dt, lam)
+    work = wp.abs(wp.dot(i_p * (alpha - alpha_d), omega)) * dt
+    omega = omega + dt * alpha_d
+    q_new = quat_integrate(q, omega, dt)
+    arm_new = wp.quat_rotate(q_new, pivot_local)
+    body_pos[b] = p + dt * pivot_vel - arm_new
+    body_vel[b] = pivot_vel - wp.cross(omega, arm_new)
+    body_angvel[b] = omega
+    rot_new = wp.quat_to_matrix(q_new)
+    body_angmom[b] = rot_new * wp.diag(inertia) * wp.transpose(rot_new) * omega
+    body_quat[b] = q_new
+    return work
+
+
 @wp.kernel
 def integrate_bodies_kernel(
     # Model:
@@ -64,6 +127,8 @@ def integrate_bodies_kernel(
     body_flags: wp.array(dtype=int),
     body_mass: wp.array(dtype=wp.float64),
     body_inertia: wp.array(dtype=wp.vec3d),
+    body_pivot: wp.array(dtype=wp.vec3d),
+    body_pivot_vel: wp.array(dtype=wp.vec3d),
     group_damping: wp.array(dtype=float),
     n_groups: int,
     gravity: wp.vec3d,
@@ -93,6 +158,12 @@ def integrate_bodies_kernel(
     lam = wp.float64(group_damping[w * n_groups + body_group[b]])
     m = body_mass[b]
     f = wp.vec3d(body_force[b])
+    if (flags & FLAG_PIVOT) != 0:
+        work = integrate_hinged(b, flags, m, body_inertia[b], body_pivot[b], body_pivot_vel[b], gravity, dt, lam, f,
+                                wp.vec3d(body_torque[b]), body_pos, body_quat, body_vel, body_angvel, body_angmom)
+        if track_energy != 0 and lam > wp.float64(0.0):
+            wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, work)
+        return
     a = f / m + gravity
     for k in range(3):
         if (flags & (1 << k)) != 0:
@@ -118,16 +189,7 @@ def integrate_bodies_kernel(
         # constrained rotation about the free world axes
         r = wp.quat_to_matrix(q)
         iw = r * wp.diag(inertia) * wp.transpose(r)
-        rhs = t - wp.cross(omega, iw * omega)
-        mat = iw
-        for k in range(3):
-            if (flags & (8 << k)) != 0:
-                rhs[k] = wp.float64(0.0)
-                for l in range(3):
-                    mat[k, l] = wp.float64(0.0)
-                    mat[l, k] = wp.float64(0.0)
-                mat[k, k] = wp.float64(1.0)
-        alpha = wp.inverse(mat) * rhs
+        alpha = solve_free_rotations(iw, t - wp.cross(omega, iw * omega), flags)
         alpha_d = damp(alpha, omega, dt, lam)
         omega = omega + dt * alpha_d
         body_angvel[b] = omega

@@ -15,6 +15,7 @@ import warp as wp
 # Body flag bits: blocked degrees of freedom (world axes) x, y, z, rx, ry, rz, then properties.
 DOF_BITS = {"x": 1, "y": 2, "z": 4, "X": 8, "Y": 16, "Z": 32}
 FLAG_ASPHERICAL = 64
+FLAG_PIVOT = 128
 ALL_DOFS = 63
 ROT_DOFS = 56
 
@@ -56,11 +57,16 @@ class Model:
     body_group: wp.array
     """damping/observer group of each body, int32 (n_bodies,)."""
     body_flags: wp.array
-    """blocked-DoF bits 0..5 (x, y, z, rx, ry, rz) and FLAG_ASPHERICAL, int32 (n_bodies,)."""
+    """blocked-DoF bits 0..5 (x, y, z, rx, ry, rz), FLAG_ASPHERICAL and FLAG_PIVOT, int32 (n_bodies,)."""
     body_mass: wp.array
     """mass [kg], float64 (n_bodies,); 0 for bodies with every translation blocked and no mass given."""
     body_inertia: wp.array
     """principal moments of inertia [kg m^2], vec3d (n_bodies,)."""
+    body_pivot: wp.array
+    """pivot of a hinged body (FLAG_PIVOT) in its principal frame, relative to the centre of mass [m], vec3d
+    (n_bodies,); zero for other bodies."""
+    body_pivot_vel: wp.array
+    """velocity of a hinged body's pivot (the carriage), world frame [m/s], vec3d (n_bodies,)."""
 
     # Spheres (n_spheres,)
     sphere_body: wp.array

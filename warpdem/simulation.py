@@ -360,7 +360,8 @@ class Simulation:
             )
         wp.launch(
             integrate_bodies_kernel, m.n_bodies,
-            inputs=[m.body_world, m.body_group, m.body_flags, m.body_mass, m.body_inertia, m.group_damping,
+            inputs=[m.body_world, m.body_group, m.body_flags, m.body_mass, m.body_inertia, m.body_pivot,
+                    m.body_pivot_vel, m.group_damping,
                     m.n_groups, wp.vec3d(*m.gravity), wp.float64(self.dt), int(self.track_energy),
                     self.body_force, self.body_torque],
             outputs=[s.body_pos, s.body_quat, s.body_vel, s.body_angvel, s.body_angmom, self.energy],
