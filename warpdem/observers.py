@@ -148,6 +148,13 @@ def energy_balance(sim: object) -> dict[str, np.ndarray]:
     return terms
 
 
+def _csr_entries(start: np.ndarray, count: np.ndarray) -> np.ndarray:
+    """Indices of every entry of a CSR list (row i holds start[i] .. start[i] + count[i] - 1), row by row."""
+    start, count = np.asarray(start, np.int64), np.asarray(count, np.int64)
+    first_of_row = np.cumsum(count) - count
+    return np.repeat(start - first_of_row, count) + np.arange(int(count.sum()), dtype=np.int64)
+
+
 def contact_table(sim: object) -> dict[str, np.ndarray]:
     """Active contacts on the host: body1/body2 (body indices), world, normal (k, 3), radius1/radius2 [m],
     kn/ks [N/m], kr/ktw [N m/rad], kind (0 sphere-sphere, 1 sphere-triangle), sphere indices, shear force [N]."""
@@ -157,9 +164,7 @@ def contact_table(sim: object) -> dict[str, np.ndarray]:
     rows = {k: [] for k in ("body1", "body2", "world", "normal", "radius1", "radius2", "kind", "sphere", "fs",
                             "material1", "material2")}
     owner = np.repeat(np.arange(m.n_spheres), ss["count"])
-    idx = np.concatenate([np.arange(s, s + c) for s, c in zip(ss["start"], ss["count"], strict=True)]) \
-        if m.n_spheres else np.zeros(0, int)
-    idx = idx.astype(np.int64)
+    idx = _csr_entries(ss["start"], ss["count"])
     h = ss["hist"][idx] if len(idx) else ss["hist"][:0]
     act = (h["flags"] & ACTIVE) != 0 if len(idx) else np.zeros(0, bool)
     i, j = owner[act], ss["key_a"][idx][act]
@@ -177,8 +182,7 @@ def contact_table(sim: object) -> dict[str, np.ndarray]:
     if m.n_meshes:
         st = sim.st.numpy()
         owner = np.repeat(np.arange(m.n_spheres), st["count"])
-        idx = np.concatenate([np.arange(s, s + c) for s, c in zip(st["start"], st["count"], strict=True)])
-        idx = idx.astype(np.int64)
+        idx = _csr_entries(st["start"], st["count"])
         h = st["hist"][idx]
         act = (h["flags"] & ACTIVE) != 0
         i, mesh = owner[act], st["key_a"][idx][act]

@@ -428,6 +428,18 @@ class Simulation:
         if self.device.is_cpu:
             self._check()
 
+    def set_local_damping(self, group: str, damping: object) -> None:
+        """Change a group's Cundall local damping [-] now: one value for every world or (n_worlds,) values."""
+        m = self.model
+        if group not in m.names["group"]:
+            raise InputError(f"group must be one of {sorted(m.names['group'])}, got {group!r}")
+        values = np.broadcast_to(np.asarray(damping, dtype=np.float64), (m.n_worlds,))
+        if np.any(~np.isfinite(values)) or np.any((values < 0) | (values >= 1)):
+            raise InputError(f"local damping must be in [0, 1), got {values.tolist()}")
+        table = m.group_damping.numpy().reshape(m.n_worlds, m.n_groups)
+        table[:, m.names["group"][group]] = values
+        m.group_damping.assign(wp.array(table.reshape(-1).astype(np.float32), dtype=float, device=m.device))
+
     def set_cohesion_now(self) -> None:
         """Give cohesion to every existing contact of cohesive materials at the next step (Yade's setCohesionNow)."""
         self.cohesion_now.fill_(1)

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .model import ALL_DOFS, Model
+from .model import ALL_DOFS, FLAG_PIVOT, Model
 
 
 def pwave_timestep(model: Model) -> float:
@@ -20,21 +20,40 @@ def pwave_timestep(model: Model) -> float:
 
 
 def spring_timestep(model: Model) -> float:
-    """Stability limit of the spring connectors, 2 sqrt(m_red / k) [s] with m_red the reduced mass of the free
-    bodies (translation only; a stiff spring on a light lever arm can be stiffer than this suggests)."""
+    """Stability limit of the spring connectors [s]: 2/omega (sqrt(1 + zeta^2) - zeta) per spring (the central
+    difference limit of a damped oscillator), omega^2 = k / m_red, zeta = c / (2 sqrt(k m_red)), with m_red the reduced
+    mass of the two ends. A hinged body's end counts with its effective mass I_p / r^2 at the attachment point (r
+    from the pivot, I_p the smallest moment about the pivot); other bodies count with their mass (translation only:
+    a stiff spring on a light lever arm can be stiffer than this suggests)."""
     if model.n_springs == 0:
         return math.inf
     a = model.spring_body_a.numpy()
     b = model.spring_body_b.numpy()
     k = model.spring_stiffness.numpy().astype(np.float64)
+    c = model.spring_damping.numpy().astype(np.float64)
     mass = model.host["body_mass"]
     free = (model.host["body_flags"] & ALL_DOFS) != ALL_DOFS
     inv = np.where(free, 1.0 / np.where(mass > 0, mass, 1.0), 0.0)
-    inv_red = inv[a] + inv[b]
+    inv_a, inv_b = inv[a].copy(), inv[b].copy()
+    hinged = (model.host["body_flags"] & FLAG_PIVOT) != 0
+    if np.any(hinged):
+        inertia = model.host["body_inertia"]
+        pivot = model.host["body_pivot"]
+        sides = ((a, model.spring_point_a.numpy(), inv_a), (b, model.spring_point_b.numpy(), inv_b))
+        for ends, points, inv_end in sides:
+            for s in np.nonzero(hinged[ends])[0]:
+                body = ends[s]
+                d = pivot[body]  # centre of mass -> pivot, body frame
+                i_p = inertia[body].min() + mass[body] * float(d @ d)  # a lower bound of the moments about the pivot
+                r2 = float(np.sum((points[s] - d) ** 2))
+                inv_end[s] = r2 / i_p
+    inv_red = inv_a + inv_b
     ok = (k > 0) & (inv_red > 0)
     if not np.any(ok):
         return math.inf
-    return float(np.min(2.0 * np.sqrt(1.0 / (inv_red[ok] * k[ok]))))
+    omega = np.sqrt(k[ok] * inv_red[ok])
+    zeta = c[ok] / (2.0 * np.sqrt(k[ok] / inv_red[ok]))
+    return float(np.min(2.0 / omega * (np.sqrt(1.0 + zeta**2) - zeta)))
 
 
 def critical_timestep(model: Model) -> float:

@@ -1,0 +1,278 @@
+"""The ringing test (section 2.1.1, Fig. 1c, Table 2): the sweep on its springs, a 200 N load, a hammer hit.
+
+The rig, in the simulation frame (x lateral = pivot axis, y travel, z up; gravity -z):
+
+- the sweep (``scenes.sweep``) hinged at its pivot (rotation about x only; the carriage stands still);
+- the load: a body of mass F/g (200 N / g = 20.4 kg) pinned at the blade tip by a stiff spring (1e8 N/m, 350 Hz
+  against the 2-10 Hz of the rig), its rotations and lateral translation blocked (the paper's loading sphere has
+  DoFs y and z only). Its weight, forward of the pivot, turns the tool backwards like the draught, and its mass
+  rides with the tool. It has no contact geometry (assumption: the paper does not say where its sphere touches);
+- the springs, acting along +y on the shank's rear face at the sensor point, 100 mm below the pivot:
+  model "paper": three spring spheres (r = 20 mm, rho = 100 kg/m^3, DoFs y and rotation about y) between the shank
+  and a fixed support sphere, with Table 2's calibrated Young's modulus and local damping per configuration;
+  model "linear": one linear spring-dashpot with the DIN 2093 stiffness of the configuration and a dashpot chosen
+  for a damping ratio (default: Table 2's measured one) from the rig's own inertia and stiffness.
+
+Procedure: settle under the load with heavy local damping, restore the damping of the model, hit: give the tool the
+angular velocity that makes the sensor point swing by ``hit_amplitude`` times the static spring deflection, then
+record the sensor point's displacement along y at 2400 Hz (the laboratory's strain-gauge rate) and fit frequency and
+damping ratio by eqs. (3)-(5). All eight configurations run as the worlds of one simulation.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+import warpdem as wd
+from warpdem import analysis
+from warpdem.mass import quats_to_matrices
+
+from . import paper
+from .sweep import SweepTool, add_sweep, build_sweep
+
+SPRING_MODELS = ("paper", "linear")
+PIN_STIFFNESS = 1e8
+"""stiffness of the pin holding the load at the blade tip [N/m]."""
+SETTLE_DAMPING = 0.7
+"""local damping during settling [-] (Cundall; removed before the hit)."""
+
+
+@dataclass
+class RingingConfig:
+    """Parameters of a ringing run. Lengths [m], times [s], forces [N]."""
+
+    springs: tuple[int, ...] = paper.SPRING_COUNTS
+    spring_model: str = "paper"
+    load_force: float = paper.LOAD_FORCE
+    damping_ratio: tuple[float, ...] | None = None
+    """model "linear": target damping ratio per configuration (default: Table 2's measured)."""
+    settle_time: float = 0.25
+    ring_time: float = 2.0
+    hit_amplitude: float = 0.5
+    """sensor swing of the hit as a fraction of the static spring deflection (< 1 keeps spring spheres touching)."""
+    sample_rate: float = paper.SAMPLE_RATE
+    dt: float | None = None
+    """time step [s]; default 0.5 x the critical step."""
+
+    def __post_init__(self) -> None:
+        if self.spring_model not in SPRING_MODELS:
+            raise ValueError(f"spring_model must be one of {SPRING_MODELS}, got {self.spring_model!r}")
+        for n in self.springs:
+            if n not in paper.SPRING_COUNTS:
+                raise ValueError(f"springs must be among {paper.SPRING_COUNTS}, got {n!r}")
+        for name in ("load_force", "settle_time", "ring_time", "hit_amplitude", "sample_rate"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
+
+
+@dataclass
+class RingingRig:
+    """A built ringing rig: the builder, per-world overrides and the numbers needed to analyse it."""
+
+    builder: wd.ModelBuilder
+    overrides: dict[str, object]
+    tool: SweepTool
+    config: RingingConfig
+    load_point: np.ndarray
+    """where the load hangs (the blade tip) [m] (3,)."""
+    lever: float
+    """lever arm of the springs about the pivot [m]."""
+    stiffness: np.ndarray
+    """DIN 2093 stiffness per world [N/m] (n_worlds,)."""
+    info: dict[str, object] = field(default_factory=dict)
+
+
+def rig_inertia(tool: SweepTool, load_mass: float, load_point: np.ndarray) -> float:
+    """Moment of inertia of tool + load (a point mass) about the pivot axis x [kg m^2]."""
+    r = load_point - tool.pivot
+    return float(tool.inertia_about(tool.pivot)[0, 0] + load_mass * (r[1] ** 2 + r[2] ** 2))
+
+
+def gravity_stiffness(tool: SweepTool, load_mass: float, load_point: np.ndarray, g: float = 9.81) -> float:
+    """Rotational stiffness of gravity about the pivot [N m/rad]: -m g z for the tool and the hanging load."""
+    return float(-tool.mass * g * (tool.com[2] - tool.pivot[2]) - load_mass * g * (load_point[2] - tool.pivot[2]))
+
+
+def gravity_moment(tool: SweepTool, load_mass: float, load_point: np.ndarray, g: float = 9.81) -> float:
+    """Moment of the weights of tool and load about the pivot axis x at the initial pose [N m] (< 0: backwards)."""
+    weight = np.array([0.0, 0.0, -g])
+    m_tool = np.cross(tool.com - tool.pivot, tool.mass * weight)[0]
+    return float(m_tool + np.cross(load_point - tool.pivot, load_mass * weight)[0])
+
+
+def analytic_frequency(rig: RingingRig, stiffness: float, damping: float) -> tuple[float, float]:
+    """Damped frequency [Hz] and damping ratio of the linear-spring rig (small oscillations about equilibrium).
+
+    I theta'' + c a^2 theta' + (k a^2 + K_g) theta = 0 with I the inertia of tool and load about the pivot, a the
+    spring's lever arm, K_g gravity's stiffness (tool's centre of mass and the load hang below the pivot).
+    Neglected: the preload's geometric stiffness (F0 * 0.02 m < 0.2 % of k a^2) and the pin's compliance.
+    """
+    m_load = rig.config.load_force / 9.81
+    inertia = rig_inertia(rig.tool, m_load, rig.load_point)
+    k_rot = stiffness * rig.lever**2 + gravity_stiffness(rig.tool, m_load, rig.load_point)
+    wn = math.sqrt(k_rot / inertia)
+    zeta = damping * rig.lever**2 / (2.0 * math.sqrt(k_rot * inertia))
+    return wn * math.sqrt(1.0 - zeta**2) / (2.0 * math.pi), zeta
+
+
+def build_ringing(config: RingingConfig | None = None, tool: SweepTool | None = None) -> RingingRig:
+    """The ringing rig with one world per spring configuration in ``config.springs``."""
+    cfg = config or RingingConfig()
+    tool = tool or build_sweep()
+    rows = [paper.ringing_row(n) for n in cfg.springs]
+    stiffness = np.array([r["stiffness_n_per_m"] for r in rows])
+    b = wd.ModelBuilder(gravity=(0.0, 0.0, -9.81))
+    b.add_material("tool", wd.Material(young=paper.TOOL_YOUNG, poisson=paper.TOOL_POISSON, density=7850.0,
+                                       friction_angle=paper.TOOL_FRICTION))
+    add_sweep(b, tool, "tool", mount="hinged", group="tool")
+    m_load = cfg.load_force / 9.81
+    load_point = np.asarray(tool.tip, dtype=np.float64)
+    r_load = paper.LOAD_RADIUS
+    b.add_rigid_body(load_point, mass=m_load, inertia=np.eye(3) * 0.4 * m_load * r_load**2, blocked="xXYZ",
+                     group="load", name="load")
+    b.add_spring("pin", b.body_names["sweep_lower"], load_point, b.body_names["load"], load_point,
+                 stiffness=PIN_STIFFNESS, damping=2.0 * 0.2 * math.sqrt(PIN_STIFFNESS * m_load), rest_length=0.0)
+    s = np.asarray(tool.sensor_point, dtype=np.float64)
+    lever = float(abs(s[2] - tool.pivot[2]))
+    overrides: dict[str, object] = {}
+    info: dict[str, object] = {"load_mass_kg": m_load, "rows": rows}
+    if cfg.spring_model == "paper":
+        sp = paper.SPRING_SPHERE
+        r = sp["radius"]
+        b.add_material("spring", wd.Material(young=rows[0]["dem_spring_young_pa"], poisson=sp["poisson"],
+                                             density=sp["density"], friction_angle=sp["friction_angle"]))
+        for k in range(3):  # spring spheres 3, 2, 1 from the shank backwards
+            b.add_sphere(s - (0.0, (2 * k + 1) * r, 0.0), r, "spring", blocked="xzXZ", group="springs")
+        b.add_sphere(s - (0.0, 7 * r, 0.0), r, "spring", blocked="xyzXYZ", group="support")
+        overrides["material:spring:young"] = [row["dem_spring_young_pa"] for row in rows]
+        overrides["damping:springs"] = [row["dem_local_damping"] for row in rows]
+    else:
+        length = 0.1
+        carriage = b.add_rigid_body(s - (0.0, length, 0.0), name="carriage")
+        # preloaded so that the initial pose is the static equilibrium under the load (tension positive)
+        preload = gravity_moment(tool, m_load, load_point) / lever
+        b.add_spring("spring", carriage, s - (0.0, length, 0.0), b.body_names["sweep_lower"], s,
+                     stiffness=float(stiffness[0]), rest_length=length, preload=preload)
+        zeta = cfg.damping_ratio or tuple(row["measured_damping"] for row in rows)
+        if len(zeta) != len(rows):
+            raise ValueError(f"damping_ratio needs {len(rows)} values, got {len(zeta)}")
+        inertia = rig_inertia(tool, m_load, load_point)
+        k_rot = stiffness * lever**2 + gravity_stiffness(tool, m_load, load_point)
+        damping = 2.0 * np.asarray(zeta) * np.sqrt(k_rot * inertia) / lever**2
+        overrides["spring:spring:stiffness"] = stiffness
+        overrides["spring:spring:damping"] = damping
+        info["dashpot_n_s_per_m"] = damping
+    return RingingRig(b, overrides, tool, cfg, load_point, lever, stiffness, info)
+
+
+@dataclass
+class RingingResult:
+    """Sensor displacement after the hit and its fit per configuration."""
+
+    springs: tuple[int, ...]
+    spring_model: str
+    time: np.ndarray
+    """time since the hit [s] (k,)."""
+    displacement: np.ndarray
+    """sensor point displacement along y from its settled position [m] (k, n_configs)."""
+    frequency_hz: np.ndarray
+    damping_ratio: np.ndarray
+    static_deflection: np.ndarray
+    """sensor displacement while settling under the load before the hit [m] (n_configs,) (about 0 for the linear
+    model, whose spring starts preloaded at equilibrium)."""
+    dt: float
+    wall_s: float
+    config: dict
+    analytic: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def table(self) -> list[dict[str, float]]:
+        """One row per configuration: simulated and Table 2's frequency and damping, relative errors."""
+        out = []
+        for k, n in enumerate(self.springs):
+            row = paper.ringing_row(n)
+            f, z = float(self.frequency_hz[k]), float(self.damping_ratio[k])
+            out.append({
+                "springs": n, "freq_hz": f, "damping": z,
+                "measured_freq_hz": row["measured_freq_hz"], "measured_damping": row["measured_damping"],
+                "paper_dem_freq_hz": row["calibrated_freq_hz"], "paper_dem_damping": row["calibrated_damping"],
+                "re_freq": _re(f, row["measured_freq_hz"]),
+                "re_damp": _re(z, row["measured_damping"]),
+                **({"analytic_freq_hz": float(self.analytic["freq_hz"][k]),
+                    "analytic_damping": float(self.analytic["damping"][k])} if self.analytic else {}),
+            })
+        return out
+
+
+def _re(sim: float, target: float) -> float:
+    """Eq. (8)/(9) relative error, NaN where the simulation gave no value."""
+    return float(analysis.relative_error(sim, target)) if np.isfinite(sim) else math.nan
+
+
+def run_ringing(config: RingingConfig | None = None, *, device: str | None = None, tool: SweepTool | None = None,
+                progress: object | None = None) -> RingingResult:
+    """Build, settle, hit and record the ringing rig for every configuration; fit eqs. (3)-(5)."""
+    import time
+
+    cfg = config or RingingConfig()
+    rig = build_ringing(cfg, tool)
+    model, state = rig.builder.finalize(device, n_worlds=len(cfg.springs), overrides=rig.overrides)
+    dt = cfg.dt or 0.5 * wd.critical_timestep(model)
+    sim = wd.Simulation(model, state, dt=dt)
+    t0 = time.perf_counter()
+    sensor = wd.observers.body_point("sweep_lower", rig.tool.sensor_point)
+    s0 = sensor(sim)[:, 1].copy()
+    # settle under the load
+    damped = [g for g in ("tool", "load", "springs") if g in model.names["group"]]
+    saved = model.group_damping.numpy().reshape(model.n_worlds, model.n_groups).copy()
+    for g in damped:
+        sim.set_local_damping(g, SETTLE_DAMPING)
+    n_settle = int(round(cfg.settle_time / dt))
+    sim.run(n_settle, progress=(lambda d, n: progress(d, n_settle, "settle")) if progress else None)
+    for g in damped:
+        sim.set_local_damping(g, saved[:, model.names["group"][g]])
+    static = sensor(sim)[:, 1] - s0
+    # the hit: an angular velocity about x giving a sensor swing of hit_amplitude * |static deflection|
+    body = np.arange(model.n_worlds) * model.bodies_per_world + model.names["body"]["sweep_lower"]
+    f_guess = np.array([paper.ringing_row(n)["measured_freq_hz"] for n in cfg.springs])
+    if cfg.spring_model == "linear":  # preloaded at equilibrium: the spring's deflection under the load
+        m_load = cfg.load_force / 9.81
+        deflection = abs(gravity_moment(rig.tool, m_load, rig.load_point)) / rig.lever / rig.stiffness
+    else:
+        deflection = np.abs(static)
+    omega0 = cfg.hit_amplitude * deflection * 2 * np.pi * f_guess / rig.lever
+    # the load rides with the tool: it gets the velocity of its pin, omega x (pin - pivot)
+    load = np.arange(model.n_worlds) * model.bodies_per_world + model.names["body"]["load"]
+    angvel, vel, pos = state.body_angvel.numpy().copy(), state.body_vel.numpy().copy(), state.body_pos.numpy()
+    angvel[body] = 0.0
+    angvel[body, 0] = -omega0  # backwards, like a hammer blow on the blade's front
+    pivot = pos[body] + np.einsum("nij,nj->ni", quats_to_matrices(state.body_quat.numpy()[body]),
+                                  model.host["body_pivot"][body])
+    vel[body] = np.cross(angvel[body], pos[body] - pivot)
+    vel[load] = np.cross(angvel[body], pos[load] - pivot)
+    state.body_angvel.assign(angvel)
+    state.body_vel.assign(vel)
+    every = max(1, int(round(1.0 / (cfg.sample_rate * dt))))
+    n_ring = int(round(cfg.ring_time / dt))
+    settled = sensor(sim)[:, 1].copy()
+    out = sim.run(n_ring, record_every=every, observers={"y": lambda s_: sensor(s_)[:, 1].copy()},
+                  progress=(lambda d, n: progress(d, n_ring, "ring")) if progress else None)
+    wall = time.perf_counter() - t0
+    t = out["time"] - out["time"][0]
+    disp = out["y"] - settled
+    freq, zeta = np.full(len(cfg.springs), np.nan), np.full(len(cfg.springs), np.nan)
+    for k in range(len(cfg.springs)):
+        try:
+            fit = analysis.ringdown(t, disp[:, k])
+            freq[k], zeta[k] = fit.frequency_hz, fit.damping_ratio
+        except ValueError:
+            pass  # too few peaks (overdamped): left as NaN and reported
+    analytic: dict[str, np.ndarray] = {}
+    if cfg.spring_model == "linear":
+        pairs = [analytic_frequency(rig, float(k), float(c))
+                 for k, c in zip(rig.stiffness, rig.info["dashpot_n_s_per_m"], strict=True)]
+        analytic = {"freq_hz": np.array([p[0] for p in pairs]), "damping": np.array([p[1] for p in pairs])}
+    return RingingResult(tuple(cfg.springs), cfg.spring_model, t, disp, freq, zeta, static, dt, wall, asdict(cfg),
+                         analytic)
