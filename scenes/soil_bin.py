@@ -1,0 +1,299 @@
+"""The soil bin (section 2.1.2, Tables 3 and 7): the sweep pulled through a deposited bed, rigid or on springs.
+
+Frame: x lateral, y travel (the carriage moves +y), z up; the bin spans x in [-W/2, W/2], y in [0, L], z in [0, H].
+
+- Rigid tool: every DoF blocked, moving at the carriage speed (``springs = 0``).
+- Passive tool: hinged at its pivot (rotation about x only), the pivot carried at the speed, held by the springs on
+  the shank's rear face at the sensor point, 100 mm below the pivot. Spring models: "linear" (default): a linear
+  spring-dashpot with the DIN 2093 stiffness of the configuration and a dashpot giving Table 2's measured damping
+  ratio for the hinged tool alone; "paper": three spring spheres and a support sphere with Table 2's calibrated
+  Young's modulus and local damping (its stiff, light spheres need a ~5e-6 s step, 10x smaller than the soil's).
+  Table 2's support offset (+ = against travel) moves the spring's anchor (or the support sphere) back, which lets
+  the tool lean back (the paper's "initial backward bending").
+- Soil: a deposited :class:`~scenes.assemblies.Bed` with the paper's E, nu, rho and a GA parameter set of Tables
+  4-6 (default: the set closest to the laboratory shear box for the assembly: A 1, B 8, C 11), cohesion set on the
+  initial contacts, rolling/twisting resistance on every contact, no local damping (as the paper).
+
+Per run and world: draught (contact force of the lower half against travel), the sensor point's displacement
+relative to the carriage, kinetic energy of tool and soil (translational, rotational; eq. 6), the soil's
+coordination number, and steady-state statistics after ``steady_travel`` of travel (0.5 m at paper scale).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+import warpdem as wd
+from warpdem import analysis
+
+from . import paper
+from .assemblies import AssemblySpec, Bed, bin_mesh, deposit
+from .sweep import SweepTool, add_sweep, build_sweep
+
+DEFAULT_SET = {"A": 1, "B": 8, "C": 11}
+"""GA set (Tables 4-6) per assembly whose shear-box result is closest to the laboratory's (32.3 deg, 6.4 kPa) by the
+sum of relative errors of friction angle and cohesion."""
+
+SCALES = {
+    # bin (W, L, H) [m], bed depth [m], member radius [m], travel [m], steady-state start [m]
+    # (the tool is 0.27 m long: travel + 0.3 m must fit in L; walls high enough that no particle is thrown out)
+    "ci": {"bin": (0.5, 0.65, 0.45), "bed_depth": 0.2, "radius": 0.02, "travel": 0.3, "steady_travel": 0.15},
+    "cpu": {"bin": (0.7, 1.1, 0.45), "bed_depth": 0.22, "radius": 0.015, "travel": 0.75, "steady_travel": 0.45},
+    "paper": {"bin": (1.0, 2.0, 0.5), "bed_depth": 0.25, "radius": 0.007, "travel": 1.6, "steady_travel": 0.5},
+}
+SPRING_MODELS = ("linear", "paper")
+
+
+@dataclass
+class SoilBinConfig:
+    """A soil-bin study: one bed, one rigid run and/or passive runs (one world per spring configuration)."""
+
+    scale: str = "cpu"
+    assembly: str = "C"
+    springs: tuple[int, ...] = (0, 16, 32)
+    """spring configurations; 0 is the rigid tool."""
+    spring_model: str = "linear"
+    speed: tuple[float, ...] | None = None
+    """carriage speed per configuration [m/s]; default Table 7's mean speeds."""
+    working_depth: float = paper.WORKING_DEPTH
+    parameter_set: int | None = None
+    support_offset: bool = True
+    """apply Table 2's support offsets (the paper's final model)."""
+    travel: float | None = None
+    steady_travel: float | None = None
+    sample_rate: float = 500.0
+    """recording rate [Hz] (the FFT low-pass is at 100 Hz)."""
+    seed: int = 0
+    dt: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.scale not in SCALES:
+            raise ValueError(f"scale must be one of {sorted(SCALES)}, got {self.scale!r}")
+        if self.spring_model not in SPRING_MODELS:
+            raise ValueError(f"spring_model must be one of {SPRING_MODELS}, got {self.spring_model!r}")
+        for n in self.springs:
+            if n != 0 and n not in paper.SPRING_COUNTS:
+                raise ValueError(f"springs must be 0 (rigid) or among {paper.SPRING_COUNTS}, got {n!r}")
+        if self.speed is not None and len(self.speed) != len(self.springs):
+            raise ValueError(f"speed needs one value per spring configuration ({len(self.springs)}), got {self.speed}")
+        if not 0 < self.working_depth < SCALES[self.scale]["bed_depth"]:
+            raise ValueError(f"working_depth must be in (0, bed depth), got {self.working_depth!r}")
+
+    @property
+    def preset(self) -> dict:
+        return SCALES[self.scale]
+
+    def speeds(self) -> list[float]:
+        if self.speed is not None:
+            return [float(v) for v in self.speed]
+        t7 = paper.table("soil_bin_dem")
+        return [float(t7["speed_mean_m_s"][t7["springs"] == n][0]) for n in self.springs]
+
+    def soil_material(self) -> wd.Material:
+        """The soil contact material: the paper's E, nu, rho and the GA set's friction, cohesion, eta."""
+        sets = paper.table("ga_sets")
+        k = (self.parameter_set or DEFAULT_SET[self.assembly]) - 1
+        if not 0 <= k < len(sets["set"]):
+            raise ValueError(f"parameter_set must be in 1..{len(sets['set'])}, got {self.parameter_set!r}")
+        eta = float(sets["eta_roll_twist"][k])
+        return wd.Material(young=paper.SOIL_YOUNG, poisson=paper.SOIL_POISSON, density=paper.SOIL_DENSITY,
+                           friction_angle=float(sets["friction_angle_deg"][k]),
+                           normal_cohesion=float(sets["normal_cohesion_pa"][k]),
+                           shear_cohesion=float(sets["shear_cohesion_pa"][k]), eta_roll=eta, eta_twist=eta,
+                           moment_law=True)
+
+
+def bed_for(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,
+            progress: object | None = None) -> Bed:
+    """The deposited bed for a config (scale, assembly, seed), read from ``cache_dir`` if it was made before."""
+    p = config.preset
+    spec = AssemblySpec(kind=config.assembly, radius=p["radius"])
+    key = hashlib.sha1(json.dumps([asdict(spec), p["bin"], p["bed_depth"], config.seed]).encode()).hexdigest()[:12]
+    path = Path(cache_dir) / f"bed_{config.scale}_{config.assembly}_{key}.npz" if cache_dir else None
+    if path is not None and path.exists():
+        return Bed.load(path)
+    bed = deposit(spec, p["bin"], p["bed_depth"], seed=config.seed, device=device, progress=progress)
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        bed.save(path)
+    return bed
+
+
+def place_tool(bed: Bed, working_depth: float, tool: SweepTool | None = None) -> SweepTool:
+    """The sweep with its tip ``working_depth`` below the bed surface and its rearmost point 10 mm inside the bin's
+    rear wall (y = 0). The surface is the mean top of the particles in the upper 10 % of the bed."""
+    tool = tool or build_sweep()
+    top = bed.centres[:, 2] + bed.radii
+    surface = float(np.mean(np.sort(top)[-max(1, len(top) // 10):]))
+    dz = surface - working_depth - tool.tip[2]
+    dy = 0.01 - float(min(tool.lower.vertices[:, 1].min(), tool.upper.vertices[:, 1].min()))
+    return tool.moved(np.array([0.0, dy, dz]))
+
+
+def clear_start(bed: Bed, tool: SweepTool, margin: float = 0.002) -> np.ndarray:
+    """Particles kept (n_particles,) bool: those with no member inside the tool's lower-half bounding box grown by
+    the member radius + ``margin`` [m] (the starting trench)."""
+    lo, hi = tool.lower.vertices.min(axis=0), tool.lower.vertices.max(axis=0)
+    grow = (bed.radii + margin)[:, None]
+    inside = np.all((bed.centres > lo - grow) & (bed.centres < hi + grow), axis=1)
+    hit = np.zeros(bed.n_particles, bool)
+    np.logical_or.at(hit, bed.particle, inside)
+    return ~hit
+
+
+@dataclass
+class SoilBinRun:
+    """Time series and statistics of one simulation (rigid, or the passive configurations as worlds)."""
+
+    springs: tuple[int, ...]
+    speeds: tuple[float, ...]
+    time: np.ndarray
+    """[s] (k,)."""
+    travel: np.ndarray
+    """carriage travel [m] (k, n_worlds)."""
+    series: dict[str, np.ndarray]
+    """draught [N], displacement [m] (sensor relative to the carriage, along y), ke_tool / ke_soil [J]
+    (translational, rotational) (k, n_worlds, 2), coordination [-]; each (k, n_worlds[, 2])."""
+    steady: list[dict[str, float]] = field(default_factory=list)
+    n_particles: int = 0
+    n_spheres: int = 0
+    dt: float = 0.0
+    steps: int = 0
+    wall_s: float = 0.0
+
+
+def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int], speeds: list[float],
+           device: str | None) -> tuple[wd.Model, wd.State, dict]:
+    rigid = springs == [0]
+    b = wd.ModelBuilder(gravity=(0.0, 0.0, -9.81))
+    b.add_material("soil", config.soil_material())
+    b.add_material("tool", wd.Material(young=paper.TOOL_YOUNG, poisson=paper.TOOL_POISSON, density=7850.0,
+                                       friction_angle=paper.TOOL_FRICTION))
+    v, f = bin_mesh(bed.bin_size)
+    b.add_mesh("bin", v, f, "tool")
+    v0 = (0.0, speeds[0], 0.0)
+    add_sweep(b, tool, "tool", mount="rigid" if rigid else "hinged", velocity=v0, group="tool")
+    keep = clear_start(bed, tool)
+    bed.add_to(b, "soil", group="soil", keep=keep)
+    overrides: dict[str, object] = {"body:sweep_lower:velocity": [(0.0, s, 0.0) for s in speeds]}
+    info: dict[str, object] = {"n_particles": int(keep.sum())}
+    if not rigid:
+        s = np.asarray(tool.sensor_point)
+        rows = [paper.ringing_row(n) for n in springs]
+        offsets = [1e-3 * r["support_offset_mm"] if config.support_offset else 0.0 for r in rows]
+        lever = float(abs(s[2] - tool.pivot[2]))
+        if config.spring_model == "linear":
+            length = 0.1
+            # one carriage per world position is impossible (geometry is shared), so the anchor sits at the mean
+            # offset and each world's rest length absorbs its own offset: rest = length + (offset - mean offset)
+            mean_off = float(np.mean(offsets))
+            anchor = s - (0.0, length + mean_off, 0.0)
+            carriage = b.add_rigid_body(anchor, name="carriage", velocity=v0)
+            b.add_spring("spring", carriage, anchor, b.body_names["sweep_lower"], s, stiffness=1.0,
+                         rest_length=length)
+            k = np.array([r["stiffness_n_per_m"] for r in rows])
+            i_p = tool.inertia_about(tool.pivot)[0, 0]
+            k_rot = k * lever**2 - tool.mass * 9.81 * (tool.com[2] - tool.pivot[2])
+            zeta = np.array([r["measured_damping"] for r in rows])
+            overrides.update({
+                "body:carriage:velocity": [(0.0, sp, 0.0) for sp in speeds],
+                "spring:spring:stiffness": k,
+                "spring:spring:damping": 2.0 * zeta * np.sqrt(k_rot * i_p) / lever**2,
+                "spring:spring:rest_length": length + (np.array(offsets) - mean_off),
+            })
+        else:
+            sp = paper.SPRING_SPHERE
+            r = sp["radius"]
+            b.add_material("spring", wd.Material(young=rows[0]["dem_spring_young_pa"], poisson=sp["poisson"],
+                                                 density=sp["density"], friction_angle=sp["friction_angle"]))
+            for kk in range(3):
+                b.add_sphere(s - (0.0, (2 * kk + 1) * r, 0.0), r, "spring", blocked="xzXZ", group="springs",
+                             velocity=v0)
+            if len(set(offsets)) > 1:
+                raise ValueError("the paper's spring model needs one support offset for all worlds: run the "
+                                 "configurations separately or set support_offset=False")
+            b.add_sphere(s - (0.0, 7 * r + offsets[0], 0.0), r, "spring", blocked="xyzXYZ", group="support",
+                         velocity=v0, name="support")
+            overrides.update({
+                "material:spring:young": [row["dem_spring_young_pa"] for row in rows],
+                "damping:springs": [row["dem_local_damping"] for row in rows],
+                "body:support:velocity": [(0.0, sp_, 0.0) for sp_ in speeds],
+            })
+        info["support_offset_m"] = offsets
+    model, state = b.finalize(device, n_worlds=len(springs), overrides=overrides)
+    return model, state, info
+
+
+def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device: str | None = None,
+                 tool: SweepTool | None = None, progress: object | None = None) -> SoilBinRun:
+    """One simulation: the rigid tool (``springs == [0]``) or passive configurations as worlds."""
+    t0 = time.perf_counter()
+    if 0 in springs and springs != [0]:
+        raise ValueError(f"the rigid tool runs alone: springs must be [0] or passive configurations, got {springs}")
+    all_speeds = dict(zip(config.springs, config.speeds(), strict=True))
+    speeds = [all_speeds[n] for n in springs]
+    tool = place_tool(bed, config.working_depth, tool)
+    model, state, info = _build(config, bed, tool, springs, speeds, device)
+    dt = config.dt or min(0.3 * wd.pwave_timestep(model), 0.5 * wd.critical_timestep(model))
+    p = config.preset
+    travel = config.travel or p["travel"]
+    lo = np.array([-bed.bin_size[0], -0.5, -0.5])
+    hi = np.array([bed.bin_size[0], bed.bin_size[1] + travel + 1.0, 2.0])
+    sim = wd.Simulation(model, state, dt=dt, always_use_moment_law=True, bounds=(lo, hi))
+    sim.set_cohesion_now()
+    speeds_a = np.asarray(speeds)
+    sensor = wd.observers.body_point("sweep_lower", tool.sensor_point)
+    s0 = sensor(sim)[:, 1].copy()
+    draught = wd.observers.mesh_wrench("sweep_lower")
+    observers = {
+        "draught": lambda s: -draught(s)[:, 0, 1],
+        "displacement": lambda s: -(sensor(s)[:, 1] - s0 - speeds_a * s.state.time),
+        "ke_tool": wd.observers.group_kinetic_energy("tool"),
+        "ke_soil": wd.observers.group_kinetic_energy("soil"),
+        "coordination": wd.observers.coordination_number("soil"),
+    }
+    n_steps = int(math.ceil(travel / speeds_a.min() / dt))
+    every = max(1, int(round(1.0 / (config.sample_rate * dt))))
+    out = sim.run(n_steps, record_every=every, observers=observers, progress=progress)
+    t = out["time"]
+    trav = t[:, None] * speeds_a[None, :]
+    series = {k: np.asarray(out[k]) for k in observers}
+    start = config.steady_travel or p["steady_travel"]
+    steady = []
+    for w, n in enumerate(springs):
+        row: dict[str, float] = {"springs": n, "speed": speeds[w]}
+        for k in ("draught", "displacement"):
+            st = analysis.steady_state(t, series[k][:, w], trav[:, w], start_travel=start)
+            row[f"{k}_mean"], row[f"{k}_std"] = st.mean, st.std
+        for k in ("ke_tool", "ke_soil"):
+            st = analysis.steady_state(t, series[k][:, w].sum(axis=-1), trav[:, w], start_travel=start)
+            row[f"{k}_mean"], row[f"{k}_std"] = st.mean, st.std
+        row["coordination_start"] = float(series["coordination"][1, w])  # record 0 precedes the first contacts
+        row["coordination_end"] = float(series["coordination"][-1, w])
+        steady.append(row)
+    return SoilBinRun(tuple(springs), tuple(speeds), t, trav, series, steady, info["n_particles"],
+                      model.spheres_per_world, dt, n_steps, time.perf_counter() - t0)
+
+
+def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,
+              progress: object | None = None) -> dict[str, object]:
+    """The bed, the rigid run (if 0 in springs) and the passive runs (one simulation, one world each)."""
+    bed = bed_for(config, device=device, cache_dir=cache_dir)
+    runs = {}
+    if 0 in config.springs:
+        runs["rigid"] = run_soil_bin(config, [0], bed=bed, device=device, progress=progress)
+    passive = [n for n in config.springs if n != 0]
+    if passive:
+        runs["passive"] = run_soil_bin(config, passive, bed=bed, device=device, progress=progress)
+    rows = [r for run in runs.values() for r in run.steady]
+    rigid_mean = next((r["draught_mean"] for r in rows if r["springs"] == 0), math.nan)
+    for r in rows:
+        r["reduction_pct"] = 100.0 * (rigid_mean - r["draught_mean"]) / rigid_mean if r["springs"] else math.nan
+    return {"bed": bed, "runs": runs, "table": rows}
