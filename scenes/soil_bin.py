@@ -232,8 +232,13 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
 
 
 def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device: str | None = None,
-                 tool: SweepTool | None = None, progress: object | None = None) -> SoilBinRun:
-    """One simulation: the rigid tool (``springs == [0]``) or passive configurations as worlds."""
+                 tool: SweepTool | None = None, progress: object | None = None,
+                 viewer: object | None = None) -> SoilBinRun:
+    """One simulation: the rigid tool (``springs == [0]``) or passive configurations as worlds.
+
+    ``viewer``: an optional warpdem.viewer.RerunViewer factory ``f(sim) -> viewer`` streamed at every record with
+    the draught, displacement and kinetic energies.
+    """
     t0 = time.perf_counter()
     if 0 in springs and springs != [0]:
         raise ValueError(f"the rigid tool runs alone: springs must be [0] or passive configurations, got {springs}")
@@ -261,7 +266,14 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     }
     n_steps = int(math.ceil(travel / speeds_a.min() / dt))
     every = max(1, int(round(1.0 / (config.sample_rate * dt))))
+    view = viewer(sim) if viewer is not None else None
+    if view is not None:
+        observers["viewer"] = view.as_observer({k: observers[k] for k in ("draught", "displacement", "ke_tool",
+                                                                         "ke_soil")})
     out = sim.run(n_steps, record_every=every, observers=observers, progress=progress)
+    if view is not None:
+        view.close()
+        observers.pop("viewer")
     t = out["time"]
     trav = t[:, None] * speeds_a[None, :]
     series = {k: np.asarray(out[k]) for k in observers}
@@ -283,15 +295,17 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
 
 
 def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,
-              progress: object | None = None) -> dict[str, object]:
-    """The bed, the rigid run (if 0 in springs) and the passive runs (one simulation, one world each)."""
+              progress: object | None = None, viewer: object | None = None) -> dict[str, object]:
+    """The bed, the rigid run (if 0 in springs) and the passive runs (one simulation, one world each).
+    ``viewer`` (see :func:`run_soil_bin`) streams the passive run (or the rigid one if there is none)."""
     bed = bed_for(config, device=device, cache_dir=cache_dir)
     runs = {}
-    if 0 in config.springs:
-        runs["rigid"] = run_soil_bin(config, [0], bed=bed, device=device, progress=progress)
     passive = [n for n in config.springs if n != 0]
+    if 0 in config.springs:
+        runs["rigid"] = run_soil_bin(config, [0], bed=bed, device=device, progress=progress,
+                                     viewer=None if passive else viewer)
     if passive:
-        runs["passive"] = run_soil_bin(config, passive, bed=bed, device=device, progress=progress)
+        runs["passive"] = run_soil_bin(config, passive, bed=bed, device=device, progress=progress, viewer=viewer)
     rows = [r for run in runs.values() for r in run.steady]
     rigid_mean = next((r["draught_mean"] for r in rows if r["springs"] == 0), math.nan)
     for r in rows:

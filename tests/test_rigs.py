@@ -65,3 +65,31 @@ def test_rigid_draught_grows_with_depth_and_is_steady(ci_bed) -> None:
         assert abs(a.mean() - b.mean()) < 3 * sem_halves
     gap = deep["draught_mean"] - shallow["draught_mean"]
     assert gap > 2 * np.hypot(deep["sem"], shallow["sem"]), (shallow["draught_mean"], deep["draught_mean"])
+
+
+def test_deposited_bed_porosity_is_a_random_packing(ci_bed) -> None:
+    # Reference: poured frictional spheres settle between random close packing (porosity 0.36, Scott and Kilgour
+    # 1969) and random loose packing (0.44-0.46 for frictional spheres, Onoda and Liniger 1990); a +-20 %
+    # polydispersity lowers both by about 0.01-0.02, hence the bounds [0.33, 0.47].
+    assert 0.33 < ci_bed.porosity < 0.47
+    # the bed is cut at its depth: no particle centre above it, and its top layer reaches it within one diameter
+    assert ci_bed.centres[:, 2].max() <= ci_bed.depth + 1e-9
+    assert ci_bed.centres[:, 2].max() > ci_bed.depth - 2 * ci_bed.radii.max()
+
+
+@pytest.mark.parametrize("members", [1, 2, 3])
+def test_clump_volume_against_monte_carlo(members: int) -> None:
+    # Reference: Monte Carlo volume of the union of the member spheres (row at centre distance r), 400k samples:
+    # standard error sqrt(p (1 - p) / N) V_box < 0.2 % of the volume; tolerance 1 %.
+    from scenes.assemblies import AssemblySpec, particle_volume
+
+    r = 0.01
+    shape = {1: "sphere", 2: "pair", 3: "rod"}[members]
+    centres = AssemblySpec().template(shape) * r
+    lo, hi = centres.min(axis=0) - r, centres.max(axis=0) + r
+    pts = np.random.default_rng(1).uniform(lo, hi, (400_000, 3))
+    inside = np.zeros(len(pts), bool)
+    for c in centres:
+        inside |= np.sum((pts - c) ** 2, axis=1) <= r * r
+    v_mc = inside.mean() * np.prod(hi - lo)
+    assert particle_volume(r, members) == pytest.approx(v_mc, rel=0.01)

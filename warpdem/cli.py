@@ -1,9 +1,15 @@
 """The ``warpdem`` command.
 
-    warpdem demo [--device cpu|cuda] [--particles N] [--out DIR]
+    warpdem reproduce [--scale ci|cpu|paper] [--device cpu|cuda] [--out DIR] [--assembly A|B|C] [--springs 0,16,32]
+    warpdem ringing   [--spring-model paper|linear] [--springs 4,8,...] [--device] [--out DIR]
+    warpdem soil-bin  [--scale] [--assembly] [--springs] [--spring-model] [--viewer] [--viewer-save FILE.rrd]
+    warpdem shear-box [--scale] [--assembly] [--device] [--out DIR]
+    warpdem demo      [--device] [--particles N] [--out DIR]
 
-``demo`` deposits a small cohesive sphere bed under gravity, then drags a blade through it, and writes a results
-folder: config.json (parameters, versions, device, seed), timeseries.npz and .csv, summary.json and report.md.
+``reproduce`` runs the paper's study at a reduced (``cpu``, default) or full (``paper``) scale: the ringing test
+for all eight spring configurations with both spring models, the soil bin with the rigid tool and 16 and 32 springs,
+and writes a results folder with config.json (parameters, versions, device, seed), the time series, summary.json,
+PNG plots and report.md beside the paper's Tables 2, 3 and 7. Each rig also has its own command.
 """
 
 from __future__ import annotations
@@ -118,9 +124,145 @@ def run_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _bar(label: str, done: int, total: int, state: dict = {}) -> None:  # noqa: B006 - deliberate per-label memory
+    """Progress bar on stderr for a labelled phase."""
+    if state.get("label") != label:
+        state.update(label=label, start=time.time(), last=-1)
+        sys.stderr.write("\n")
+    pct = int(100 * done / max(total, 1))
+    if pct == state["last"] and done != total:
+        return
+    state["last"] = pct
+    bar = "#" * (30 * done // max(total, 1))
+    sys.stderr.write(f"\r{label:<28} [{bar:<30}] {pct:3d} %  {time.time() - state['start']:6.1f} s")
+    sys.stderr.flush()
+
+
+def _springs(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--springs must be comma-separated integers, got {text!r}") from None
+
+
+def _setup(args: argparse.Namespace) -> str:
+    import warp as wp
+
+    wp.config.quiet = True
+    return args.device or _default_device()
+
+
+def run_reproduce(args: argparse.Namespace) -> int:
+    from scenes.reproduce import reproduce
+
+    device = _setup(args)
+    summary = reproduce(args.out, scale=args.scale, device=device, assembly=args.assembly, springs=args.springs,
+                        seed=args.seed, progress=_bar)
+    sys.stderr.write("\n")
+    print(f"results in {args.out} (report.md), wall time {summary['wall_s']:.0f} s on {device}")
+    return 0
+
+
+def run_ringing_cmd(args: argparse.Namespace) -> int:
+    from scenes import ringing
+    from scenes.reproduce import plot_ringing, versions
+
+    device = _setup(args)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    springs = args.springs or ringing.RingingConfig().springs
+    res = {}
+    for m in ([args.spring_model] if args.spring_model else list(ringing.SPRING_MODELS)):
+        cfg = ringing.RingingConfig(springs=springs, spring_model=m)
+        res[m] = ringing.run_ringing(cfg, device=device, progress=lambda d, n, ph, m=m: _bar(f"ringing {m} {ph}", d, n))
+    sys.stderr.write("\n")
+    plot_ringing(res, out / "fig06_ringing.png")
+    table = {m: r.table() for m, r in res.items()}
+    (out / "config.json").write_text(json.dumps({"command": "ringing", "device": device, "versions": versions(),
+                                                 "config": {m: r.config for m, r in res.items()}}, indent=2))
+    (out / "summary.json").write_text(json.dumps(table, indent=2))
+    for m, rows in table.items():
+        for r in rows:
+            print(f"{m:7s} {r['springs']:2d} springs: {r['freq_hz']:.3f} Hz (lab {r['measured_freq_hz']:.3f}), "
+                  f"zeta {r['damping']:.4f} (lab {r['measured_damping']:.4f})")
+    return 0
+
+
+def run_soil_bin_cmd(args: argparse.Namespace) -> int:
+    from dataclasses import asdict
+
+    from scenes import soil_bin as sb
+    from scenes.reproduce import versions
+
+    device = _setup(args)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    cfg = sb.SoilBinConfig(scale=args.scale, assembly=args.assembly, springs=args.springs or (0, 16, 32),
+                           spring_model=args.spring_model or "linear", seed=args.seed)
+    viewer = None
+    if args.viewer or args.viewer_save:
+        from .viewer import RerunViewer
+
+        lo, hi = (float(v) for v in args.speed_range.split(","))
+
+        def viewer(sim: object) -> RerunViewer:
+            return RerunViewer(sim, spawn=args.viewer, save_path=args.viewer_save, speed_range=(lo, hi),
+                               hide_outside_range=args.hide_outside_range)
+
+    (out / "config.json").write_text(json.dumps({"command": "soil-bin", "device": device, "versions": versions(),
+                                                 "config": asdict(cfg), "preset": sb.SCALES[args.scale]},
+                                                indent=2, default=str))
+    study = sb.run_study(cfg, device=device, cache_dir=out / "beds", progress=lambda d, n: _bar("soil bin", d, n),
+                         viewer=viewer)
+    sys.stderr.write("\n")
+    (out / "summary.json").write_text(json.dumps(study["table"], indent=2, default=float))
+    for r in study["table"]:
+        name = "rigid" if r["springs"] == 0 else f"{r['springs']} springs"
+        print(f"{name:>10}: draught {r['draught_mean']:.1f} +- {r['draught_std']:.1f} N, "
+              f"displacement {1e3 * r['displacement_mean']:.2f} mm")
+    return 0
+
+
+def run_shear_box_cmd(args: argparse.Namespace) -> int:
+    from scenes import shear_box
+
+    device = _setup(args)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    res = shear_box.run_cli(args.scale, args.assembly, device=device, seed=args.seed, out=out)
+    print(json.dumps(res, indent=2, default=float))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="warpdem", description="DEM of soil-tool interaction on NVIDIA Warp")
     sub = parser.add_subparsers(dest="command", required=True)
+
+    def common(p: argparse.ArgumentParser, out: str, scale: bool = True) -> None:
+        p.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
+        p.add_argument("--out", default=out, help="results folder")
+        p.add_argument("--seed", type=int, default=0)
+        if scale:
+            p.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"))
+            p.add_argument("--assembly", default="C", choices=("A", "B", "C"))
+
+    r = sub.add_parser("reproduce", help="the paper's study (ringing + soil bin) with a report")
+    common(r, "results/reproduce")
+    r.add_argument("--springs", type=_springs, default=(0, 16, 32), help="soil-bin configurations, 0 = rigid")
+    g = sub.add_parser("ringing", help="ringing test of the eight spring configurations")
+    common(g, "results/ringing", scale=False)
+    g.add_argument("--springs", type=_springs, default=None)
+    g.add_argument("--spring-model", choices=("paper", "linear"), default=None, help="default: both")
+    s = sub.add_parser("soil-bin", help="soil bin: rigid and passive tool")
+    common(s, "results/soil_bin")
+    s.add_argument("--springs", type=_springs, default=None, help="configurations, 0 = rigid (default 0,16,32)")
+    s.add_argument("--spring-model", choices=("paper", "linear"), default=None)
+    s.add_argument("--viewer", action="store_true", help="stream to the Rerun viewer")
+    s.add_argument("--viewer-save", default=None, help="write a Rerun recording (.rrd) instead of / as well")
+    s.add_argument("--speed-range", default="0.2,0.7", help="particle speed colour range [m/s] (Fig. 15: 0.2,0.7)")
+    s.add_argument("--hide-outside-range", action="store_true", help="show only particles inside the speed range")
+    x = sub.add_parser("shear-box", help="direct shear box: Mohr-Coulomb cohesion and friction angle")
+    common(x, "results/shear_box")
     d = sub.add_parser("demo", help="deposit a small cohesive bed and cut it with a blade")
     d.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
     d.add_argument("--particles", type=int, default=1500)
@@ -131,9 +273,9 @@ def main(argv: list[str] | None = None) -> int:
     d.add_argument("--cut", type=float, default=0.06, help="cut length [m]")
     d.add_argument("--out", default="results/demo", help="results folder")
     args = parser.parse_args(argv)
-    if args.command == "demo":
-        return run_demo(args)
-    return 2
+    commands = {"demo": run_demo, "reproduce": run_reproduce, "ringing": run_ringing_cmd,
+                "soil-bin": run_soil_bin_cmd, "shear-box": run_shear_box_cmd}
+    return commands[args.command](args)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,231 @@
+"""The study of the paper at a chosen scale: ringing (both spring models) and soil bin, with a report.
+
+Writes into one folder: config.json (every parameter, versions, device, seed), ringing_<model>.npz, soil_bin.npz,
+summary.json, PNG plots (like the paper's Figs. 6, 16, 17, 18, 19) and report.md setting the results beside
+Tables 2, 3 and 7.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import platform
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+
+from warpdem import analysis
+
+from . import paper, ringing
+from . import soil_bin as sb
+
+
+def versions() -> dict[str, str]:
+    import warp as wp
+
+    import warpdem
+
+    return {"warpdem": warpdem.__version__, "warp": wp.config.version, "numpy": np.__version__,
+            "python": platform.python_version(), "platform": platform.platform()}
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_ringing(results: dict[str, ringing.RingingResult], path: Path) -> None:
+    """Fig. 6-like: sensor displacement after the hit, one panel per configuration, both spring models."""
+    plt = _plt()
+    springs = next(iter(results.values())).springs
+    fig, axes = plt.subplots(2, 4, figsize=(14, 6), sharex=True)
+    for k, (n, ax) in enumerate(zip(springs, axes.flat, strict=False)):
+        for name, res in results.items():
+            ax.plot(res.time, 1e3 * res.displacement[:, k], lw=0.8,
+                    label=f"{name}: {res.frequency_hz[k]:.2f} Hz, zeta {res.damping_ratio[k]:.3f}")
+        row = paper.ringing_row(n)
+        ax.set_title(f"{n} springs (lab {row['measured_freq_hz']:.2f} Hz, {row['measured_damping']:.3f})", fontsize=9)
+        ax.legend(fontsize=7)
+        ax.set_xlabel("time after the hit [s]")
+    axes[0, 0].set_ylabel("sensor displacement [mm]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_soil_bin(study: dict, out: Path) -> list[str]:
+    """Figs. 16-19-like plots of the soil-bin runs; returns the file names."""
+    plt = _plt()
+    runs = study["runs"]
+    names = []
+    series = []
+    for run in runs.values():
+        for w, n in enumerate(run.springs):
+            series.append((n, run, w))
+    label = {0: "rigid"}
+    # Fig. 16: draught and displacement vs travel
+    fig, ax = plt.subplots(len(series), 1, figsize=(10, 2.6 * len(series)), sharex=True, squeeze=False)
+    for a, (n, run, w) in zip(ax[:, 0], series, strict=True):
+        a.plot(run.travel[:, w], run.series["draught"][:, w], lw=0.7, label=f"draught, {label.get(n, f'{n} springs')}")
+        a.set_ylabel("draught [N]")
+        if n:
+            b = a.twinx()
+            b.plot(run.travel[:, w], 1e3 * run.series["displacement"][:, w], color="C2", lw=0.7)
+            b.set_ylabel("displacement [mm]", color="C2")
+        a.legend(loc="upper left", fontsize=8)
+    ax[-1, 0].set_xlabel("travel [m]")
+    fig.tight_layout()
+    fig.savefig(out / "fig16_draught_displacement.png", dpi=110)
+    plt.close(fig)
+    names.append("fig16_draught_displacement.png")
+    # Figs. 17 and 18: FFT of the steady draught and displacement (100 Hz Butterworth low-pass first)
+    start = study["steady_travel"]
+    for key, fname, unit in (("draught", "fig17_fft_draught.png", "N"), ("displacement", "fig18_fft_disp.png", "mm")):
+        fig, a = plt.subplots(figsize=(8, 4))
+        for n, run, w in series:
+            if key == "displacement" and n == 0:
+                continue
+            sel = run.travel[:, w] >= start
+            scale = 1e3 if key == "displacement" else 1.0
+            f, amp = analysis.spectrum(run.time[sel], scale * run.series[key][sel, w], cutoff_hz=100.0)
+            a.plot(f, amp, lw=0.8, label=label.get(n, f"{n} springs"))
+        a.set_xlim(0, 60)
+        a.set_xlabel("frequency [Hz]")
+        a.set_ylabel(f"amplitude [{unit}]")
+        a.legend()
+        fig.tight_layout()
+        fig.savefig(out / fname, dpi=110)
+        plt.close(fig)
+        names.append(fname)
+    # Fig. 19: kinetic energy of the tool (translational, rotational)
+    fig, a = plt.subplots(figsize=(8, 4))
+    for n, run, w in series:
+        if n == 0:
+            continue
+        ke = run.series["ke_tool"][:, w]
+        a.plot(run.travel[:, w], ke.sum(axis=-1), lw=0.7, label=f"{n} springs, total")
+        a.plot(run.travel[:, w], ke[:, 1], lw=0.7, ls=":", label=f"{n} springs, rotational")
+    a.set_xlabel("travel [m]")
+    a.set_ylabel("kinetic energy of the tool [J]")
+    a.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out / "fig19_tool_kinetic_energy.png", dpi=110)
+    plt.close(fig)
+    names.append("fig19_tool_kinetic_energy.png")
+    return names
+
+
+def _fmt(v: float, digits: int = 3) -> str:
+    return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}g}"
+
+
+def report(out: Path, config: dict, ring: dict[str, ringing.RingingResult], study: dict | None,
+           plots: list[str], wall: float) -> str:
+    """The Markdown report beside Tables 2, 3 and 7."""
+    lines = [f"# warpdem reproduce — scale `{config['scale']}` on `{config['device']}`", "",
+             f"Wall time {wall:.0f} s. Configuration, versions and seed: `config.json`. Every figure below was "
+             "computed by this run; the paper's values are quoted from its tables.", ""]
+    lines += ["## Ringing test (Table 2)", "",
+              "| springs | lab f [Hz] | lab zeta | paper DEM f | paper DEM zeta | "
+              + " | ".join(f"{m} f [Hz] | {m} zeta | {m} RE f | {m} RE zeta" for m in ring) + " |",
+              "|---" * (5 + 4 * len(ring)) + "|"]
+    tables = {m: r.table() for m, r in ring.items()}
+    springs = next(iter(ring.values())).springs
+    for k, n in enumerate(springs):
+        row = paper.ringing_row(n)
+        cells = [str(n), _fmt(row["measured_freq_hz"], 4), _fmt(row["measured_damping"]),
+                 _fmt(row["calibrated_freq_hz"], 4), _fmt(row["calibrated_damping"])]
+        for m in ring:
+            t = tables[m][k]
+            cells += [_fmt(t["freq_hz"], 4), _fmt(t["damping"]), _fmt(t["re_freq"], 2), _fmt(t["re_damp"], 2)]
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", "RE: relative error against the laboratory value, eqs. (8)-(9), as fractions. The rig's geometry "
+              "(parametric sweep, load position) is warpdem's, not the paper's CAD: see scenes/ringing.py.", "",
+              "![ringing](fig06_ringing.png)", ""]
+    if study is not None:
+        t3 = paper.table("soil_bin_measured")
+        t7 = paper.table("soil_bin_dem")
+        a = config["soil_bin"]["assembly"]
+        col = {"A": "a", "B": "b", "C": "c"}[a]
+        lines += [f"## Soil bin, assembly {a} ({study['bed'].n_particles} particles, porosity "
+                  f"{study['bed'].porosity:.3f}, initial coordination {study['bed'].coordination:.2f}; paper: "
+                  f"{ {'A': 4.88, 'B': 9.63, 'C': 9.55}[a]})", "",
+                  "| springs | speed [m/s] | draught [N] | std [N] | reduction [%] | displacement [mm] | "
+                  "lab draught [N] | lab red. [%] | lab disp. [mm] | paper DEM draught [N] | paper DEM red. [%] |",
+                  "|---" * 11 + "|"]
+        for r in study["table"]:
+            n = r["springs"]
+            i7 = np.nonzero(t7["springs"] == n)[0][0]
+            if n:
+                i3 = np.nonzero(t3["springs"] == n)[0][0]
+                lab = (t3["passive_draught_mean_n"][i3], t3["reduction_pct"][i3], t3["displacement_mean_mm"][i3])
+            else:
+                lab = (float(np.mean(t3["rigid_draught_mean_n"])), math.nan, math.nan)
+            lines.append("| " + " | ".join([
+                "rigid" if n == 0 else str(n), _fmt(r["speed"]), _fmt(r["draught_mean"], 4), _fmt(r["draught_std"]),
+                _fmt(r["reduction_pct"], 2), _fmt(1e3 * r["displacement_mean"]) if n else "–",
+                _fmt(lab[0], 4), _fmt(lab[1], 2), _fmt(lab[2]),
+                _fmt(t7[f"{col}_mean_n"][i7], 4), _fmt(t7[f"{col}_red_pct"][i7], 2)]) + " |")
+        lines += ["", f"Steady state after {study['steady_travel']} m of travel. Lab rigid draught: mean of Table "
+                  "3's rigid runs.", ""]
+        lines += [f"![{p}]({p})" for p in plots]
+    text = "\n".join(lines) + "\n"
+    (out / "report.md").write_text(text)
+    return text
+
+
+def reproduce(out: str | Path, *, scale: str = "cpu", device: str | None = None, assembly: str = "C",
+              springs: tuple[int, ...] = (0, 16, 32), seed: int = 0, progress: object | None = None,
+              soil: bool = True) -> dict:
+    """Run the study and write the results folder; returns the summary."""
+    t0 = time.perf_counter()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    ring_cfgs = {m: ringing.RingingConfig(spring_model=m) for m in ringing.SPRING_MODELS}
+    sb_cfg = sb.SoilBinConfig(scale=scale, assembly=assembly, springs=springs, seed=seed)
+    config = {"command": "reproduce", "scale": scale, "device": device, "seed": seed, "versions": versions(),
+              "ringing": {m: asdict(c) for m, c in ring_cfgs.items()}, "soil_bin": asdict(sb_cfg),
+              "soil_bin_preset": sb.SCALES[scale], "soil_material": asdict(sb_cfg.soil_material())}
+    (out / "config.json").write_text(json.dumps(config, indent=2, default=str))
+    ring = {}
+    for m, c in ring_cfgs.items():
+        ring[m] = ringing.run_ringing(c, device=device, progress=progress and (lambda d, n, ph, m=m:
+                                                                               progress(f"ringing {m} {ph}", d, n)))
+        np.savez_compressed(out / f"ringing_{m}.npz", time=ring[m].time, displacement=ring[m].displacement,
+                            frequency_hz=ring[m].frequency_hz, damping_ratio=ring[m].damping_ratio)
+    plot_ringing(ring, out / "fig06_ringing.png")
+    study, plots = None, []
+    if soil:
+        study = sb.run_study(sb_cfg, device=device, cache_dir=out / "beds",
+                             progress=progress and (lambda d, n: progress("soil bin", d, n)))
+        study["steady_travel"] = sb_cfg.steady_travel or sb.SCALES[scale]["steady_travel"]
+        arrays = {}
+        for name, run in study["runs"].items():
+            arrays[f"{name}/time"] = run.time
+            arrays[f"{name}/travel"] = run.travel
+            for k, v in run.series.items():
+                arrays[f"{name}/{k}"] = v
+        np.savez_compressed(out / "soil_bin.npz", **arrays)
+        plots = plot_soil_bin(study, out)
+    wall = time.perf_counter() - t0
+    summary = {
+        "wall_s": wall, "device": device, "scale": scale,
+        "ringing": {m: r.table() for m, r in ring.items()},
+        "ringing_wall_s": {m: r.wall_s for m, r in ring.items()},
+    }
+    if study is not None:
+        summary["soil_bin"] = study["table"]
+        summary["bed"] = {"particles": study["bed"].n_particles, "spheres": int(len(study["bed"].radii)),
+                          "porosity": study["bed"].porosity, "coordination": study["bed"].coordination,
+                          "deposition_wall_s": study["bed"].wall_s}
+        summary["soil_bin_runs"] = {k: {"dt": r.dt, "steps": r.steps, "wall_s": r.wall_s, "spheres": r.n_spheres}
+                                    for k, r in study["runs"].items()}
+    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
+    report(out, config, ring, study, plots, wall)
+    return summary
