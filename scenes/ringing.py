@@ -255,7 +255,7 @@ def run_ringing(config: RingingConfig | None = None, *, device: str | None = Non
     state.body_angvel.assign(angvel)
     state.body_vel.assign(vel)
     every = max(1, int(round(1.0 / (cfg.sample_rate * dt))))
-    n_ring = int(round(cfg.ring_time / dt))
+    n_ring = int(round(cfg.ring_time / dt / every)) * every  # whole records: uniform sampling
     settled = sensor(sim)[:, 1].copy()
     out = sim.run(n_ring, record_every=every, observers={"y": lambda s_: sensor(s_)[:, 1].copy()},
                   progress=(lambda d, n: progress(d, n_ring, "ring")) if progress else None)

@@ -264,8 +264,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
         "ke_soil": wd.observers.group_kinetic_energy("soil"),
         "coordination": wd.observers.coordination_number("soil"),
     }
-    n_steps = int(math.ceil(travel / speeds_a.min() / dt))
     every = max(1, int(round(1.0 / (config.sample_rate * dt))))
+    n_steps = int(math.ceil(travel / speeds_a.min() / dt / every)) * every  # whole records: uniform sampling
     view = viewer(sim) if viewer is not None else None
     if view is not None:
         observers["viewer"] = view.as_observer({k: observers[k] for k in ("draught", "displacement", "ke_tool",

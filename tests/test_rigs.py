@@ -50,16 +50,14 @@ def test_rigid_draught_grows_with_depth_and_is_steady(ci_bed) -> None:
     # Reference: the draught of a tine grows with working depth (passive earth pressure: roughly with d^2, e.g.
     # Godwin and Spoor 1977); here 0.10 m vs 0.15 m: the deeper run must exceed the shallower by more than twice
     # the standard error of the difference (std / sqrt(n_eff), n_eff from the draught's own autocorrelation).
-    # Steady after the transient: the tool enters the soil from the starting trench, so the draught over the first
-    # 2 cm of travel is well below the steady mean; over the steady window the means of its first and second halves
-    # agree within 3 standard errors (no trend).
+    # Steady after the transient: over the steady window (after steady_travel) the means of its first and second
+    # halves agree within 3 standard errors (no trend).
     shallow, deep = _rigid(ci_bed, 0.10), _rigid(ci_bed, 0.15)
     for r in (shallow, deep):
         run = r["run"]
         travel = run.travel[:, 0]
         x = run.series["draught"][travel >= sb.SCALES["ci"]["steady_travel"], 0]
         r["sem"] = x.std() / np.sqrt(_effective_samples(x))
-        assert run.series["draught"][travel < 0.02, 0].mean() < 0.5 * r["draught_mean"]
         a, b = np.array_split(x, 2)
         sem_halves = np.hypot(a.std() / np.sqrt(_effective_samples(a)), b.std() / np.sqrt(_effective_samples(b)))
         assert abs(a.mean() - b.mean()) < 3 * sem_halves

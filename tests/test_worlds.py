@@ -63,4 +63,7 @@ def test_same_packing_at_origin_and_2m_gives_same_forces() -> None:
     scale = np.abs(f0).max()
     assert scale > 0
     np.testing.assert_allclose(f1, f0, rtol=0, atol=1e-4 * scale)
-    np.testing.assert_allclose(results[1][1], results[0][1], rtol=0, atol=1e-9)
+    # positions: 1e-9 m on the CPU (deterministic); on CUDA the order of float32 atomic force sums varies between
+    # runs, so two runs differ by round-off noise even at the same place (1.1e-9 m measured on an H200): 1e-8 m.
+    tol_x = 1e-9 if str(model.device).startswith("cpu") else 1e-8
+    np.testing.assert_allclose(results[1][1], results[0][1], rtol=0, atol=tol_x)
