@@ -32,6 +32,7 @@ import numpy as np
 
 import warpdem as wd
 from warpdem import analysis
+from warpdem.model import FLAG_PIVOT
 
 from . import paper
 from .assemblies import AssemblySpec, Bed, bin_mesh, deposit
@@ -157,7 +158,7 @@ class SoilBinRun:
     time: np.ndarray
     """[s] (k,)."""
     travel: np.ndarray
-    """carriage travel [m] (k, n_worlds)."""
+    """carriage travel [m] (k, n_worlds); each carriage stops after the configured travel."""
     series: dict[str, np.ndarray]
     """draught [N], displacement [m] (sensor relative to the carriage, along y), ke_tool / ke_soil [J]
     (translational, rotational) (k, n_worlds, 2), coordination [-]; each (k, n_worlds[, 2])."""
@@ -231,6 +232,23 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
     return model, state, info
 
 
+def _stop_carriages(sim: wd.Simulation, worlds: np.ndarray) -> None:
+    """Stop the driven bodies (tool or its pivot, spring carriage, support sphere) of the given worlds."""
+    m = sim.model
+    names = [n for n in ("sweep_lower", "carriage", "support") if n in m.names["body"]]
+    idx = np.array([w * m.bodies_per_world + m.names["body"][n] for w in worlds for n in names], dtype=np.int64)
+    if len(idx) == 0:
+        return
+    for arr in (sim.state.body_vel, m.body_pivot_vel):
+        a = arr.numpy().copy()
+        hinged = (m.host["body_flags"][idx] & FLAG_PIVOT) != 0
+        if arr is sim.state.body_vel:
+            a[idx[~hinged]] = 0.0  # kinematic bodies; a hinged body's velocity follows its pivot
+        else:
+            a[idx[hinged]] = 0.0
+        arr.assign(a)
+
+
 def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device: str | None = None,
                  tool: SweepTool | None = None, progress: object | None = None,
                  viewer: object | None = None) -> SoilBinRun:
@@ -259,33 +277,46 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     draught = wd.observers.mesh_wrench("sweep_lower")
     observers = {
         "draught": lambda s: -draught(s)[:, 0, 1],
-        "displacement": lambda s: -(sensor(s)[:, 1] - s0 - speeds_a * s.state.time),
+        "displacement": lambda s: -(sensor(s)[:, 1] - s0 - np.minimum(speeds_a * s.state.time, travel)),
         "ke_tool": wd.observers.group_kinetic_energy("tool"),
         "ke_soil": wd.observers.group_kinetic_energy("soil"),
         "coordination": wd.observers.coordination_number("soil"),
     }
     every = max(1, int(round(1.0 / (config.sample_rate * dt))))
-    n_steps = int(math.ceil(travel / speeds_a.min() / dt / every)) * every  # whole records: uniform sampling
+    # each world's carriage stops after `travel` (whole records, so the sampling stays uniform); the run ends when
+    # the slowest one does
+    stop = (np.ceil(travel / speeds_a / dt / every) * every).astype(int)
+    n_steps = int(stop.max())
     view = viewer(sim) if viewer is not None else None
     if view is not None:
         observers["viewer"] = view.as_observer({k: observers[k] for k in ("draught", "displacement", "ke_tool",
                                                                          "ke_soil")})
-    out = sim.run(n_steps, record_every=every, observers=observers, progress=progress)
+    parts: list[dict[str, np.ndarray]] = []
+    done = 0
+    for end in sorted(set(stop.tolist())):
+        part = sim.run(end - done, record_every=every, observers=observers,
+                       progress=(lambda d, n, base=done: progress(base + d, n_steps)) if progress else None)
+        parts.append(part if not parts else {k: v[1:] for k, v in part.items()})  # drop the repeated record
+        done = end
+        _stop_carriages(sim, np.nonzero(stop == end)[0])
+    out = {k: np.concatenate([p_[k] for p_ in parts]) for k in parts[0]}
     if view is not None:
         view.close()
         observers.pop("viewer")
     t = out["time"]
-    trav = t[:, None] * speeds_a[None, :]
+    trav = np.minimum(t[:, None] * speeds_a[None, :], travel)
     series = {k: np.asarray(out[k]) for k in observers}
     start = config.steady_travel or p["steady_travel"]
     steady = []
     for w, n in enumerate(springs):
         row: dict[str, float] = {"springs": n, "speed": speeds[w]}
+        moving = out["step"] <= stop[w]
         for k in ("draught", "displacement"):
-            st = analysis.steady_state(t, series[k][:, w], trav[:, w], start_travel=start)
+            st = analysis.steady_state(t[moving], series[k][moving, w], trav[moving, w], start_travel=start)
             row[f"{k}_mean"], row[f"{k}_std"] = st.mean, st.std
         for k in ("ke_tool", "ke_soil"):
-            st = analysis.steady_state(t, series[k][:, w].sum(axis=-1), trav[:, w], start_travel=start)
+            st = analysis.steady_state(t[moving], series[k][moving, w].sum(axis=-1), trav[moving, w],
+                                       start_travel=start)
             row[f"{k}_mean"], row[f"{k}_std"] = st.mean, st.std
         row["coordination_start"] = float(series["coordination"][1, w])  # record 0 precedes the first contacts
         row["coordination_end"] = float(series["coordination"][-1, w])

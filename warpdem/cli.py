@@ -229,8 +229,14 @@ def run_shear_box_cmd(args: argparse.Namespace) -> int:
     device = _setup(args)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    res = shear_box.run_cli(args.scale, args.assembly, device=device, seed=args.seed, out=out)
-    print(json.dumps(res, indent=2, default=float))
+    from scenes.reproduce import versions
+
+    cfg = shear_box.preset(args.scale, args.assembly, seed=args.seed)
+    (out / "config.json").write_text(json.dumps({"command": "shear-box", "device": device, "versions": versions(),
+                                                 "config": str(cfg)}, indent=2))
+    res = shear_box.run_shear_box(cfg, device)
+    (out / "summary.json").write_text(json.dumps(res.to_dict(), indent=2, default=float))
+    print(res.table())
     return 0
 
 
