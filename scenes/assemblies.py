@@ -26,8 +26,10 @@ from pathlib import Path
 import numpy as np
 
 import warpdem as wd
+from warpdem.mass import quats_to_matrices
 
 from . import paper
+from .demo import box_mesh
 
 KINDS = ("A", "B", "C")
 
@@ -143,25 +145,9 @@ class Bed:
 
 def bin_mesh(size: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
     """An open-top box: x in [-W/2, W/2], y in [0, L], z in [0, H]; floor and four walls. Returns (v (8, 3), f)."""
-    w, length, h = size
-    x0, x1 = -w / 2, w / 2
-    v = np.array([[x0, 0, 0], [x1, 0, 0], [x1, length, 0], [x0, length, 0],
-                  [x0, 0, h], [x1, 0, h], [x1, length, h], [x0, length, h]], dtype=np.float64)
-    quads = [(0, 1, 2, 3), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]
-    f = [[a, b, c] for a, b, c, d in quads] + [[a, c, d] for a, b, c, d in quads]
-    return v, np.array(f)
-
-
-def _random_rotations(n: int, rng: np.random.Generator) -> np.ndarray:
-    """Uniformly random rotation matrices (n, 3, 3) (from random unit quaternions)."""
-    q = rng.normal(size=(n, 4))
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    x, y, z, w = q.T
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-    ], 1)
+    v, f = box_mesh(size)
+    v[:, 0] -= size[0] / 2
+    return v, f
 
 
 def loose_particles(spec: AssemblySpec, size: tuple[float, float, float], n_particles: int,
@@ -188,7 +174,7 @@ def loose_particles(spec: AssemblySpec, size: tuple[float, float, float], n_part
     n = len(cells)
     shapes = spec.shapes(n, rng)
     radii_p = rng.uniform(spec.radius * (1 - spec.spread), spec.radius * (1 + spec.spread), n)
-    rot = _random_rotations(n, rng)
+    rot = quats_to_matrices(rng.normal(size=(n, 4)))  # uniformly random rotations
     centres, radii, particle = [], [], []
     for k in range(n):
         t = spec.template(shapes[k]) * radii_p[k]

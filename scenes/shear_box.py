@@ -483,16 +483,6 @@ class _Probe:
         return self.sim.state.body_pos.numpy()[self.body_idx[body], axis]
 
 
-def _set_body_velocity(sim: wd.Simulation, body: str, velocity: object) -> None:
-    """Set a body's velocity [m/s], (3,) for every world or (n_worlds, 3): a kinematic body then moves at it, a
-    dynamic one continues from it. (The engine has no setter; the state array is written in place.)"""
-    m = sim.model
-    idx = np.arange(m.n_worlds) * m.bodies_per_world + m.names["body"][body]
-    vel = sim.state.body_vel.numpy()
-    vel[idx] = np.broadcast_to(np.asarray(velocity, dtype=np.float64), (m.n_worlds, 3))
-    sim.state.body_vel.assign(vel)
-
-
 def _soil_ke_per_particle(sim: wd.Simulation) -> np.ndarray:
     """Mean kinetic energy of the soil's bodies per world [J] (n_worlds,)."""
     m = sim.model
@@ -532,7 +522,7 @@ def _consolidate(sim: wd.Simulation, probe: _Probe, cfg: ShearBoxConfig, rig: _R
         balanced = np.all(np.abs(load - 1.0) < _PLATE_BALANCE)
         if servo:
             vz = -cfg.consolidation_speed * np.clip(1.0 - load, -1.0, 1.0)
-            _set_body_velocity(sim, "ballast", np.stack([0 * vz, 0 * vz, vz], axis=1))
+            sim.set_body_velocity("ballast", np.stack([0 * vz, 0 * vz, vz], axis=1))
             servo = not balanced
         else:
             done = t >= t_min and balanced and bool(np.all(_soil_ke_per_particle(sim) < ke_quiet))
@@ -559,7 +549,7 @@ def _shear(sim: wd.Simulation, probe: _Probe, cfg: ShearBoxConfig,
     interval = max(1, int(round(cfg.record_every * cfg.box_side / cfg.shear_rate / dt)))
     n_rec = int(math.ceil(cfg.shear_displacement * cfg.box_side / cfg.shear_rate / dt / interval))
     x0, z0 = probe.position("lower", 0), probe.position("ballast", 2)
-    _set_body_velocity(sim, "lower", (cfg.shear_rate, 0.0, 0.0))
+    sim.set_body_velocity("lower", (cfg.shear_rate, 0.0, 0.0))
     rec: dict[str, list[np.ndarray]] = {"disp": [], "upper": [], "lower": [], "rise": []}
     for k in range(n_rec):
         f = probe.advance_mean(interval)

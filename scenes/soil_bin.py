@@ -32,7 +32,6 @@ import numpy as np
 
 import warpdem as wd
 from warpdem import analysis
-from warpdem.model import FLAG_PIVOT
 
 from . import paper
 from .assemblies import AssemblySpec, Bed, bin_mesh, deposit
@@ -234,19 +233,9 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
 
 def _stop_carriages(sim: wd.Simulation, worlds: np.ndarray) -> None:
     """Stop the driven bodies (tool or its pivot, spring carriage, support sphere) of the given worlds."""
-    m = sim.model
-    names = [n for n in ("sweep_lower", "carriage", "support") if n in m.names["body"]]
-    idx = np.array([w * m.bodies_per_world + m.names["body"][n] for w in worlds for n in names], dtype=np.int64)
-    if len(idx) == 0:
-        return
-    for arr in (sim.state.body_vel, m.body_pivot_vel):
-        a = arr.numpy().copy()
-        hinged = (m.host["body_flags"][idx] & FLAG_PIVOT) != 0
-        if arr is sim.state.body_vel:
-            a[idx[~hinged]] = 0.0  # kinematic bodies; a hinged body's velocity follows its pivot
-        else:
-            a[idx[hinged]] = 0.0
-        arr.assign(a)
+    for name in ("sweep_lower", "carriage", "support"):
+        if name in sim.model.names["body"]:
+            sim.set_body_velocity(name, (0.0, 0.0, 0.0), worlds)
 
 
 def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device: str | None = None,

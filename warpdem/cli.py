@@ -25,22 +25,8 @@ import numpy as np
 
 
 def _progress(label: str) -> object:
-    start = time.time()
-
-    last = [-1]
-
-    def show(done: int, total: int) -> None:
-        frac = done / total
-        if int(100 * frac) == last[0] and done != total:
-            return
-        last[0] = int(100 * frac)
-        bar = "#" * int(30 * frac)
-        sys.stderr.write(f"\r{label:<12} [{bar:<30}] {100 * frac:5.1f} %  {time.time() - start:6.1f} s")
-        if done == total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
-
-    return show
+    """A progress callback ``show(done, total)`` drawing a bar labelled ``label``."""
+    return lambda done, total: _bar(label, done, total)
 
 
 def _default_device() -> str:
@@ -124,18 +110,32 @@ def run_demo(args: argparse.Namespace) -> int:
     return 0
 
 
-def _bar(label: str, done: int, total: int, state: dict = {}) -> None:  # noqa: B006 - deliberate per-label memory
-    """Progress bar on stderr for a labelled phase."""
+_BAR: dict[str, object] = {}  # the bar being drawn: label, start time, last percentage
+
+
+def _bar(label: str, done: int, total: int) -> None:
+    """Progress bar on stderr for a labelled phase; the line ends when the phase is done."""
+    state = _BAR
     if state.get("label") != label:
         state.update(label=label, start=time.time(), last=-1)
-        sys.stderr.write("\n")
     pct = int(100 * done / max(total, 1))
     if pct == state["last"] and done != total:
         return
     state["last"] = pct
     bar = "#" * (30 * done // max(total, 1))
     sys.stderr.write(f"\r{label:<28} [{bar:<30}] {pct:3d} %  {time.time() - state['start']:6.1f} s")
+    if done >= total:
+        sys.stderr.write("\n")
+        state["label"] = None
     sys.stderr.flush()
+
+
+def _write_config(out: Path, command: str, device: str, **fields: object) -> None:
+    """config.json of a run: command, device, versions and the given parameters."""
+    from scenes.reproduce import versions
+
+    (out / "config.json").write_text(json.dumps({"command": command, "device": device, "versions": versions(),
+                                                 **fields}, indent=2, default=str))
 
 
 def _springs(text: str) -> tuple[int, ...]:
@@ -158,14 +158,13 @@ def run_reproduce(args: argparse.Namespace) -> int:
     device = _setup(args)
     summary = reproduce(args.out, scale=args.scale, device=device, assembly=args.assembly, springs=args.springs,
                         seed=args.seed, progress=_bar)
-    sys.stderr.write("\n")
     print(f"results in {args.out} (report.md), wall time {summary['wall_s']:.0f} s on {device}")
     return 0
 
 
 def run_ringing_cmd(args: argparse.Namespace) -> int:
     from scenes import ringing
-    from scenes.reproduce import plot_ringing, versions
+    from scenes.reproduce import plot_ringing
 
     device = _setup(args)
     out = Path(args.out)
@@ -175,11 +174,9 @@ def run_ringing_cmd(args: argparse.Namespace) -> int:
     for m in ([args.spring_model] if args.spring_model else list(ringing.SPRING_MODELS)):
         cfg = ringing.RingingConfig(springs=springs, spring_model=m)
         res[m] = ringing.run_ringing(cfg, device=device, progress=lambda d, n, ph, m=m: _bar(f"ringing {m} {ph}", d, n))
-    sys.stderr.write("\n")
     plot_ringing(res, out / "fig06_ringing.png")
     table = {m: r.table() for m, r in res.items()}
-    (out / "config.json").write_text(json.dumps({"command": "ringing", "device": device, "versions": versions(),
-                                                 "config": {m: r.config for m, r in res.items()}}, indent=2))
+    _write_config(out, "ringing", device, config={m: r.config for m, r in res.items()})
     (out / "summary.json").write_text(json.dumps(table, indent=2))
     for m, rows in table.items():
         for r in rows:
@@ -192,7 +189,6 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
     from scenes import soil_bin as sb
-    from scenes.reproduce import versions
 
     device = _setup(args)
     out = Path(args.out)
@@ -209,12 +205,9 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
             return RerunViewer(sim, spawn=args.viewer, save_path=args.viewer_save, speed_range=(lo, hi),
                                hide_outside_range=args.hide_outside_range)
 
-    (out / "config.json").write_text(json.dumps({"command": "soil-bin", "device": device, "versions": versions(),
-                                                 "config": asdict(cfg), "preset": sb.SCALES[args.scale]},
-                                                indent=2, default=str))
+    _write_config(out, "soil-bin", device, config=asdict(cfg), preset=sb.SCALES[args.scale])
     study = sb.run_study(cfg, device=device, cache_dir=out / "beds", progress=lambda d, n: _bar("soil bin", d, n),
                          viewer=viewer)
-    sys.stderr.write("\n")
     (out / "summary.json").write_text(json.dumps(study["table"], indent=2, default=float))
     for r in study["table"]:
         name = "rigid" if r["springs"] == 0 else f"{r['springs']} springs"
@@ -229,11 +222,8 @@ def run_shear_box_cmd(args: argparse.Namespace) -> int:
     device = _setup(args)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    from scenes.reproduce import versions
-
     cfg = shear_box.preset(args.scale, args.assembly, seed=args.seed)
-    (out / "config.json").write_text(json.dumps({"command": "shear-box", "device": device, "versions": versions(),
-                                                 "config": str(cfg)}, indent=2))
+    _write_config(out, "shear-box", device, config=str(cfg))
     res = shear_box.run_shear_box(cfg, device)
     (out / "summary.json").write_text(json.dumps(res.to_dict(), indent=2, default=float))
     print(res.table())

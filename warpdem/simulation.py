@@ -25,9 +25,9 @@ from .contacts import (
     sphere_sphere_kernel,
     sphere_triangle_kernel,
 )
-from .errors import InputError, SimulationError, check_positive
+from .errors import InputError, SimulationError, check_finite, check_positive
 from .integrator import integrate_bodies_kernel, spring_kernel, update_spheres_kernel
-from .model import Model, State
+from .model import FLAG_PIVOT, Model, State
 from .timestep import critical_timestep
 
 wp.set_module_options({"enable_backward": False})
@@ -439,6 +439,25 @@ class Simulation:
         table = m.group_damping.numpy().reshape(m.n_worlds, m.n_groups)
         table[:, m.names["group"][group]] = values
         m.group_damping.assign(wp.array(table.reshape(-1).astype(np.float32), dtype=float, device=m.device))
+
+    def set_body_velocity(self, name: str, velocity: object, worlds: object | None = None) -> None:
+        """Set a named body's velocity [m/s] now: (3,) or (n_worlds, 3) values, in every world or in ``worlds``.
+
+        A kinematic body then moves at it and a dynamic one continues from it; for a hinged body it is the velocity
+        of its pivot (the carriage).
+        """
+        m = self.model
+        if name not in m.names["body"]:
+            raise InputError(f"body must be one of {sorted(m.names['body'])}, got {name!r}")
+        w = np.arange(m.n_worlds) if worlds is None else np.asarray(worlds, dtype=np.int64).reshape(-1)
+        idx = w * m.bodies_per_world + m.names["body"][name]
+        values = np.broadcast_to(np.asarray(velocity, dtype=np.float64), (len(idx), 3))
+        check_finite("velocity", values)
+        hinged = (m.host["body_flags"][idx[0]] & FLAG_PIVOT) != 0 if len(idx) else False
+        target = m.body_pivot_vel if hinged else self.state.body_vel
+        table = target.numpy().copy()
+        table[idx] = values
+        target.assign(table)
 
     def set_cohesion_now(self) -> None:
         """Give cohesion to every existing contact of cohesive materials at the next step (Yade's setCohesionNow)."""
