@@ -45,10 +45,17 @@ class RingingConfig:
     """Parameters of a ringing run. Lengths [m], times [s], forces [N]."""
 
     springs: tuple[int, ...] = paper.SPRING_COUNTS
+    """one world per entry; a count may repeat (e.g. a GA population of one configuration)."""
     spring_model: str = "paper"
     load_force: float = paper.LOAD_FORCE
+    spring_young: tuple[float, ...] | None = None
+    """model "paper": spring spheres' Young's modulus per world [Pa] (default: Table 2's calibrated)."""
+    local_damping: tuple[float, ...] | None = None
+    """model "paper": spring spheres' local damping per world [-] (default: Table 2's calibrated)."""
+    stiffness: tuple[float, ...] | None = None
+    """model "linear": spring stiffness per world [N/m] (default: the DIN 2093 stiffness of the configuration)."""
     damping_ratio: tuple[float, ...] | None = None
-    """model "linear": target damping ratio per configuration (default: Table 2's measured)."""
+    """model "linear": target damping ratio per world (default: Table 2's measured)."""
     settle_time: float = 0.25
     ring_time: float = 2.0
     hit_amplitude: float = 0.5
@@ -66,6 +73,23 @@ class RingingConfig:
         for name in ("load_force", "settle_time", "ring_time", "hit_amplitude", "sample_rate"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
+        for name in ("spring_young", "local_damping", "stiffness", "damping_ratio"):
+            values = getattr(self, name)
+            if values is None:
+                continue
+            values = tuple(float(v) for v in np.ravel(values))
+            if len(values) != len(self.springs):
+                raise ValueError(f"{name} needs one value per world ({len(self.springs)}), got {len(values)}")
+            if not all(math.isfinite(v) and v >= 0 for v in values):
+                raise ValueError(f"{name} must be finite and non-negative, got {values}")
+            setattr(self, name, values)
+
+    def per_world(self, name: str, column: str) -> np.ndarray:
+        """The per-world values of field ``name``, or Table 2's ``column`` where the field is None."""
+        values = getattr(self, name)
+        if values is None:
+            values = [paper.ringing_row(n)[column] for n in self.springs]
+        return np.asarray(values, dtype=np.float64)
 
 
 @dataclass
@@ -123,7 +147,7 @@ def build_ringing(config: RingingConfig | None = None, tool: SweepTool | None = 
     cfg = config or RingingConfig()
     tool = tool or build_sweep()
     rows = [paper.ringing_row(n) for n in cfg.springs]
-    stiffness = np.array([r["stiffness_n_per_m"] for r in rows])
+    stiffness = cfg.per_world("stiffness", "stiffness_n_per_m")
     b = wd.ModelBuilder(gravity=(0.0, 0.0, -9.81))
     b.add_material("tool", wd.Material(young=paper.TOOL_YOUNG, poisson=paper.TOOL_POISSON, density=7850.0,
                                        friction_angle=paper.TOOL_FRICTION))
@@ -142,13 +166,14 @@ def build_ringing(config: RingingConfig | None = None, tool: SweepTool | None = 
     if cfg.spring_model == "paper":
         sp = paper.SPRING_SPHERE
         r = sp["radius"]
-        b.add_material("spring", wd.Material(young=rows[0]["dem_spring_young_pa"], poisson=sp["poisson"],
+        young = cfg.per_world("spring_young", "dem_spring_young_pa")
+        b.add_material("spring", wd.Material(young=float(young[0]), poisson=sp["poisson"],
                                              density=sp["density"], friction_angle=sp["friction_angle"]))
         for k in range(3):  # spring spheres 3, 2, 1 from the shank backwards
             b.add_sphere(s - (0.0, (2 * k + 1) * r, 0.0), r, "spring", blocked="xzXZ", group="springs")
         b.add_sphere(s - (0.0, 7 * r, 0.0), r, "spring", blocked="xyzXYZ", group="support")
-        overrides["material:spring:young"] = [row["dem_spring_young_pa"] for row in rows]
-        overrides["damping:springs"] = [row["dem_local_damping"] for row in rows]
+        overrides["material:spring:young"] = young
+        overrides["damping:springs"] = cfg.per_world("local_damping", "dem_local_damping")
     else:
         length = 0.1
         carriage = b.add_rigid_body(s - (0.0, length, 0.0), name="carriage")
@@ -156,9 +181,7 @@ def build_ringing(config: RingingConfig | None = None, tool: SweepTool | None = 
         preload = gravity_moment(tool, m_load, load_point) / lever
         b.add_spring("spring", carriage, s - (0.0, length, 0.0), b.body_names["sweep_lower"], s,
                      stiffness=float(stiffness[0]), rest_length=length, preload=preload)
-        zeta = cfg.damping_ratio or tuple(row["measured_damping"] for row in rows)
-        if len(zeta) != len(rows):
-            raise ValueError(f"damping_ratio needs {len(rows)} values, got {len(zeta)}")
+        zeta = cfg.per_world("damping_ratio", "measured_damping")
         inertia = rig_inertia(tool, m_load, load_point)
         k_rot = stiffness * lever**2 + gravity_stiffness(tool, m_load, load_point)
         damping = 2.0 * np.asarray(zeta) * np.sqrt(k_rot * inertia) / lever**2

@@ -170,8 +170,8 @@ class SoilBinRun:
 
 
 def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int], speeds: list[float],
-           device: str | None) -> tuple[wd.Model, wd.State, dict]:
-    rigid = springs == [0]
+           device: str | None, soil_overrides: dict[str, object] | None = None) -> tuple[wd.Model, wd.State, dict]:
+    rigid = all(n == 0 for n in springs)
     b = wd.ModelBuilder(gravity=(0.0, 0.0, -9.81))
     b.add_material("soil", config.soil_material())
     b.add_material("tool", wd.Material(young=paper.TOOL_YOUNG, poisson=paper.TOOL_POISSON, density=7850.0,
@@ -183,6 +183,8 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
     keep = clear_start(bed, tool)
     bed.add_to(b, "soil", group="soil", keep=keep)
     overrides: dict[str, object] = {"body:sweep_lower:velocity": [(0.0, s, 0.0) for s in speeds]}
+    for name, values in (soil_overrides or {}).items():
+        overrides[f"material:soil:{name}"] = values
     info: dict[str, object] = {"n_particles": int(keep.sum())}
     if not rigid:
         s = np.asarray(tool.sensor_point)
@@ -240,19 +242,22 @@ def _stop_carriages(sim: wd.Simulation, worlds: np.ndarray) -> None:
 
 def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device: str | None = None,
                  tool: SweepTool | None = None, progress: object | None = None,
-                 viewer: object | None = None) -> SoilBinRun:
-    """One simulation: the rigid tool (``springs == [0]``) or passive configurations as worlds.
+                 viewer: object | None = None, soil_overrides: dict[str, object] | None = None) -> SoilBinRun:
+    """One simulation: rigid tools (every entry of ``springs`` 0) or passive configurations, one world each.
 
     ``viewer``: an optional warpdem.viewer.RerunViewer factory ``f(sim) -> viewer`` streamed at every record with
     the draught, displacement and kinetic energies.
+    ``soil_overrides``: per-world soil material fields, field -> (n_worlds,) values (e.g. ``friction_angle`` [deg],
+    ``normal_cohesion`` [Pa]): a calibration population as worlds of one simulation.
     """
     t0 = time.perf_counter()
-    if 0 in springs and springs != [0]:
-        raise ValueError(f"the rigid tool runs alone: springs must be [0] or passive configurations, got {springs}")
+    if 0 in springs and any(n != 0 for n in springs):
+        raise ValueError(f"rigid and passive tools run in separate simulations: springs must be all 0 or all "
+                         f"passive configurations, got {springs}")
     all_speeds = dict(zip(config.springs, config.speeds(), strict=True))
     speeds = [all_speeds[n] for n in springs]
     tool = place_tool(bed, config.working_depth, tool)
-    model, state, info = _build(config, bed, tool, springs, speeds, device)
+    model, state, info = _build(config, bed, tool, springs, speeds, device, soil_overrides)
     dt = config.dt or min(0.3 * wd.pwave_timestep(model), 0.5 * wd.critical_timestep(model))
     p = config.preset
     travel = config.travel or p["travel"]

@@ -5,6 +5,10 @@
     warpdem soil-bin  [--scale] [--assembly] [--springs] [--spring-model] [--viewer] [--viewer-save FILE.rrd]
     warpdem shear-box [--scale] [--assembly] [--device] [--out DIR]
     warpdem demo      [--device] [--particles N] [--out DIR]
+    warpdem calibrate ringing --springs 16 [--spring-model paper|linear] [--fitness paper|max] [--refine N]
+    warpdem calibrate draught --assembly C [--scale ci|cpu|paper] [--speed 0.62] [--screen-scale ci|cpu|paper]
+                      (both: [--generations 5] [--population 20] [--parents 7] [--seed 0] [--device] [--out DIR]
+                       [--gene NAME=LOW:HIGH] [--archive FILE] [--no-resume] [--ray-workers N] [--ray-address A])
 
 ``reproduce`` runs the paper's study at a reduced (``cpu``, default) or full (``paper``) scale: the ringing test
 for all eight spring configurations with both spring models, the soil bin with the rigid tool and 16 and 32 springs,
@@ -230,6 +234,53 @@ def run_shear_box_cmd(args: argparse.Namespace) -> int:
     return 0
 
 
+def _gene_range(text: str) -> tuple[str, tuple[float, float]]:
+    try:
+        name, rng = text.split("=")
+        lo, hi = rng.split(":")
+        return name.strip(), (float(lo), float(hi))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--gene must be NAME=LOW:HIGH, got {text!r}") from None
+
+
+def run_calibrate_cmd(args: argparse.Namespace) -> int:
+    from calibration.genes import GASettings
+    from calibration.workflow import run_calibration
+
+    device = _setup(args)
+    settings = GASettings(generations=args.generations, population=args.population, parents=args.parents,
+                          seed=args.seed, refine_iterations=args.refine)
+    genes = dict(args.gene) if args.gene else None
+    if args.kind == "ringing":
+        kw: dict[str, object] = {"springs": args.springs, "spring_model": args.spring_model, "fitness": args.fitness}
+    else:
+        kw = {"assembly": args.assembly, "scale": args.scale, "speed": args.speed, "seed": args.seed}
+    out = Path(args.out or f"results/calibrate/{args.kind}_" + (str(args.springs) if args.kind == "ringing"
+                                                                  else args.assembly))
+    out.mkdir(parents=True, exist_ok=True)
+    _write_config(out, f"calibrate {args.kind}", device, settings=settings.to_dict(), problem=kw, genes=genes)
+
+    def show(h: dict[str, object]) -> None:
+        errs = ", ".join(f"{k} {100 * abs(v):.2f} %" for k, v in h["best_errors"].items())
+        total = args.generations if h["stage"] == "ga" else args.generations + 1 + args.refine
+        print(f"{h['stage']:6s} {h['generation']:3d}/{total}: best fitness {h['best_fitness']:.4g} ({errs}); "
+              f"{h['simulated']} simulated in {h['simulation_s']:.1f} s, {h['wall_s']:.0f} s so far", flush=True)
+
+    result, summary = run_calibration(
+        args.kind, out, settings=settings, device=device, ray_workers=args.ray_workers, ray_address=args.ray_address,
+        gpus_per_worker=1.0 if (device.startswith("cuda") and (args.ray_workers or args.ray_address)) else 0.0,
+        screen_scale=(args.screen_scale or args.scale) if args.kind == "draught" else None, archive=args.archive,
+        resume=not args.no_resume, progress=show, genes=genes, **kw)
+    best = result.best
+    print(f"best: {best.genes} -> {best.observables}, errors {best.errors}, fitness {best.fitness:.4g}")
+    if summary.get("screening"):
+        for r in summary["screening"]:
+            print(f"screening rank {r['rank']}: set {r['set']} c {r['cohesion_kpa']:.2f} kPa, "
+                  f"phi {r['friction_angle_deg']:.1f} deg (distance {r['distance']:.3f})")
+    print(f"{result.n_simulated} simulated individuals, {result.wall_s:.0f} s; report in {out / 'report.md'}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="warpdem", description="DEM of soil-tool interaction on NVIDIA Warp")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -268,9 +319,32 @@ def main(argv: list[str] | None = None) -> int:
     d.add_argument("--depth", type=float, default=0.03, help="cutting depth [m]")
     d.add_argument("--cut", type=float, default=0.06, help="cut length [m]")
     d.add_argument("--out", default="results/demo", help="results folder")
+    c = sub.add_parser("calibrate", help="GA calibration (ringing rig or draught), populations as batched worlds")
+    c.add_argument("kind", choices=("ringing", "draught"))
+    c.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
+    c.add_argument("--out", default=None, help="results folder (default results/calibrate/<kind>_<springs|assembly>)")
+    c.add_argument("--seed", type=int, default=0, help="GA seed (and the bed's deposition seed)")
+    c.add_argument("--generations", type=int, default=5)
+    c.add_argument("--population", type=int, default=20)
+    c.add_argument("--parents", type=int, default=7)
+    c.add_argument("--refine", type=int, default=0, help="batched pattern-search iterations after the GA")
+    c.add_argument("--gene", type=_gene_range, action="append", help="replace a gene range: NAME=LOW:HIGH (SI)")
+    c.add_argument("--springs", type=int, default=16, help="ringing: spring configuration")
+    c.add_argument("--spring-model", choices=("paper", "linear"), default="paper", help="ringing: spring model")
+    c.add_argument("--fitness", choices=("paper", "max"), default="paper",
+                   help="ringing: eq. (7) 1/(REf REd), or 1/max(REf, REd)")
+    c.add_argument("--scale", default="ci", choices=("ci", "cpu", "paper"), help="draught: soil-bin scale")
+    c.add_argument("--assembly", default="C", choices=("A", "B", "C"), help="draught: assembly")
+    c.add_argument("--speed", type=float, default=0.62, help="draught: carriage speed [m/s]")
+    c.add_argument("--screen-scale", default=None, choices=("ci", "cpu", "paper"),
+                   help="draught: shear-box scale of the screening (default: --scale)")
+    c.add_argument("--archive", default=None, help="archive.json of an earlier calibration to reuse")
+    c.add_argument("--no-resume", action="store_true", help="start afresh even if --out holds a saved state")
+    c.add_argument("--ray-workers", type=int, default=None, help="evaluate on N Ray workers (optional extra)")
+    c.add_argument("--ray-address", default=None, help="address of an existing Ray cluster")
     args = parser.parse_args(argv)
     commands = {"demo": run_demo, "reproduce": run_reproduce, "ringing": run_ringing_cmd,
-                "soil-bin": run_soil_bin_cmd, "shear-box": run_shear_box_cmd}
+                "soil-bin": run_soil_bin_cmd, "shear-box": run_shear_box_cmd, "calibrate": run_calibrate_cmd}
     return commands[args.command](args)
 
 

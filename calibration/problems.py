@@ -1,0 +1,254 @@
+"""Calibration problems: a rig whose population is evaluated as the worlds of one batched simulation.
+
+A problem names its genes (with the paper's ranges as defaults), its targets, and how observables become relative
+errors and a fitness. ``evaluate(values)`` takes a population (n, n_genes) of physical gene values and returns one
+dict of observables per individual, from ONE simulation with n worlds. The time step is fixed per problem (from the
+stiffest individual the gene ranges allow), so an individual's result does not depend on the batch it is in.
+
+- :class:`RingingProblem` (section 2.2.1): the ringing rig of one spring configuration; targets Table 2's measured
+  frequency and damping; fitness eq. (7) (or ``"max"``, see :data:`calibration.genes.FITNESS_MODES`).
+- :class:`DraughtProblem` (section 2.2.2): the rigid sweep through a deposited bed; target the measured mean rigid
+  draught at the calibration speed (Table 3); fitness eq. (10) with the ABSOLUTE relative error: eq. (11) as printed
+  is signed, and 1 / RE with a signed RE would rank every overshoot (RE < 0 gives fitness < 0 < any undershoot's)
+  below every undershoot and reward a large undershoot's small positive fitness least, so the printed form cannot
+  have been used for ranking as stated.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+import warpdem as wd
+from scenes import paper
+from scenes.ringing import RingingConfig, build_ringing, run_ringing
+from scenes.soil_bin import SCALES, SoilBinConfig, bed_for, run_soil_bin
+
+from .genes import FITNESS_MODES, Gene, with_ranges
+
+FITNESS_CAP = 1e12
+"""fitness of an exact match (errors of zero), finite so that archives stay plain JSON."""
+ACCEPT_RE = 0.10
+"""a draught parameter set is accepted below this absolute relative error (section 2.2.2)."""
+
+RINGING_GENES = {
+    "paper": (Gene("young", 1e6, 5e8, log=True, unit="Pa"), Gene("local_damping", 0.008, 0.03, unit="-")),
+    "linear": (Gene("stiffness", 1e4, 1e7, log=True, unit="N/m"), Gene("damping_ratio", 0.005, 0.5, log=True,
+                                                                     unit="-")),
+}
+"""ringing genes per spring model: the paper's (spring spheres' Young's modulus and local damping, section 2.2.1)
+and their equivalents for the linear spring-dashpot (its stiffness, and its dashpot as a damping ratio of the rig)."""
+
+DRAUGHT_GENES = (
+    Gene("friction_angle", 5.0, 50.0, unit="deg"),
+    Gene("normal_cohesion", 10.0, 5e4, log=True, unit="Pa"),
+    Gene("eta_roll", 0.001, 0.9, log=True, unit="-"),
+)
+"""draught genes (section 2.2.2): contact friction angle, normal cohesion (shear cohesion = half of it) and
+eta_roll = eta_twist."""
+
+
+def relative_error(sim: float, target: float) -> float:
+    """(sim - target) / target, eqs. (8), (9), (11) before the absolute value; NaN when ``sim`` is not finite."""
+    return (sim - target) / target if math.isfinite(sim) else math.nan
+
+
+def _inverse(x: float) -> float:
+    if not math.isfinite(x):
+        return 0.0
+    return FITNESS_CAP if x <= 1.0 / FITNESS_CAP else 1.0 / x
+
+
+@dataclass
+class RingingProblem:
+    """Calibrate the ringing rig of one spring configuration to its measured frequency and damping.
+
+    Args:
+        springs: spring configuration (4, 8, ..., 32). spring_model: "paper" (spring spheres) or "linear".
+        genes: gene ranges to replace, name -> (low, high) (see :data:`RINGING_GENES`).
+        target_freq_hz, target_damping: default Table 2's measured values.
+        fitness: "paper" (eq. 7) or "max". settle_time, ring_time [s]: the rig's procedure.
+        device: Warp device of the simulations (None: Warp's default).
+    """
+
+    springs: int = 16
+    spring_model: str = "paper"
+    genes: dict[str, tuple[float, float]] | None = None
+    target_freq_hz: float | None = None
+    target_damping: float | None = None
+    fitness: str = "paper"
+    settle_time: float = 0.25
+    ring_time: float = 2.0
+    device: str | None = None
+    _dt: float | None = field(default=None, repr=False)
+
+    name = "ringing"
+
+    def __post_init__(self) -> None:
+        if self.springs not in paper.SPRING_COUNTS:
+            raise ValueError(f"springs must be one of {paper.SPRING_COUNTS}, got {self.springs!r}")
+        if self.spring_model not in RINGING_GENES:
+            raise ValueError(f"spring_model must be one of {tuple(RINGING_GENES)}, got {self.spring_model!r}")
+        if self.fitness not in FITNESS_MODES:
+            raise ValueError(f"fitness must be one of {FITNESS_MODES}, got {self.fitness!r}")
+        self.gene_list = with_ranges(RINGING_GENES[self.spring_model], self.genes)
+        row = paper.ringing_row(self.springs)
+        self.targets = {"freq_hz": float(self.target_freq_hz or row["measured_freq_hz"]),
+                        "damping": float(self.target_damping or row["measured_damping"])}
+        for k, v in self.targets.items():
+            if not v > 0:
+                raise ValueError(f"target {k} must be positive, got {v!r}")
+
+    def _config(self, values: np.ndarray, dt: float | None) -> RingingConfig:
+        n = len(values)
+        cols = {g.name: tuple(float(v) for v in values[:, k]) for k, g in enumerate(self.gene_list)}
+        if self.spring_model == "paper":
+            kw = {"spring_young": cols["young"], "local_damping": cols["local_damping"]}
+        else:
+            kw = {"stiffness": cols["stiffness"], "damping_ratio": cols["damping_ratio"]}
+        return RingingConfig(springs=(self.springs,) * n, spring_model=self.spring_model,
+                             settle_time=self.settle_time, ring_time=self.ring_time, dt=dt, **kw)
+
+    @property
+    def dt(self) -> float:
+        """Time step [s]: half the critical step of the stiffest rig the gene ranges allow (every gene at its
+        upper bound: the largest Young's modulus, stiffness and damping)."""
+        if self._dt is None:
+            top = np.array([[g.high for g in self.gene_list]])
+            rig = build_ringing(self._config(top, None))
+            model, _ = rig.builder.finalize("cpu", n_worlds=1, overrides=rig.overrides)
+            self._dt = 0.5 * wd.critical_timestep(model)
+        return self._dt
+
+    def simulation_key(self) -> dict[str, object]:
+        return {"rig": "ringing", "springs": self.springs, "spring_model": self.spring_model,
+                "settle_time": self.settle_time, "ring_time": self.ring_time, "dt": self.dt}
+
+    def spec(self) -> dict[str, object]:
+        return {**self.simulation_key(), "targets": self.targets, "fitness": self.fitness,
+                "genes": [asdict(g) for g in self.gene_list]}
+
+    def evaluate(self, values: np.ndarray) -> list[dict[str, float]]:
+        """Observables per individual (n, n_genes) -> [{freq_hz, damping, static_deflection_m}], one simulation."""
+        values = np.atleast_2d(np.asarray(values, dtype=np.float64))
+        res = run_ringing(self._config(values, self.dt), device=self.device)
+        return [{"freq_hz": float(res.frequency_hz[k]), "damping": float(res.damping_ratio[k]),
+                 "static_deflection_m": float(res.static_deflection[k])} for k in range(len(values))]
+
+    def errors(self, obs: dict[str, float]) -> dict[str, float]:
+        """Relative errors of eqs. (8), (9) with their absolute values [-]."""
+        return {"re_freq": abs(relative_error(obs["freq_hz"], self.targets["freq_hz"])),
+                "re_damp": abs(relative_error(obs["damping"], self.targets["damping"]))}
+
+    def fitness_of(self, errors: dict[str, float]) -> float:
+        """Eq. (7) ``1 / (RE_freq RE_damp)`` ("paper") or ``1 / max(RE_freq, RE_damp)`` ("max"); 0 when the
+        simulation gave no frequency (too few peaks)."""
+        ef, ed = errors["re_freq"], errors["re_damp"]
+        return _inverse(ef * ed if self.fitness == "paper" else max(ef, ed))
+
+
+def draught_target(speed: float = 0.62) -> float:
+    """The measured mean rigid draught [N]: the mean of Table 3's rigid-tool means at the given speed [m/s] (the
+    rows with the speed nearest to it; 0.62 m/s, the paper's calibration speed, has two: 344.77 and 341.33 N)."""
+    t3 = paper.table("soil_bin_measured")
+    d = np.abs(t3["speed_mean_m_s"] - speed)
+    return float(np.mean(t3["rigid_draught_mean_n"][d <= d.min() + 1e-9]))
+
+
+@dataclass
+class DraughtProblem:
+    """Calibrate the soil's contact parameters to the measured mean draught of the rigid sweep.
+
+    Args:
+        assembly: "A", "B" or "C". scale: soil-bin scale ("ci", "cpu", "paper"; :data:`scenes.soil_bin.SCALES`).
+        speed: carriage speed [m/s] (the paper's 0.62). target_n: default :func:`draught_target`.
+        genes: gene ranges to replace, name -> (low, high) (see :data:`DRAUGHT_GENES`).
+        travel, steady_travel: [m], default the scale's; the mean draught is taken after ``steady_travel``.
+        seed: the bed's deposition seed. cache_dir: where deposited beds are kept (None: not kept).
+        device: Warp device of the simulations.
+    """
+
+    assembly: str = "C"
+    scale: str = "ci"
+    speed: float = 0.62
+    target_n: float | None = None
+    genes: dict[str, tuple[float, float]] | None = None
+    travel: float | None = None
+    steady_travel: float | None = None
+    working_depth: float = paper.WORKING_DEPTH
+    seed: int = 0
+    cache_dir: str | None = None
+    device: str | None = None
+
+    name = "draught"
+
+    def __post_init__(self) -> None:
+        if self.assembly not in ("A", "B", "C"):
+            raise ValueError(f"assembly must be one of ('A', 'B', 'C'), got {self.assembly!r}")
+        if self.scale not in SCALES:
+            raise ValueError(f"scale must be one of {sorted(SCALES)}, got {self.scale!r}")
+        if not self.speed > 0:
+            raise ValueError(f"speed must be positive, got {self.speed!r}")
+        self.gene_list = with_ranges(DRAUGHT_GENES, self.genes)
+        self.targets = {"draught_mean_n": float(self.target_n or draught_target(self.speed))}
+        if not self.targets["draught_mean_n"] > 0:
+            raise ValueError(f"target_n must be positive, got {self.target_n!r}")
+        self._bed = None
+        self.config = SoilBinConfig(scale=self.scale, assembly=self.assembly, springs=(0,), speed=(self.speed,),
+                                    working_depth=self.working_depth, travel=self.travel,
+                                    steady_travel=self.steady_travel, seed=self.seed)
+
+    def __getstate__(self) -> dict[str, object]:  # the bed is re-read or re-deposited by a remote worker
+        return {**self.__dict__, "_bed": None}
+
+    def bed(self):  # noqa: ANN201 (scenes.assemblies.Bed)
+        if self._bed is None:
+            self._bed = bed_for(self.config, device=self.device, cache_dir=self.cache_dir)
+        return self._bed
+
+    def simulation_key(self) -> dict[str, object]:
+        p = self.config.preset
+        return {"rig": "soil_bin_rigid", "assembly": self.assembly, "scale": self.scale, "speed": self.speed,
+                "working_depth": self.working_depth, "travel": self.travel or p["travel"],
+                "steady_travel": self.steady_travel or p["steady_travel"], "seed": self.seed}
+
+    def spec(self) -> dict[str, object]:
+        return {**self.simulation_key(), "targets": self.targets, "genes": [asdict(g) for g in self.gene_list]}
+
+    def soil_overrides(self, values: np.ndarray) -> dict[str, np.ndarray]:
+        """Per-world soil material fields of a population (n, 3): friction angle [deg], normal cohesion [Pa],
+        shear cohesion = normal / 2 [Pa], eta_roll = eta_twist [-]."""
+        v = {g.name: values[:, k] for k, g in enumerate(self.gene_list)}
+        return {"friction_angle": v["friction_angle"], "normal_cohesion": v["normal_cohesion"],
+                "shear_cohesion": 0.5 * v["normal_cohesion"], "eta_roll": v["eta_roll"],
+                "eta_twist": v["eta_roll"]}
+
+    def evaluate(self, values: np.ndarray) -> list[dict[str, float]]:
+        """Observables per individual (n, 3) -> [{draught_mean_n, draught_std_n}], one simulation of n worlds."""
+        values = np.atleast_2d(np.asarray(values, dtype=np.float64))
+        run = run_soil_bin(self.config, [0] * len(values), bed=self.bed(), device=self.device,
+                           soil_overrides=self.soil_overrides(values))
+        return [{"draught_mean_n": float(r["draught_mean"]), "draught_std_n": float(r["draught_std"])}
+                for r in run.steady]
+
+    def errors(self, obs: dict[str, float]) -> dict[str, float]:
+        """Eq. (11)'s relative error, signed [-] (the fitness takes its absolute value)."""
+        return {"re_draught": relative_error(obs["draught_mean_n"], self.targets["draught_mean_n"])}
+
+    def fitness_of(self, errors: dict[str, float]) -> float:
+        """Eq. (10) with the absolute relative error: 1 / |RE|."""
+        return _inverse(abs(errors["re_draught"]))
+
+    def accepted(self, errors: dict[str, float]) -> bool:
+        return abs(errors["re_draught"]) < ACCEPT_RE
+
+
+def make_problem(kind: str, **kwargs: object) -> RingingProblem | DraughtProblem:
+    """A problem by name ("ringing" or "draught")."""
+    if kind == "ringing":
+        return RingingProblem(**kwargs)
+    if kind == "draught":
+        return DraughtProblem(**kwargs)
+    raise ValueError(f"calibration must be 'ringing' or 'draught', got {kind!r}")

@@ -1,0 +1,66 @@
+"""Shear-box screening (section 2.3): the draught calibration accepts several parameter sets; each is run in the
+direct shear box and ranked by its distance to the laboratory's cohesion and internal friction angle.
+
+Distance: ``(dc / c_lab)^2 + (dphi / phi_lab)^2`` against the laboratory test at 3.96 % moisture (6.4 kPa, 32.3
+deg; the soil bin's moisture), the metric :func:`scenes.shear_box.closest_ga_set` uses on the paper's Tables 4-6.
+All sets run as the worlds of one batched shear-box simulation (one world per set and normal stress). Cohesion is
+set on the contacts present at the start of shear and not on new ones, as in the soil bin the sets were calibrated
+in (a shear box and the soil-bin run it screens must agree on this; see ``scenes.shear_box``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from scenes import paper
+from scenes.assemblies import Bed
+from scenes.shear_box import LAB_MOISTURE, preset, run_shear_boxes
+
+
+def lab_strength(moisture_pct: float = LAB_MOISTURE) -> tuple[float, float]:
+    """The laboratory shear box's cohesion [kPa] and internal friction angle [deg] at the moisture nearest to
+    ``moisture_pct`` [% dry basis]."""
+    lab = paper.table("direct_shear_lab")
+    row = int(np.argmin(np.abs(lab["moisture_pct_db"] - moisture_pct)))
+    return float(lab["cohesion_kpa"][row]), float(lab["internal_friction_angle_deg"][row])
+
+
+def distance(cohesion_kpa: float, friction_deg: float, lab: tuple[float, float] | None = None) -> float:
+    """(dc / c_lab)^2 + (dphi / phi_lab)^2 [-]."""
+    c_lab, phi_lab = lab or lab_strength()
+    return float(((cohesion_kpa - c_lab) / c_lab) ** 2 + ((friction_deg - phi_lab) / phi_lab) ** 2)
+
+
+def screen(sets: Sequence[dict[str, float]], assembly: str = "C", scale: str = "ci", *, device: str | None = None,
+           bed: Bed | None = None, progress: object | None = None, **changes: object) -> list[dict[str, float]]:
+    """Run every parameter set in the shear box (one batched simulation) and rank them.
+
+    Args:
+        sets: genes of each set: ``friction_angle`` [deg], ``normal_cohesion`` [Pa] (shear cohesion = half),
+            ``eta_roll`` (= eta_twist) [-].
+        assembly, scale: the shear box preset (:func:`scenes.shear_box.preset`).
+        changes: further ShearBoxConfig fields (e.g. ``normal_stresses``).
+    Returns:
+        One row per set, best (smallest distance) first: the genes, ``cohesion_kpa``, ``friction_angle_deg``,
+        ``r2``, ``distance`` and ``rank`` (1 = closest to the laboratory).
+    """
+    if not sets:
+        raise ValueError("no parameter sets to screen")
+    changes = {"cohesion_on_new_contacts": False, **changes}
+    configs = [preset(scale, assembly, friction_angle=float(s["friction_angle"]),
+                      normal_cohesion=float(s["normal_cohesion"]), shear_cohesion=0.5 * float(s["normal_cohesion"]),
+                      eta_roll=float(s["eta_roll"]), eta_twist=float(s["eta_roll"]), label=f"set {k + 1}", **changes)
+               for k, s in enumerate(sets)]
+    results = run_shear_boxes(configs, device, bed=bed, progress=progress)
+    lab = lab_strength()
+    rows = []
+    for k, (s, res) in enumerate(zip(sets, results, strict=True)):
+        c, phi = res.fit.cohesion / 1e3, res.fit.friction_angle_deg
+        rows.append({"set": k + 1, **{g: float(v) for g, v in s.items()}, "cohesion_kpa": float(c),
+                     "friction_angle_deg": float(phi), "r2": float(res.fit.r2), "distance": distance(c, phi, lab)})
+    rows.sort(key=lambda r: r["distance"])
+    for rank, r in enumerate(rows, 1):
+        r["rank"] = rank
+    return rows

@@ -1,0 +1,57 @@
+"""A whole calibration as the ``warpdem calibrate`` command runs it: GA (+ refinement), screening, report.
+
+    from calibration.workflow import run_calibration
+    run_calibration("ringing", "results/calibrate/ringing_16", springs=16, spring_model="linear", fitness="max",
+                    settings=GASettings(refine_iterations=12))
+    run_calibration("draught", "results/calibrate/draught_C", assembly="C", scale="ci", screen_scale="ci")
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from .evaluators import LocalEvaluator, RayEvaluator
+from .ga import CalibrationResult, accepted_records, calibrate
+from .genes import GASettings
+from .problems import make_problem
+from .report import write_report
+from .screening import screen
+
+
+def run_calibration(kind: str, out: str | Path, *, settings: GASettings | None = None, device: str | None = None,
+                    ray_workers: int | None = None, ray_address: str | None = None, gpus_per_worker: float = 0.0,
+                    screen_scale: str | None = None, screen_top: int = 6, archive: str | Path | None = None,
+                    resume: bool = True, progress: Callable[[dict[str, object]], None] | None = None,
+                    **problem_kwargs: object) -> tuple[CalibrationResult, dict[str, object]]:
+    """Calibrate, screen (draught: the accepted sets, at most ``screen_top`` of them, in the shear box at
+    ``screen_scale``; None skips it) and write the report into ``out``.
+
+    ``ray_workers`` or ``ray_address``: evaluate through :class:`~calibration.evaluators.RayEvaluator`.
+    ``problem_kwargs``: the problem's fields (:mod:`calibration.problems`). Returns the result and a summary dict.
+    """
+    out = Path(out)
+    if kind == "draught":
+        problem_kwargs.setdefault("cache_dir", str(out / "beds"))
+    problem = make_problem(kind, device=device, **problem_kwargs)
+    use_ray = ray_workers is not None or ray_address is not None
+    evaluator = (RayEvaluator(problem, ray_workers, address=ray_address, gpus_per_worker=gpus_per_worker)
+                 if use_ray else LocalEvaluator(problem))
+    try:
+        result = calibrate(problem, settings, out=out, evaluator=evaluator, resume=resume, archive=archive,
+                           progress=progress)
+    finally:
+        evaluator.close()
+    screening = None
+    extra: dict[str, object] = {"device": device, "evaluator": "ray" if use_ray else "local"}
+    if kind == "draught":
+        accepted = accepted_records(result, problem)
+        extra["n_accepted"] = len(accepted)
+        if screen_scale is not None and accepted:
+            t0 = time.perf_counter()
+            screening = screen([r.genes for r in accepted[:screen_top]], problem.assembly, screen_scale,
+                               device=device)
+            extra["screening_wall_s"] = time.perf_counter() - t0
+    write_report(result, problem, out, screening=screening, extra=extra)
+    return result, {"best": result.best, "screening": screening, **extra}
