@@ -191,12 +191,16 @@ def test_draught_problem_orders_weak_and_strong_soil(tmp_path) -> None:
 def test_screening_ranks_by_distance_to_the_laboratory() -> None:
     # Two sets differing only in cohesion run as one batched shear box: the cohesive one shows the larger
     # Mohr-Coulomb cohesion (physics), and the ranking follows the stated distance to 6.4 kPa and 32.3 deg.
+    # The bonds must dominate the ci sample's peak scatter (~1 kPa: cohesionless intercepts of -0.6 to +1.9 kPa
+    # over four deposition seeds): Cn = 4e5 Pa gives bonds of Cn r^2 = 10 N, five times the ~2 N contact forces at
+    # 20 kPa. (At the gene range's top, 5e4 Pa, the fragile bonds break within the first millimetre and the
+    # cohesion difference was -0.6 to +1.5 kPa over those seeds: no ordering to test.)
     assert lab_strength() == (6.4, 32.3)
     sets = [{"friction_angle": 25.0, "normal_cohesion": 10.0, "eta_roll": 0.05},
-            {"friction_angle": 25.0, "normal_cohesion": 5e4, "eta_roll": 0.05}]
+            {"friction_angle": 25.0, "normal_cohesion": 4e5, "eta_roll": 0.05}]
     rows = screen(sets, "A", "ci", device=DEVICE, shear_displacement=0.1)
     by_set = {r["set"]: r for r in rows}
-    assert by_set[2]["cohesion_kpa"] > by_set[1]["cohesion_kpa"] + 0.5
+    assert by_set[2]["cohesion_kpa"] > by_set[1]["cohesion_kpa"] + 3.0, rows
     for r in rows:
         assert r["distance"] == pytest.approx(distance(r["cohesion_kpa"], r["friction_angle_deg"]))
     assert [r["rank"] for r in rows] == [1, 2] and rows[0]["distance"] <= rows[1]["distance"]

@@ -48,11 +48,13 @@ def _rigid(bed, depth: float) -> dict:
 
 def test_rigid_draught_grows_with_depth_and_is_steady(ci_bed) -> None:
     # Reference: the draught of a tine grows with working depth (passive earth pressure: roughly with d^2, e.g.
-    # Godwin and Spoor 1977); here 0.10 m vs 0.15 m: the deeper run must exceed the shallower by more than twice
+    # Godwin and Spoor 1977); here 0.075 m vs 0.15 m: the deeper run must exceed the shallower by more than twice
     # the standard error of the difference (std / sqrt(n_eff), n_eff from the draught's own autocorrelation).
+    # (0.10 vs 0.15 m, a d^2 ratio of 2.25, was too weak a contrast for the ci bed's scatter: one CUDA realization
+    # gave 154 vs 219 N with a 78 N bound; 0.075 m makes the expected ratio 4.)
     # Steady after the transient: over the steady window (after steady_travel) the means of its first and second
     # halves agree within 3 standard errors (no trend).
-    shallow, deep = _rigid(ci_bed, 0.10), _rigid(ci_bed, 0.15)
+    shallow, deep = _rigid(ci_bed, 0.075), _rigid(ci_bed, 0.15)
     for r in (shallow, deep):
         run = r["run"]
         travel = run.travel[:, 0]

