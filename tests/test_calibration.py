@@ -204,3 +204,26 @@ def test_screening_ranks_by_distance_to_the_laboratory() -> None:
     for r in rows:
         assert r["distance"] == pytest.approx(distance(r["cohesion_kpa"], r["friction_angle_deg"]))
     assert [r["rank"] for r in rows] == [1, 2] and rows[0]["distance"] <= rows[1]["distance"]
+
+
+def test_calibrate_command_writes_a_table_2_report(tmp_path) -> None:
+    # The `warpdem calibrate` command on the linear ringing rig (one generation of 4): its report's best row holds
+    # Table 2's targets for 16 springs and relative errors that are eqs. (8)-(9) of its own observables, and its
+    # archive reloads with every simulated individual.
+    import json
+
+    from warpdem.cli import main
+
+    out = tmp_path / "cal"
+    assert main(["calibrate", "ringing", "--springs", "16", "--spring-model", "linear", "--generations", "1",
+                 "--population", "4", "--parents", "2", "--device", DEVICE, "--out", str(out)]) == 0
+    res = json.loads((out / "result.json").read_text())
+    best = res["best"]
+    assert best["target_freq_hz"] == 6.09137 and best["target_damping"] == 0.20270
+    assert best["re_freq_pct"] == pytest.approx(100 * abs(best["freq_hz"] / 6.09137 - 1), rel=1e-9)
+    assert best["re_damp_pct"] == pytest.approx(100 * abs(best["damping"] / 0.20270 - 1), rel=1e-9)
+    assert best["fitness"] == pytest.approx(1e4 / (best["re_freq_pct"] * best["re_damp_pct"]), rel=1e-9)
+    archive = Archive.load(out / "archive.json")
+    assert len(archive) == res["n_simulated"] >= 4
+    assert max(r.fitness for r in archive) == pytest.approx(best["fitness"])
+    assert (out / "convergence.png").stat().st_size > 0 and "| index |" in (out / "report.md").read_text()
