@@ -1,0 +1,237 @@
+"""Measured data for calibration and diagnosis: one documented format, read into SI units.
+
+A MEASURED source is either a CSV file (a summary table) or a directory holding ``summary.csv`` and/or
+``series/*.csv`` (time series, one file per configuration and signal).
+
+Summary table (CSV, ``#`` lines are comments): one row per configuration. Every column header is ``name [unit]``
+(a header without a unit means a dimensionless value). Known names and the units they accept:
+
+=====================  ==========================================  =========================================
+name                   meaning                                     units accepted (-> SI)
+=====================  ==========================================  =========================================
+springs                spring count of the configuration           - (integer)
+stiffness              spring stiffness                            N/m, N/mm, kN/m
+speed                  carriage speed                              m/s, mm/s, km/h
+frequency              ring-down frequency                         Hz
+damping                damping ratio                               -, %
+draught_mean/_std      passive tool's draught mean / std           N, kN
+rigid_draught_mean/_std rigid tool's draught mean / std            N, kN
+displacement_mean/_std tool displacement at the sensor             m, mm
+reduction              draught reduction vs the rigid tool         %, -
+=====================  ==========================================  =========================================
+
+Other columns are kept under their name as covariates (converted when their unit is one of the above).
+
+Time series (CSV): comment lines ``# key: value`` give the configuration (at least ``springs``) and may give
+``signal`` (``force`` or ``displacement``); two columns ``time [s|ms]`` and the signal (``force [N|kN]`` or
+``displacement [m|mm]``) at any, possibly uneven, sample rate.
+
+    m = load("../shared/data/ringing_test_table2.csv")       # or a directory
+    m.summary["frequency"], m.summary["stiffness"]          # SI arrays, one value per configuration
+    for s in m.series: s.config["springs"], s.time, s.values
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+UNITS: dict[str, dict[str, float]] = {
+    "springs": {"-": 1.0},
+    "stiffness": {"N/m": 1.0, "N/mm": 1e3, "kN/m": 1e3},
+    "speed": {"m/s": 1.0, "mm/s": 1e-3, "km/h": 1 / 3.6},
+    "frequency": {"Hz": 1.0},
+    "damping": {"-": 1.0, "%": 1e-2},
+    "draught_mean": {"N": 1.0, "kN": 1e3},
+    "draught_std": {"N": 1.0, "kN": 1e3},
+    "rigid_draught_mean": {"N": 1.0, "kN": 1e3},
+    "rigid_draught_std": {"N": 1.0, "kN": 1e3},
+    "displacement_mean": {"m": 1.0, "mm": 1e-3},
+    "displacement_std": {"m": 1.0, "mm": 1e-3},
+    "reduction": {"%": 1.0, "-": 100.0},
+    "time": {"s": 1.0, "ms": 1e-3},
+    "force": {"N": 1.0, "kN": 1e3},
+    "displacement": {"m": 1.0, "mm": 1e-3},
+}
+"""accepted units per known quantity and their factor to the SI unit (reduction is kept in %)."""
+_HEADER = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[([^\]]*)\])?\s*$")
+
+
+@dataclass
+class Series:
+    """One measured time series: ``time`` [s] (n,), ``values`` [N or m] (n,), its ``signal`` name and the
+    configuration keys from its header (e.g. ``{"springs": 16}``)."""
+
+    config: dict[str, float | str]
+    signal: str
+    time: np.ndarray
+    values: np.ndarray
+    source: str = ""
+
+    @property
+    def sample_rate(self) -> float:
+        """median sampling rate [Hz]."""
+        return float(1.0 / np.median(np.diff(self.time)))
+
+
+@dataclass
+class Measured:
+    """Measured data in SI: ``summary`` name -> (n_configs,) array; ``units`` name -> the SI unit; ``series``."""
+
+    summary: dict[str, np.ndarray] = field(default_factory=dict)
+    units: dict[str, str] = field(default_factory=dict)
+    series: list[Series] = field(default_factory=list)
+    source: str = ""
+
+    @property
+    def n_configs(self) -> int:
+        return len(next(iter(self.summary.values()))) if self.summary else 0
+
+    def series_for(self, signal: str, **config: float) -> list[Series]:
+        """The series of a signal whose configuration matches ``config`` (e.g. springs=16)."""
+        return [s for s in self.series if s.signal == signal
+                and all(s.config.get(k) == v for k, v in config.items())]
+
+
+def _parse_header(text: str, where: str) -> tuple[str, str]:
+    m = _HEADER.match(text)
+    if not m:
+        raise ValueError(f"{where}: column header {text!r} is not 'name [unit]'")
+    return m.group(1), (m.group(2) or "-").strip()
+
+
+def _factor(name: str, unit: str, where: str) -> tuple[float, str]:
+    """Factor to SI and the SI unit; unknown names keep their unit (factor 1)."""
+    if name not in UNITS:
+        return 1.0, unit
+    accepted = UNITS[name]
+    if unit not in accepted:
+        raise ValueError(f"{where}: column {name!r} has unit {unit!r}; accepted: {sorted(accepted)}")
+    si = next(u for u, f in accepted.items() if f == 1.0)
+    return accepted[unit], si
+
+
+def _rows(path: Path) -> tuple[list[str], list[list[str]], dict[str, str]]:
+    meta: dict[str, str] = {}
+    lines = []
+    for ln in path.read_text().splitlines():
+        if not ln.strip():
+            continue
+        if ln.lstrip().startswith("#"):
+            m = re.match(r"^\s*#\s*([A-Za-z_][A-Za-z0-9_]*)\s*:\s*(.+?)\s*$", ln)
+            if m:
+                meta[m.group(1)] = m.group(2)
+            continue
+        lines.append([c.strip() for c in ln.split(",")])
+    if not lines:
+        raise ValueError(f"{path}: no header row")
+    header, rows = lines[0], lines[1:]
+    for k, r in enumerate(rows):
+        if len(r) != len(header):
+            raise ValueError(f"{path}: row {k + 1} has {len(r)} values for {len(header)} columns")
+    return header, rows, meta
+
+
+def _number(text: str, where: str) -> float:
+    if text == "":
+        return float("nan")
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(f"{where}: {text!r} is not a number") from None
+
+
+def load_summary(path: str | Path) -> Measured:
+    """Read a summary table (format in the module docstring) into SI units."""
+    path = Path(path)
+    header, rows, _ = _rows(path)
+    out = Measured(source=str(path))
+    for j, h in enumerate(header):
+        name, unit = _parse_header(h, str(path))
+        if name in out.summary:
+            raise ValueError(f"{path}: column {name!r} appears twice")
+        f, si = _factor(name, unit, str(path))
+        out.summary[name] = np.array([_number(r[j], f"{path}: column {name!r}") for r in rows]) * f
+        out.units[name] = si
+    if "springs" in out.summary and not np.all(np.mod(out.summary["springs"], 1) == 0):
+        raise ValueError(f"{path}: springs must be integers, got {out.summary['springs'].tolist()}")
+    return out
+
+
+def load_series(path: str | Path) -> Series:
+    """Read one time series (format in the module docstring): time [s] and force [N] or displacement [m]."""
+    path = Path(path)
+    header, rows, meta = _rows(path)
+    if len(header) != 2:
+        raise ValueError(f"{path}: a series has two columns (time and the signal), got {header}")
+    (tn, tu), (sn, su) = (_parse_header(h, str(path)) for h in header)
+    if tn != "time" or sn not in ("force", "displacement"):
+        raise ValueError(f"{path}: columns must be 'time [s]' and 'force [N]' or 'displacement [m]', got {header}")
+    ft, _ = _factor(tn, tu, str(path))
+    fs, _ = _factor(sn, su, str(path))
+    data = np.array([[_number(v, str(path)) for v in r] for r in rows], dtype=np.float64)
+    t, x = data[:, 0] * ft, data[:, 1] * fs
+    if len(t) < 8 or not np.all(np.diff(t) > 0):
+        raise ValueError(f"{path}: time must increase strictly over at least 8 samples")
+    config: dict[str, float | str] = {}
+    for k, v in meta.items():
+        try:
+            config[k] = float(v)
+        except ValueError:
+            config[k] = v
+    if "springs" not in config:
+        raise ValueError(f"{path}: the header must name the configuration, e.g. '# springs: 16'")
+    signal = str(config.pop("signal", sn))
+    return Series(config, signal, t, x, str(path))
+
+
+def load(path: str | Path) -> Measured:
+    """A summary CSV, or a directory with ``summary.csv`` and/or ``series/*.csv``."""
+    path = Path(path)
+    if path.is_file():
+        return load_summary(path)
+    if not path.is_dir():
+        raise FileNotFoundError(f"measured data {str(path)!r} is neither a file nor a directory")
+    out = load_summary(path / "summary.csv") if (path / "summary.csv").exists() else Measured(source=str(path))
+    out.series = [load_series(p) for p in sorted((path / "series").glob("*.csv"))]
+    if not out.summary and not out.series:
+        raise ValueError(f"{path}: no summary.csv and no series/*.csv")
+    return out
+
+
+def write_summary(path: str | Path, columns: dict[str, np.ndarray], units: dict[str, str]) -> None:
+    """Write a summary table in this format: ``columns`` name -> values, ``units`` name -> unit."""
+    names = list(columns)
+    lines = [",".join(f"{n} [{units.get(n, '-')}]" for n in names)]
+    n = len(next(iter(columns.values())))
+    for k in range(n):
+        lines.append(",".join(repr(float(columns[c][k])) for c in names))
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
+def from_paper(rig: str) -> Measured:
+    """The paper's measured tables in this format: ``"ringing"`` (Table 2: springs, stiffness, frequency, damping)
+    or ``"soil-bin"`` (Table 3: springs, speed and its std, rigid and passive draught, displacement, reduction)."""
+    from scenes import paper
+
+    if rig == "ringing":
+        t = paper.table("ringing")
+        cols = {"springs": t["springs"], "stiffness": t["stiffness_n_per_m"], "frequency": t["measured_freq_hz"],
+                "damping": t["measured_damping"]}
+        units = {"springs": "-", "stiffness": "N/m", "frequency": "Hz", "damping": "-"}
+    elif rig == "soil-bin":
+        t = paper.table("soil_bin_measured")
+        cols = {"springs": t["springs"], "speed": t["speed_mean_m_s"], "speed_std": t["speed_std_m_s"],
+                "rigid_draught_mean": t["rigid_draught_mean_n"], "rigid_draught_std": t["rigid_draught_std_n"],
+                "draught_mean": t["passive_draught_mean_n"], "draught_std": t["passive_draught_std_n"],
+                "displacement_mean": 1e-3 * t["displacement_mean_mm"],
+                "displacement_std": 1e-3 * t["displacement_std_mm"], "reduction": t["reduction_pct"]}
+        units = {"springs": "-", "speed": "m/s", "speed_std": "m/s", "rigid_draught_mean": "N",
+                 "rigid_draught_std": "N", "draught_mean": "N", "draught_std": "N", "displacement_mean": "m",
+                 "displacement_std": "m", "reduction": "%"}
+    else:
+        raise ValueError(f"rig must be 'ringing' or 'soil-bin', got {rig!r}")
+    return Measured({k: np.asarray(v, dtype=np.float64) for k, v in cols.items()}, units, [], f"paper:{rig}")
