@@ -82,7 +82,7 @@ class RingingProblem:
     settle_time: float = 0.25
     ring_time: float = 2.0
     device: str | None = None
-    _dt: float | None = field(default=None, repr=False)
+    _dt: float | None = field(default=None, repr=False, init=False)
 
     name = "ringing"
 
