@@ -226,12 +226,13 @@ class DraughtProblem:
                 "eta_twist": v["eta_roll"]}
 
     def evaluate(self, values: np.ndarray) -> list[dict[str, float]]:
-        """Observables per individual (n, 3) -> [{draught_mean_n, draught_std_n}], one simulation of n worlds."""
+        """Observables per individual (n, 3) -> [{draught_mean_n, draught_std_n, draught_sem_n}] (the last: the
+        mean's standard error from the correlated record's effective sample size), one simulation of n worlds."""
         values = np.atleast_2d(np.asarray(values, dtype=np.float64))
         run = run_soil_bin(self.config, [0] * len(values), bed=self.bed(), device=self.device,
                            soil_overrides=self.soil_overrides(values))
-        return [{"draught_mean_n": float(r["draught_mean"]), "draught_std_n": float(r["draught_std"])}
-                for r in run.steady]
+        return [{"draught_mean_n": float(r["draught_mean"]), "draught_std_n": float(r["draught_std"]),
+                 "draught_sem_n": float(r["draught_sem"])} for r in run.steady]
 
     def errors(self, obs: dict[str, float]) -> dict[str, float]:
         """Eq. (11)'s relative error, signed [-] (the fitness takes its absolute value)."""

@@ -307,7 +307,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
         moving = out["step"] <= stop[w]
         for k in ("draught", "displacement"):
             st = analysis.steady_state(t[moving], series[k][moving, w], trav[moving, w], start_travel=start)
-            row[f"{k}_mean"], row[f"{k}_std"] = st.mean, st.std
+            row[f"{k}_mean"], row[f"{k}_std"], row[f"{k}_sem"] = st.mean, st.std, st.sem
         for k in ("ke_tool", "ke_soil"):
             st = analysis.steady_state(t[moving], series[k][moving, w].sum(axis=-1), trav[moving, w],
                                        start_travel=start)

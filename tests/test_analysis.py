@@ -340,3 +340,27 @@ def test_mohr_coulomb_recovers_cohesion_and_friction_angle():
         analysis.mohr_coulomb([50e3], [40e3])
     with pytest.raises(ValueError, match="two distinct values"):
         analysis.mohr_coulomb([50e3, 50e3], [40e3, 41e3])
+
+
+@pytest.mark.parametrize("phi", [0.0, 0.8])
+def test_standard_error_of_a_correlated_record(phi: float) -> None:
+    # Reference: an AR(1) series x_k = phi x_{k-1} + e_k has n_eff -> n (1 - phi) / (1 + phi) and its mean a
+    # standard error sigma_x / sqrt(n_eff). Over 200 records of 4000 samples the spread of the means must match the
+    # average reported sem within 15 % (the spread of 200 means is itself uncertain by 1/sqrt(400) = 5 %, and
+    # the truncated autocorrelation sum is biased low by a few % at phi = 0.8).
+    rng = np.random.default_rng(1)
+    n, reps = 4000, 200
+    means, sems, neffs = [], [], []
+    for _ in range(reps):
+        e = rng.normal(size=n + 200)
+        x = np.empty_like(e)
+        x[0] = e[0]
+        for k in range(1, len(e)):
+            x[k] = phi * x[k - 1] + e[k]
+        x = x[200:]
+        st = analysis.steady_state(np.arange(n) * 1e-3, x, np.ones(n), start_travel=0.5)
+        means.append(st.mean)
+        sems.append(st.sem)
+        neffs.append(analysis.effective_samples(x))
+    assert np.mean(neffs) == pytest.approx(n * (1 - phi) / (1 + phi), rel=0.15)
+    assert np.mean(sems) == pytest.approx(np.std(means), rel=0.15)

@@ -127,12 +127,15 @@ class SteadyState:
         std: standard deviation [units of the signal] (numpy's, ddof as requested).
         n: number of samples used.
         t_start: time of the first sample used [s].
+        sem: standard error of the mean [units of the signal]: std / sqrt(n_eff), with n_eff the effective number
+            of independent samples of the correlated signal (:func:`effective_samples`).
     """
 
     mean: float
     std: float
     n: int
     t_start: float
+    sem: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -688,9 +691,26 @@ def steady_state(t: object, x: object, travel: object, *, start_travel: float = 
             f"found {n} (largest travel {float(travel.max())!r} m)"
         )
     values = x[steady]
-    return SteadyState(
-        mean=float(values.mean()), std=float(values.std(ddof=ddof)), n=n, t_start=float(t[np.argmax(steady)])
-    )
+    std = float(values.std(ddof=ddof))
+    return SteadyState(mean=float(values.mean()), std=std, n=n, t_start=float(t[np.argmax(steady)]),
+                       sem=std / math.sqrt(effective_samples(values)) if n > 1 else math.nan)
+
+
+def effective_samples(x: object) -> float:
+    """Effective number of independent samples of a correlated series (n,): n / (1 + 2 sum_k rho_k), the
+    autocorrelations rho_k summed up to the first non-positive one (Geyer's initial positive sequence, simplified).
+    For an AR(1) series with coefficient phi it tends to n (1 - phi) / (1 + phi); for white noise to n."""
+    x = _finite_1d("x", x, min_size=2)
+    x = x - x.mean()
+    n = len(x)
+    var = float(x @ x)
+    if var == 0.0:
+        return float(n)
+    spec = np.fft.rfft(x, 2 * n)  # autocorrelation by FFT: O(n log n) for long records
+    rho = np.fft.irfft(spec * np.conj(spec))[:n] / var
+    nonpos = np.flatnonzero(rho[1:] <= 0)
+    stop = int(nonpos[0]) + 1 if len(nonpos) else n
+    return float(min(n, n / (1.0 + 2.0 * rho[1:stop].sum())))
 
 
 def mohr_coulomb(normal_stress: object, shear_stress: object) -> MohrCoulomb:
