@@ -244,6 +244,10 @@ def calibrate(problem, settings: GASettings | None = None, *, out: str | Path | 
         _atomic_json(out_dir / META_FILE, meta)
     if archive is not None:
         cal.archive.merge(Archive.load(archive))
+        for r in cal.archive:  # another calibration's targets: rescore its observables against ours
+            if r.stage == "archive":
+                r.errors = problem.errors(r.observables)
+                r.fitness = problem.fitness_of(r.errors)
     if ga is None:
         ga = cal.make_ga()
         ga.on_start = cal.on_start

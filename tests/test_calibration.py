@@ -119,6 +119,12 @@ def test_archive_is_reused_and_guarded(tmp_path) -> None:
     p = Oscillator()
     again = calibrate(p, settings, out=tmp_path / "b", archive=tmp_path / "a" / "archive.json")
     assert p.calls == [] and again.n_simulated == 0
+    # reused under other targets, the stored observables are rescored against the new ones
+    q = Oscillator()
+    q.targets = {"freq_hz": 5.0, "damping": 0.1}
+    other_targets = calibrate(q, settings, archive=tmp_path / "a" / "archive.json")
+    r = other_targets.archive.records[0]
+    assert r.errors["re_freq"] == pytest.approx(abs(r.observables["freq_hz"] / 5.0 - 1), rel=1e-12)
     other = Archive(["stiffness", "damping_ratio"], {"rig": "something else"})
     other.save(tmp_path / "other.json")
     with pytest.raises(ValueError, match="different simulation"):
