@@ -24,11 +24,13 @@ def run_calibration(kind: str, out: str | Path, *, settings: GASettings | None =
                     ray_workers: int | None = None, ray_address: str | None = None, gpus_per_worker: float = 0.0,
                     screen_scale: str | None = None, screen_top: int = 6, archive: str | Path | None = None,
                     resume: bool = True, progress: Callable[[dict[str, object]], None] | None = None,
+                    screen_progress: Callable[[str, float, float], None] | None = None,
                     **problem_kwargs: object) -> tuple[CalibrationResult, dict[str, object]]:
     """Calibrate, screen (draught: the accepted sets, at most ``screen_top`` of them, in the shear box at
     ``screen_scale``; None skips it) and write the report into ``out``.
 
     ``ray_workers`` or ``ray_address``: evaluate through :class:`~calibration.evaluators.RayEvaluator`.
+    ``screen_progress(phase, done, total)``: the shear box's progress (simulated times [s]).
     ``problem_kwargs``: the problem's fields (:mod:`calibration.problems`). Returns the result and a summary dict.
     """
     out = Path(out)
@@ -51,7 +53,7 @@ def run_calibration(kind: str, out: str | Path, *, settings: GASettings | None =
         if screen_scale is not None and accepted:
             t0 = time.perf_counter()
             screening = screen([r.genes for r in accepted[:screen_top]], problem.assembly, screen_scale,
-                               device=device)
+                               device=device, progress=screen_progress)
             extra["screening_wall_s"] = time.perf_counter() - t0
     write_report(result, problem, out, screening=screening, extra=extra)
     return result, {"best": result.best, "screening": screening, **extra}

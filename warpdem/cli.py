@@ -270,7 +270,8 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
         args.kind, out, settings=settings, device=device, ray_workers=args.ray_workers, ray_address=args.ray_address,
         gpus_per_worker=1.0 if (device.startswith("cuda") and (args.ray_workers or args.ray_address)) else 0.0,
         screen_scale=(args.screen_scale or args.scale) if args.kind == "draught" else None, archive=args.archive,
-        resume=not args.no_resume, progress=show, genes=genes, **kw)
+        resume=not args.no_resume, progress=show, genes=genes,
+        screen_progress=lambda ph, d, n: _bar(f"screening: shear box {ph}", int(1e6 * d), int(1e6 * n)), **kw)
     best = result.best
     print(f"best: {best.genes} -> {best.observables}, errors {best.errors}, fitness {best.fitness:.4g}")
     if summary.get("screening"):
