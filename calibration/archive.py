@@ -19,6 +19,15 @@ from pathlib import Path
 import numpy as np
 
 
+def write_json_atomic(path: str | Path, data: object) -> None:
+    """Write JSON through a temporary file and a rename: a run killed while writing leaves the old file intact."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(data, indent=1))
+    os.replace(tmp, path)
+
+
 @dataclass
 class Record:
     """One evaluated individual. ``genes``: name -> value [SI]; ``observables``: name -> value (NaN where the
@@ -99,11 +108,7 @@ class Archive:
     def save(self, path: str | Path) -> None:
         """Write JSON atomically (a run killed while writing leaves the previous file intact). NaN is written as
         JSON's NaN literal (Python reads it back)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(path.suffix + ".tmp")
-        tmp.write_text(json.dumps(self.to_dict(), indent=1))
-        os.replace(tmp, path)
+        write_json_atomic(path, self.to_dict())
 
     @classmethod
     def load(cls, path: str | Path) -> Archive:

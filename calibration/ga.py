@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .archive import Archive, Record
+from .archive import Archive, Record, write_json_atomic
 from .genes import GASettings
 
 STATE_FILE, ARCHIVE_FILE, META_FILE, HISTORY_FILE = "ga_state", "archive.json", "calibration.json", "history.json"
@@ -54,12 +54,6 @@ class CalibrationResult:
     def n_simulated(self) -> int:
         """individuals simulated by this calibration (archive records loaded from elsewhere excluded)."""
         return sum(1 for r in self.archive if r.stage != "archive")
-
-
-def _atomic_json(path: Path, data: object) -> None:
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(data, indent=1))
-    os.replace(tmp, path)
 
 
 class _Calibration:
@@ -114,7 +108,7 @@ class _Calibration:
         self._batch_count, self._batch_wall = 0, 0.0
         self.history.append(entry)
         if self.out is not None:
-            _atomic_json(self.out / HISTORY_FILE, self.history)
+            write_json_atomic(self.out / HISTORY_FILE, self.history)
         if self.progress is not None:
             self.progress(entry)
 
@@ -241,7 +235,7 @@ def calibrate(problem, settings: GASettings | None = None, *, out: str | Path | 
         else:
             for f in (STATE_FILE + ".pkl", ARCHIVE_FILE, HISTORY_FILE):
                 (out_dir / f).unlink(missing_ok=True)
-        _atomic_json(out_dir / META_FILE, meta)
+        write_json_atomic(out_dir / META_FILE, meta)
     if archive is not None:
         cal.archive.merge(Archive.load(archive))
         for r in cal.archive:  # another calibration's targets: rescore its observables against ours

@@ -17,6 +17,7 @@ stiffest individual the gene ranges allow), so an individual's result does not d
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -25,6 +26,7 @@ import warpdem as wd
 from scenes import paper
 from scenes.ringing import RingingConfig, build_ringing, run_ringing
 from scenes.soil_bin import SCALES, SoilBinConfig, bed_for, run_soil_bin
+from warpdem import analysis
 
 from .genes import FITNESS_MODES, Gene, with_ranges
 
@@ -50,15 +52,16 @@ DRAUGHT_GENES = (
 eta_roll = eta_twist."""
 
 
-def relative_error(sim: float, target: float) -> float:
-    """(sim - target) / target, eqs. (8), (9), (11) before the absolute value; NaN when ``sim`` is not finite."""
-    return (sim - target) / target if math.isfinite(sim) else math.nan
+def _magnitude(sim: float, target: float) -> float:
+    """|sim - target| / target (eqs. 8, 9), NaN when the simulation gave no value."""
+    return float(analysis.relative_error(sim, target)) if math.isfinite(sim) else math.nan
 
 
-def _inverse(x: float) -> float:
-    if not math.isfinite(x):
+def _capped(fitness: Callable[..., float], *errors: float) -> float:
+    """An analysis fitness (eq. 7 or 10) capped at FITNESS_CAP; 0 when an error is NaN (no observable)."""
+    if not all(math.isfinite(e) for e in errors):
         return 0.0
-    return FITNESS_CAP if x <= 1.0 / FITNESS_CAP else 1.0 / x
+    return min(fitness(*errors), FITNESS_CAP)
 
 
 @dataclass
@@ -139,14 +142,16 @@ class RingingProblem:
 
     def errors(self, obs: dict[str, float]) -> dict[str, float]:
         """Relative errors of eqs. (8), (9) with their absolute values [-]."""
-        return {"re_freq": abs(relative_error(obs["freq_hz"], self.targets["freq_hz"])),
-                "re_damp": abs(relative_error(obs["damping"], self.targets["damping"]))}
+        return {"re_freq": _magnitude(obs["freq_hz"], self.targets["freq_hz"]),
+                "re_damp": _magnitude(obs["damping"], self.targets["damping"])}
 
     def fitness_of(self, errors: dict[str, float]) -> float:
         """Eq. (7) ``1 / (RE_freq RE_damp)`` ("paper") or ``1 / max(RE_freq, RE_damp)`` ("max"); 0 when the
         simulation gave no frequency (too few peaks)."""
         ef, ed = errors["re_freq"], errors["re_damp"]
-        return _inverse(ef * ed if self.fitness == "paper" else max(ef, ed))
+        if self.fitness == "paper":
+            return _capped(analysis.ringing_fitness, ef, ed)
+        return _capped(lambda a, b: math.inf if max(a, b) == 0.0 else 1.0 / max(a, b), ef, ed)
 
 
 def draught_target(speed: float = 0.62) -> float:
@@ -236,11 +241,12 @@ class DraughtProblem:
 
     def errors(self, obs: dict[str, float]) -> dict[str, float]:
         """Eq. (11)'s relative error, signed [-] (the fitness takes its absolute value)."""
-        return {"re_draught": relative_error(obs["draught_mean_n"], self.targets["draught_mean_n"])}
+        sim, target = obs["draught_mean_n"], self.targets["draught_mean_n"]
+        return {"re_draught": (sim - target) / target if math.isfinite(sim) else math.nan}
 
     def fitness_of(self, errors: dict[str, float]) -> float:
         """Eq. (10) with the absolute relative error: 1 / |RE|."""
-        return _inverse(abs(errors["re_draught"]))
+        return _capped(analysis.draught_fitness, errors["re_draught"])
 
     def accepted(self, errors: dict[str, float]) -> bool:
         return abs(errors["re_draught"]) < ACCEPT_RE

@@ -12,25 +12,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import numpy as np
-
-from scenes import paper
 from scenes.assemblies import Bed
-from scenes.shear_box import LAB_MOISTURE, preset, run_shear_boxes
-
-
-def lab_strength(moisture_pct: float = LAB_MOISTURE) -> tuple[float, float]:
-    """The laboratory shear box's cohesion [kPa] and internal friction angle [deg] at the moisture nearest to
-    ``moisture_pct`` [% dry basis]."""
-    lab = paper.table("direct_shear_lab")
-    row = int(np.argmin(np.abs(lab["moisture_pct_db"] - moisture_pct)))
-    return float(lab["cohesion_kpa"][row]), float(lab["internal_friction_angle_deg"][row])
+from scenes.shear_box import lab_distance, lab_strength, preset, run_shear_boxes
 
 
 def distance(cohesion_kpa: float, friction_deg: float, lab: tuple[float, float] | None = None) -> float:
-    """(dc / c_lab)^2 + (dphi / phi_lab)^2 [-]."""
-    c_lab, phi_lab = lab or lab_strength()
-    return float(((cohesion_kpa - c_lab) / c_lab) ** 2 + ((friction_deg - phi_lab) / phi_lab) ** 2)
+    """(dc / c_lab)^2 + (dphi / phi_lab)^2 [-] (:func:`scenes.shear_box.lab_distance`)."""
+    return float(lab_distance(cohesion_kpa, friction_deg, lab))
 
 
 def screen(sets: Sequence[dict[str, float]], assembly: str = "C", scale: str = "ci", *, device: str | None = None,

@@ -110,18 +110,29 @@ _MESHES = ("lower", "floor", "upper", "plate")
 
 
 # --------------------------------------------------------------------------------------------------- parameters
+def lab_strength(moisture_pct: float = LAB_MOISTURE) -> tuple[float, float]:
+    """The laboratory shear box's cohesion [kPa] and internal friction angle [deg] at the moisture nearest to
+    ``moisture_pct`` [% dry basis] (section 2.3)."""
+    lab = paper.table("direct_shear_lab")
+    row = int(np.argmin(np.abs(lab["moisture_pct_db"] - moisture_pct)))
+    return float(lab["cohesion_kpa"][row]), float(lab["internal_friction_angle_deg"][row])
+
+
+def lab_distance(cohesion_kpa: float | np.ndarray, friction_deg: float | np.ndarray,
+                 lab: tuple[float, float] | None = None) -> float | np.ndarray:
+    """Distance of a Mohr-Coulomb result to the laboratory's: (dc / c_lab)^2 + (dphi / phi_lab)^2 [-]."""
+    c_lab, phi_lab = lab or lab_strength()
+    return ((np.asarray(cohesion_kpa) - c_lab) / c_lab) ** 2 + ((np.asarray(friction_deg) - phi_lab) / phi_lab) ** 2
+
+
 def closest_ga_set(kind: str) -> int:
     """The paper's GA set (Tables 4-6) of assembly ``kind`` whose DEM shear box (c, phi) is closest to the
-    laboratory result at :data:`LAB_MOISTURE`, by (dc / c_lab)^2 + (dphi / phi_lab)^2."""
+    laboratory result at :data:`LAB_MOISTURE`, by :func:`lab_distance`."""
     ga = paper.table("ga_sets")
-    lab = paper.table("direct_shear_lab")
-    row = int(np.argmin(np.abs(lab["moisture_pct_db"] - LAB_MOISTURE)))
-    c_lab, phi_lab = lab["cohesion_kpa"][row], lab["internal_friction_angle_deg"][row]
     sel = np.flatnonzero(ga["assembly"] == kind)
     if len(sel) == 0:
         raise ValueError(f"no GA set for assembly {kind!r}")
-    err = ((ga["shear_box_cohesion_kpa"][sel] - c_lab) / c_lab) ** 2 + (
-        (ga["shear_box_friction_angle_deg"][sel] - phi_lab) / phi_lab) ** 2
+    err = lab_distance(ga["shear_box_cohesion_kpa"][sel], ga["shear_box_friction_angle_deg"][sel])
     return int(ga["set"][sel[np.argmin(err)]])
 
 

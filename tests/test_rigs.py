@@ -8,6 +8,7 @@ from conftest import DEVICE
 
 from scenes import ringing
 from scenes import soil_bin as sb
+from warpdem import analysis
 
 
 def test_ringing_linear_model_matches_the_analytic_rig() -> None:
@@ -30,14 +31,9 @@ def ci_bed():
     return sb.bed_for(sb.SoilBinConfig(scale="ci", assembly="A"), device=DEVICE)
 
 
-def _effective_samples(x: np.ndarray) -> float:
-    """Effective number of independent samples of a correlated series, n / (1 + 2 sum rho_k), the sum of the
-    autocorrelation rho_k taken up to its first non-positive value (the initial-positive-sequence estimate)."""
-    x = x - x.mean()
-    n = len(x)
-    rho = np.correlate(x, x, "full")[n - 1:] / (x @ x)
-    first_neg = np.argmax(rho[1:] <= 0) + 1 if np.any(rho[1:] <= 0) else n
-    return n / (1 + 2 * rho[1:first_neg].sum())
+def _sem(x: np.ndarray) -> float:
+    """standard error of the mean of a correlated record: std / sqrt(n_eff)."""
+    return float(x.std() / np.sqrt(analysis.effective_samples(x)))
 
 
 def _rigid(bed, depth: float) -> dict:
@@ -59,9 +55,9 @@ def test_rigid_draught_grows_with_depth_and_is_steady(ci_bed) -> None:
         run = r["run"]
         travel = run.travel[:, 0]
         x = run.series["draught"][travel >= sb.SCALES["ci"]["steady_travel"], 0]
-        r["sem"] = x.std() / np.sqrt(_effective_samples(x))
+        r["sem"] = _sem(x)
         a, b = np.array_split(x, 2)
-        sem_halves = np.hypot(a.std() / np.sqrt(_effective_samples(a)), b.std() / np.sqrt(_effective_samples(b)))
+        sem_halves = np.hypot(_sem(a), _sem(b))
         assert abs(a.mean() - b.mean()) < 3 * sem_halves
     gap = deep["draught_mean"] - shallow["draught_mean"]
     assert gap > 2 * np.hypot(deep["sem"], shallow["sem"]), (shallow["draught_mean"], deep["draught_mean"])
