@@ -195,3 +195,97 @@ def test_hinged_pendulum_period_and_moving_pivot() -> None:
     np.testing.assert_allclose(pivots[:, 0], 0.0, atol=1e-12)
     np.testing.assert_allclose(pivots[:, 1], t[:, None] * speed, atol=1e-12)
     assert body == 0
+
+
+def _peaks(x: np.ndarray) -> np.ndarray:
+    return np.nonzero((x[1:-1] > x[:-2]) & (x[1:-1] >= x[2:]))[0] + 1
+
+
+def test_progressive_spring_period_and_mass_override() -> None:
+    # Reference: an undamped Duffing oscillator m x'' = -(k x + k3 x^3) released from rest at amplitude A has the
+    # period T = 4 int_0^A dx / sqrt(2 (V(A) - V(x)) / m), V = k x^2/2 + k3 x^4/4 (exact, by quadrature); a
+    # ``body:<name>:mass`` override gives world 1 a mass 2.25 times heavier (period 1.5 times longer for k3 = 0).
+    # Tolerance: 2e-3 on the period (dt = 1e-5 s against periods of 0.04-0.1 s, zero crossings interpolated);
+    # energy (kinetic + spring) conserved within 1e-2: the leapfrog's velocity lags the position by dt/2, a ripple
+    # of order omega dt in the sampled energy (the stiffest tangent, k + 3 k3 A^2, gives omega dt = 5e-3).
+    from scipy.integrate import quad
+
+    m, k, k3, amp = 2.0, 2.0e4, 4.0e8, 0.02
+    b = wd.ModelBuilder(gravity=(0, 0, 0))
+    carriage = b.add_rigid_body((0, 0, 0), name="carriage")
+    body = b.add_rigid_body((0.1 + amp, 0, 0), mass=m, inertia=np.eye(3) * 1e-3, blocked="yzXYZ", name="mass")
+    b.add_spring("s", carriage, (0, 0, 0), body, (0.1 + amp, 0, 0), stiffness=k, rest_length=0.1)
+    model, state = b.finalize(DEVICE, n_worlds=3, overrides={"spring:s:progressive": [k3, 0.0, 0.0],
+                                                              "body:mass:mass": [m, m, 2.25 * m]})
+    dt = 1e-5
+    sim = wd.Simulation(model, state, dt=dt, track_energy=True)
+    out = sim.run(25000, record_every=1, observers={
+        "x": lambda s: s.state.body_pos.numpy()[body::2, 0] - 0.1,
+        "e": lambda s: wd.observers.kinetic_energy(s) + wd.observers.spring_elastic_energy(s),
+    })
+    x, t = out["x"], out["time"]
+
+    def v(y: float, kk3: float) -> float:
+        return 0.5 * k * y**2 + 0.25 * kk3 * y**4
+
+    def period(kk3: float, mass: float) -> float:
+        return 4 * quad(lambda y: 1 / np.sqrt(2 * (v(amp, kk3) - v(y, kk3)) / mass), 0, amp, limit=200)[0]
+
+    for world, (kk3, mass) in enumerate([(k3, m), (0.0, m), (0.0, 2.25 * m)]):
+        xw = x[:, world]
+        up = np.nonzero((xw[:-1] < 0) & (xw[1:] >= 0))[0]
+        tz = t[up] - dt * xw[up] / (xw[up + 1] - xw[up])
+        assert (tz[-1] - tz[0]) / (len(tz) - 1) == pytest.approx(period(kk3, mass), rel=2e-3)
+        e = out["e"][1:, world]  # from the first step on (the spring force is computed by a step)
+        assert np.ptp(e) < 1e-2 * e.mean()
+    assert period(k3, m) < 0.8 * period(0.0, m)  # the cubic term matters at this amplitude
+
+
+def test_pivot_friction_decays_linearly_and_sticks() -> None:
+    # Reference: a pendulum hinged about x (rotational stiffness K = m g d for small angles, inertia I_p) with dry
+    # friction torque T at the pivot loses 2 T / K of amplitude every half swing (free vibration with Coulomb
+    # friction; the period stays 2 pi sqrt(I_p / K)) and stops for good once the amplitude is below 3 T / K,
+    # inside the dead band |theta| <= T / K, with omega exactly 0. World 0 (T = 0) keeps its amplitude.
+    # Tolerance: 2 % of the per-swing loss (the small-angle sin theta ~ theta error at theta0 = 0.02 rad is
+    # 7e-5 relative; dt = 1e-4 s on a 1.1 s period).
+    m, d = 2.0, 0.3
+    inertia = np.diag([0.05, 0.045, 0.012])
+    theta0 = 0.02
+    b = wd.ModelBuilder(gravity=(0, 0, -9.81))
+    b.add_rigid_body((0, d * np.sin(theta0), -d * np.cos(theta0)), mass=m, inertia=inertia, blocked="YZ",
+                     pivot=(0, 0, 0), name="tool")
+    stiff = m * 9.81 * d
+    torque = 0.08 * stiff * theta0 / 2  # 8 % of the amplitude lost per half swing
+    model, state = b.finalize(DEVICE, n_worlds=2, overrides={"body:tool:pivot_friction": [0.0, torque]})
+    sim = wd.Simulation(model, state, dt=1e-4)
+
+    def angle(s: wd.Simulation) -> np.ndarray:
+        p = s.state.body_pos.numpy()
+        return np.arctan2(p[:, 1], -p[:, 2])
+
+    out = sim.run(150000, record_every=10, observers={"theta": angle,
+                                                       "omega": lambda s: s.state.body_angvel.numpy()[:, 0]})
+    th = out["theta"]
+    swings = np.abs(th[_peaks(np.abs(th[:, 1])), 1])
+    swings = swings[swings > 3 * torque / stiff]
+    loss = -np.diff(np.concatenate([[theta0], swings]))
+    np.testing.assert_allclose(loss, 2 * torque / stiff, rtol=2e-2)
+    assert len(swings) >= 10
+    assert abs(th[-1, 1]) <= torque / stiff * (1 + 1e-6)
+    assert out["omega"][-1, 1] == 0.0 and np.ptp(th[-500:, 1]) < 1e-12
+    free = np.abs(th[_peaks(np.abs(th[:, 0])), 0])
+    np.testing.assert_allclose(free, theta0, rtol=1e-3)
+
+
+def test_body_overrides_are_checked() -> None:
+    b = wd.ModelBuilder()
+    b.add_rigid_body((0, 0, 0), mass=1.0, inertia=np.eye(3), blocked="", name="ball")
+    b.add_rigid_body((1, 0, 0), name="wall")
+    with pytest.raises(wd.InputError, match="pivot_friction.*not hinged"):
+        b.finalize(DEVICE, overrides={"body:ball:pivot_friction": [1.0]})
+    with pytest.raises(wd.InputError, match="mass must be positive"):
+        b.finalize(DEVICE, overrides={"body:ball:mass": [0.0]})
+    with pytest.raises(wd.InputError, match="no mass to scale"):
+        b.finalize(DEVICE, overrides={"body:wall:mass": [1.0]})
+    with pytest.raises(wd.InputError, match="progressive"):
+        b.add_spring("s", 0, (0, 0, 0), 1, (1, 0, 0), stiffness=1.0, progressive=-1.0)

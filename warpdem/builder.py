@@ -53,8 +53,11 @@ class _Spring:
     damping: float
     rest_length: float
     preload: float
+    progressive: float = 0.0
 
 
+SPRING_FIELDS = ("stiffness", "damping", "rest_length", "preload", "progressive")
+"""per-spring parameters a world may override."""
 _BODY_FIELDS = ("pos", "quat", "vel", "angvel", "mass", "inertia", "density_material", "group", "blocked", "pivot")
 
 
@@ -408,11 +411,14 @@ class ModelBuilder:
         damping: float = 0.0,
         rest_length: float | None = None,
         preload: float = 0.0,
+        progressive: float = 0.0,
     ) -> int:
-        """Linear spring-dashpot between a point of body a and a point of body b (points in the world [m], now).
+        """Spring-dashpot between a point of body a and a point of body b (points in the world [m], now).
 
-        Force along the line a->b, tension positive: F = preload + stiffness*(L - rest_length) + damping*dL/dt,
-        stiffness [N/m], damping [N s/m], rest_length [m] (default: the current distance), preload [N].
+        Force along the line a->b, tension positive: F = preload + stiffness*u + progressive*u^3 + damping*dL/dt
+        with u = L - rest_length; stiffness [N/m], progressive [N/m^3] (0: linear; > 0 stiffens with the
+        deflection either way, a Duffing spring), damping [N s/m], rest_length [m] (default: the current
+        distance), preload [N].
         """
         for label, b in (("body_a", body_a), ("body_b", body_b)):
             if check_int(label, b) >= self._n_bodies:
@@ -422,13 +428,15 @@ class ModelBuilder:
         pa, pb = check_vec3("point_a", point_a), check_vec3("point_b", point_b)
         check_nonnegative("stiffness", stiffness)
         check_nonnegative("damping", damping)
+        check_nonnegative("progressive", progressive)
         length = float(np.linalg.norm(pb - pa)) if rest_length is None else float(rest_length)
         check_nonnegative("rest_length", length)
         if any(s.name == name for s in self.springs):
             raise InputError(f"spring name {name!r} is already used")
         la = (pa - self.body_array("pos")[body_a]) @ massprops.quat_to_matrix(self.body_array("quat")[body_a])
         lb = (pb - self.body_array("pos")[body_b]) @ massprops.quat_to_matrix(self.body_array("quat")[body_b])
-        self.springs.append(_Spring(name, body_a, la, body_b, lb, stiffness, damping, length, float(preload)))
+        self.springs.append(_Spring(name, body_a, la, body_b, lb, stiffness, damping, length, float(preload),
+                                    float(progressive)))
         return len(self.springs) - 1
 
     # ---------------------------------------------------------------- finalize
@@ -443,9 +451,12 @@ class ModelBuilder:
             overrides: per-world parameters, name -> values of length n_worlds:
                 ``material:<name>:<field>`` (fields: young, poisson, density, friction_angle [deg],
                 normal_cohesion, shear_cohesion, eta_roll, eta_twist, alpha_kr, alpha_ktw),
-                ``spring:<name>:<stiffness|damping|rest_length|preload>``, ``damping:<group>``,
+                ``spring:<name>:<stiffness|damping|rest_length|preload|progressive>``, ``damping:<group>``,
                 ``body:<name>:velocity`` and ``body:<name>:angular_velocity`` (shape (n_worlds, 3); for a hinged
-                body, the pivot's velocity).
+                body, the pivot's velocity), ``body:<name>:mass`` [kg] (mass and inertia tensor scaled together,
+                i.e. added mass distributed like the body's own) and ``body:<name>:pivot_friction`` [N m] (a
+                hinged body's dry friction torque at its pivot: Coulomb, opposing the rotation, sticking when the
+                other torques cannot overcome it).
         """
         try:
             dev = wp.get_device(device)
@@ -473,10 +484,12 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
     for f in MATERIAL_FIELDS:
         t[f] = np.tile(np.array([getattr(m, f) for m in b.materials], dtype=np.float64), (n_worlds, 1))
     t["damping"] = np.tile(np.array(b.group_damping, dtype=np.float64), (n_worlds, 1))
-    for f in ("stiffness", "damping", "rest_length", "preload"):
+    for f in SPRING_FIELDS:
         t["spring_" + f] = np.tile(np.array([getattr(s, f) for s in b.springs], dtype=np.float64), (n_worlds, 1))
     t["vel"] = np.tile(b.body_array("vel").reshape(nb, 3), (n_worlds, 1, 1))
     t["angvel"] = np.tile(b.body_array("angvel").reshape(nb, 3), (n_worlds, 1, 1))
+    t["mass"] = np.tile(b.body_array("mass"), (n_worlds, 1))
+    t["pivot_friction"] = np.zeros((n_worlds, nb))
     spring_names = {s.name: i for i, s in enumerate(b.springs)}
     for key, values in overrides.items():
         parts = key.split(":")
@@ -491,7 +504,7 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
         elif parts[0] == "spring" and len(parts) == 3:
             if parts[1] not in spring_names:
                 raise InputError(f"override {key!r}: unknown spring {parts[1]!r}")
-            check_choice(f"override {key!r} field", parts[2], ("stiffness", "damping", "rest_length", "preload"))
+            check_choice(f"override {key!r} field", parts[2], SPRING_FIELDS)
             col = _per_world(key, values, n_worlds)
             if parts[2] != "preload":
                 check_nonnegative(f"override {key!r}", col)
@@ -509,10 +522,25 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
             t["vel" if parts[2] == "velocity" else "angvel"][:, b.body_names[parts[1]]] = _per_world(
                 key, values, n_worlds, (3,)
             )
+        elif parts[0] == "body" and len(parts) == 3 and parts[2] in ("mass", "pivot_friction"):
+            if parts[1] not in b.body_names:
+                raise InputError(f"override {key!r}: unknown body {parts[1]!r}")
+            idx = b.body_names[parts[1]]
+            col = _per_world(key, values, n_worlds)
+            if parts[2] == "mass":
+                if not b.body_array("mass")[idx] > 0:
+                    raise InputError(f"override {key!r}: body {parts[1]!r} has no mass to scale")
+                if np.any(col <= 0):
+                    raise InputError(f"override {key!r}: mass must be positive, got {col.tolist()}")
+            else:
+                check_nonnegative(f"override {key!r}", col)
+                if np.isnan(b.body_array("pivot")[idx, 0]):
+                    raise InputError(f"override {key!r}: body {parts[1]!r} is not hinged (it has no pivot)")
+            t[parts[2]][:, idx] = col
         else:
             raise InputError(
                 f"unknown override {key!r}; expected material:<name>:<field>, spring:<name>:<field>, "
-                "damping:<group> or body:<name>:velocity|angular_velocity"
+                "damping:<group> or body:<name>:velocity|angular_velocity|mass|pivot_friction"
             )
     return t
 
@@ -536,6 +564,8 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
     has = dmat >= 0
     if nm:
         scale[:, has] = t["density"][:, dmat[has]] / base_rho[dmat[has]]
+    # a body:<name>:mass override scales mass and inertia together
+    scale = scale * np.where(mass0 > 0, t["mass"] / np.where(mass0 > 0, mass0, 1.0), 1.0)
     mass = (scale * mass0).reshape(-1)
     inertia = (scale[:, :, None] * inertia0).reshape(-1, 3)
     flags = b.body_array("blocked").astype(np.int32)
@@ -617,6 +647,7 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         body_inertia=arr(inertia, wp.vec3d),
         body_pivot=arr(np.tile(pivot_local, (W, 1)), wp.vec3d),
         body_pivot_vel=arr(pivot_vel, wp.vec3d),
+        body_pivot_friction=arr(t["pivot_friction"].reshape(-1), wp.float64),
         sphere_body=arr(sphere_body, wp.int32),
         sphere_world=arr(sphere_world, wp.int32),
         sphere_material=arr(np.tile(sph_mat, W), wp.int32),
@@ -648,6 +679,7 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         spring_damping=arr(t["spring_damping"].reshape(-1).astype(np.float32), wp.float32),
         spring_rest_length=arr(t["spring_rest_length"].reshape(-1).astype(np.float32), wp.float32),
         spring_preload=arr(t["spring_preload"].reshape(-1).astype(np.float32), wp.float32),
+        spring_progressive=arr(t["spring_progressive"].reshape(-1).astype(np.float32), wp.float32),
         names={
             "body": dict(b.body_names),
             "material": dict(b.material_names),

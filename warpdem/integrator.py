@@ -83,6 +83,7 @@ def integrate_hinged(
     inertia: wp.vec3d,
     pivot_local: wp.vec3d,
     pivot_vel: wp.vec3d,
+    friction: wp.float64,
     gravity: wp.vec3d,
     dt: wp.float64,
     lam: wp.float64,
@@ -94,7 +95,12 @@ def integrate_hinged(
     body_angvel: wp.array(dtype=wp.vec3d),
     body_angmom: wp.array(dtype=wp.vec3d),
 ) -> wp.float64:
-    """One leapfrog step of a body hinged at a pivot moving at constant velocity; returns the damping work [J]."""
+    """One leapfrog step of a body hinged at a pivot moving at constant velocity; returns the work of local
+    damping and pivot friction [J].
+
+    Pivot friction: a torque of magnitude ``friction`` opposing the trial angular velocity omega + dt alpha; when
+    it would reverse that velocity within the step the body sticks (omega = 0), which is exact stick-slip for one
+    free rotation."""
     q = body_quat[b]
     omega = body_angvel[b]
     rot = wp.quat_to_matrix(q)
@@ -107,7 +113,17 @@ def integrate_hinged(
     alpha = solve_free_rotations(i_p, t_p - wp.cross(omega, i_p * omega), flags)
     alpha_d = damp(alpha, omega, dt, lam)
     work = wp.abs(wp.dot(i_p * (alpha - alpha_d), omega)) * dt
-    omega = omega + dt * alpha_d
+    omega_trial = omega + dt * alpha_d
+    omega = omega_trial
+    speed = wp.length(omega_trial)
+    if friction > wp.float64(0.0) and speed > wp.float64(0.0):
+        u = omega_trial / speed
+        d_omega = dt * solve_free_rotations(i_p, friction * u, flags)
+        if wp.dot(d_omega, u) >= speed:
+            omega = wp.vec3d(wp.float64(0.0), wp.float64(0.0), wp.float64(0.0))  # sticks
+        else:
+            omega = omega_trial - d_omega
+        work += friction * wp.length(omega) * dt
     q_new = quat_integrate(q, omega, dt)
     arm_new = wp.quat_rotate(q_new, pivot_local)
     body_pos[b] = p + dt * pivot_vel - arm_new
@@ -129,6 +145,7 @@ def integrate_bodies_kernel(
     body_inertia: wp.array(dtype=wp.vec3d),
     body_pivot: wp.array(dtype=wp.vec3d),
     body_pivot_vel: wp.array(dtype=wp.vec3d),
+    body_pivot_friction: wp.array(dtype=wp.float64),
     group_damping: wp.array(dtype=float),
     n_groups: int,
     gravity: wp.vec3d,
@@ -159,9 +176,11 @@ def integrate_bodies_kernel(
     m = body_mass[b]
     f = wp.vec3d(body_force[b])
     if (flags & FLAG_PIVOT) != 0:
-        work = integrate_hinged(b, flags, m, body_inertia[b], body_pivot[b], body_pivot_vel[b], gravity, dt, lam, f,
-                                wp.vec3d(body_torque[b]), body_pos, body_quat, body_vel, body_angvel, body_angmom)
-        if track_energy != 0 and lam > wp.float64(0.0):
+        friction = body_pivot_friction[b]
+        work = integrate_hinged(b, flags, m, body_inertia[b], body_pivot[b], body_pivot_vel[b], friction, gravity,
+                                dt, lam, f, wp.vec3d(body_torque[b]), body_pos, body_quat, body_vel, body_angvel,
+                                body_angmom)
+        if track_energy != 0 and (lam > wp.float64(0.0) or friction > wp.float64(0.0)):
             wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, work)
         return
     a = f / m + gravity
@@ -268,6 +287,7 @@ def spring_kernel(
     damping: wp.array(dtype=float),
     rest_length: wp.array(dtype=float),
     preload: wp.array(dtype=float),
+    progressive: wp.array(dtype=float),
     body_world: wp.array(dtype=int),
     dt: float,
     track_energy: int,
@@ -282,7 +302,8 @@ def spring_kernel(
     spring_force: wp.array(dtype=float),
     energy: wp.array(dtype=wp.float64),
 ):
-    """Linear spring-dashpot: F = preload + k (L - L0) + c dL/dt along a->b (tension > 0) pulls a and b together."""
+    """Spring-dashpot: F = preload + k u + k3 u^3 + c dL/dt, u = L - L0, along a->b (tension > 0 pulls a and b
+    together)."""
     s = wp.tid()
     a = spring_body_a[s]
     b = spring_body_b[s]
@@ -296,7 +317,8 @@ def spring_kernel(
     va = body_vel[a] + wp.cross(body_angvel[a], ra)
     vb = body_vel[b] + wp.cross(body_angvel[b], rb)
     rate = wp.dot(wp.vec3f(vb - va), u)
-    f = preload[s] + stiffness[s] * (float(length) - rest_length[s]) + damping[s] * rate
+    u_len = float(length) - rest_length[s]
+    f = preload[s] + stiffness[s] * u_len + progressive[s] * u_len * u_len * u_len + damping[s] * rate
     spring_force[s] = f
     fa = f * u
     wp.atomic_add(body_force, a, fa)

@@ -67,6 +67,8 @@ class Model:
     (n_bodies,); zero for other bodies."""
     body_pivot_vel: wp.array
     """velocity of a hinged body's pivot (the carriage), world frame [m/s], vec3d (n_bodies,)."""
+    body_pivot_friction: wp.array
+    """dry (Coulomb) friction torque at a hinged body's pivot [N m], float64 (n_bodies,); 0: frictionless."""
 
     # Spheres (n_spheres,)
     sphere_body: wp.array
@@ -124,6 +126,8 @@ class Model:
     """[m], float32."""
     spring_preload: wp.array
     """force at rest length [N], tension positive, float32."""
+    spring_progressive: wp.array
+    """cubic stiffness [N/m^3]: F = preload + k u + progressive u^3 + c du/dt, float32."""
 
     # Host-side descriptions (numpy), for observers, checkpoints and readers
     names: dict[str, dict[str, int]] = field(default_factory=dict)

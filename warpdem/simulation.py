@@ -353,7 +353,8 @@ class Simulation:
             wp.launch(
                 spring_kernel, m.n_springs,
                 inputs=[m.spring_body_a, m.spring_body_b, m.spring_point_a, m.spring_point_b, m.spring_stiffness,
-                        m.spring_damping, m.spring_rest_length, m.spring_preload, m.body_world, self.dt,
+                        m.spring_damping, m.spring_rest_length, m.spring_preload, m.spring_progressive, m.body_world,
+                        self.dt,
                         int(self.track_energy), s.body_pos, s.body_quat, s.body_vel, s.body_angvel],
                 outputs=[self.body_force, self.body_torque, self.spring_force, self.energy],
                 device=dev,
@@ -361,7 +362,7 @@ class Simulation:
         wp.launch(
             integrate_bodies_kernel, m.n_bodies,
             inputs=[m.body_world, m.body_group, m.body_flags, m.body_mass, m.body_inertia, m.body_pivot,
-                    m.body_pivot_vel, m.group_damping,
+                    m.body_pivot_vel, m.body_pivot_friction, m.group_damping,
                     m.n_groups, wp.vec3d(*m.gravity), wp.float64(self.dt), int(self.track_energy),
                     self.body_force, self.body_torque],
             outputs=[s.body_pos, s.body_quat, s.body_vel, s.body_angvel, s.body_angmom, self.energy],
