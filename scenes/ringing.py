@@ -34,6 +34,10 @@ from . import paper
 from .sweep import SweepTool, add_sweep, build_sweep
 
 SPRING_MODELS = ("paper", "linear")
+PER_WORLD = ("spring_young", "local_damping", "stiffness", "damping_ratio", "dashpot", "pivot_friction", "extra_mass",
+             "progressive", "series_stiffness", "free_pose")
+"""RingingConfig fields holding one value per world."""
+LINEAR_ONLY = ("dashpot", "progressive", "series_stiffness", "free_pose")
 PIN_STIFFNESS = 1e8
 """stiffness of the pin holding the load at the blade tip [N/m]."""
 SETTLE_DAMPING = 0.7
@@ -56,6 +60,25 @@ class RingingConfig:
     """model "linear": spring stiffness per world [N/m] (default: the DIN 2093 stiffness of the configuration)."""
     damping_ratio: tuple[float, ...] | None = None
     """model "linear": target damping ratio per world (default: Table 2's measured)."""
+    dashpot: tuple[float, ...] | None = None
+    """model "linear": the dashpot's coefficient per world [N s/m]; given, it replaces ``damping_ratio``."""
+    # Extensions of the rig (per world; None = absent). Model criticism (calibration.diagnosis) switches them on.
+    pivot_friction: tuple[float, ...] | None = None
+    """dry friction torque at the pivot [N m] (Coulomb; the tool sticks when the other torques cannot beat it)."""
+    extra_mass: tuple[float, ...] | None = None
+    """mass added to the tool [kg], distributed like the tool's own (preload hardware, clamps); its weight is
+    carried by the spring's preload, so the pose stays the static equilibrium."""
+    progressive: tuple[float, ...] | None = None
+    """model "linear": cubic stiffness of the spring stack [N/m^3], F = k u + k3 u^3 about its free length: the
+    tangent stiffness at the static deflection u0 is k + 3 k3 u0^2, larger for the softer stacks."""
+    series_stiffness: tuple[float, ...] | None = None
+    """model "linear": stiffness of the frame and shank in series with the springs [N/m] (inf: rigid): the stack
+    then acts with k ks / (k + ks) (the frame taken massless; the dashpot acts across both; with a progressive
+    stack, on the linear part only)."""
+    free_pose: tuple[float, ...] | None = None
+    """model "linear": 1 = the spring is unloaded at the CAD pose and the tool settles under the load into its
+    deflected pose (lever arms and the spring's line change with it); 0 = preloaded so that the CAD pose is the
+    static equilibrium."""
     settle_time: float = 0.25
     ring_time: float = 2.0
     hit_amplitude: float = 0.5
@@ -73,22 +96,32 @@ class RingingConfig:
         for name in ("load_force", "settle_time", "ring_time", "hit_amplitude", "sample_rate"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
-        for name in ("spring_young", "local_damping", "stiffness", "damping_ratio"):
+        for name in PER_WORLD:
             values = getattr(self, name)
             if values is None:
                 continue
             values = tuple(float(v) for v in np.ravel(values))
             if len(values) != len(self.springs):
                 raise ValueError(f"{name} needs one value per world ({len(self.springs)}), got {len(values)}")
-            if not all(math.isfinite(v) and v >= 0 for v in values):
+            if name == "series_stiffness":
+                if not all(v > 0 and not math.isnan(v) for v in values):
+                    raise ValueError(f"series_stiffness must be positive (inf: rigid), got {values}")
+            elif not all(math.isfinite(v) and v >= 0 for v in values):
                 raise ValueError(f"{name} must be finite and non-negative, got {values}")
             setattr(self, name, values)
+        if self.spring_model == "paper":
+            for name in LINEAR_ONLY:
+                if getattr(self, name) is not None:
+                    raise ValueError(f"{name} applies to spring_model 'linear' only")
 
-    def per_world(self, name: str, column: str) -> np.ndarray:
-        """The per-world values of field ``name``, or Table 2's ``column`` where the field is None."""
+    def per_world(self, name: str, column: str | float) -> np.ndarray:
+        """The per-world values of field ``name``; where it is None, Table 2's ``column`` (a name) or a constant."""
         values = getattr(self, name)
         if values is None:
-            values = [paper.ringing_row(n)[column] for n in self.springs]
+            if isinstance(column, str):
+                values = [paper.ringing_row(n)[column] for n in self.springs]
+            else:
+                values = [column] * len(self.springs)
         return np.asarray(values, dtype=np.float64)
 
 
@@ -139,6 +172,8 @@ def analytic_frequency(rig: RingingRig, stiffness: float, damping: float) -> tup
     k_rot = stiffness * rig.lever**2 + gravity_stiffness(rig.tool, m_load, rig.load_point)
     wn = math.sqrt(k_rot / inertia)
     zeta = damping * rig.lever**2 / (2.0 * math.sqrt(k_rot * inertia))
+    if zeta >= 1.0:
+        return math.nan, zeta  # overdamped: no oscillation
     return wn * math.sqrt(1.0 - zeta**2) / (2.0 * math.pi), zeta
 
 
@@ -162,6 +197,11 @@ def build_ringing(config: RingingConfig | None = None, tool: SweepTool | None = 
     s = np.asarray(tool.sensor_point, dtype=np.float64)
     lever = float(abs(s[2] - tool.pivot[2]))
     overrides: dict[str, object] = {}
+    if cfg.pivot_friction is not None:
+        overrides["body:sweep_lower:pivot_friction"] = cfg.per_world("pivot_friction", 0.0)
+    extra = cfg.per_world("extra_mass", 0.0)
+    if cfg.extra_mass is not None:
+        overrides["body:sweep_lower:mass"] = tool.mass + extra
     info: dict[str, object] = {"load_mass_kg": m_load, "rows": rows}
     if cfg.spring_model == "paper":
         sp = paper.SPRING_SPHERE
@@ -177,18 +217,40 @@ def build_ringing(config: RingingConfig | None = None, tool: SweepTool | None = 
     else:
         length = 0.1
         carriage = b.add_rigid_body(s - (0.0, length, 0.0), name="carriage")
-        # preloaded so that the initial pose is the static equilibrium under the load (tension positive)
-        preload = gravity_moment(tool, m_load, load_point) / lever
+        # the spring's force at the CAD pose (tension positive): the static equilibrium under the load and the
+        # tool's weight (with any extra mass), or nothing for a free pose
+        m_tool = gravity_moment(tool, 0.0, load_point)
+        force = ((1.0 + extra / tool.mass) * m_tool + gravity_moment(tool, m_load, load_point) - m_tool) / lever
+        force = force * (1.0 - cfg.per_world("free_pose", 0.0))
+        k_s = cfg.per_world("series_stiffness", math.inf)
+        k_eff = np.where(np.isinf(k_s), stiffness, stiffness * k_s / (stiffness + np.where(np.isinf(k_s), 0, k_s)))
+        k3 = cfg.per_world("progressive", 0.0)
+        stretch = np.array([_stretch(f, k, c) for f, k, c in zip(force, k_eff, k3, strict=True)])
         b.add_spring("spring", carriage, s - (0.0, length, 0.0), b.body_names["sweep_lower"], s,
-                     stiffness=float(stiffness[0]), rest_length=length, preload=preload)
-        zeta = cfg.per_world("damping_ratio", "measured_damping")
-        inertia = rig_inertia(tool, m_load, load_point)
-        k_rot = stiffness * lever**2 + gravity_stiffness(tool, m_load, load_point)
-        damping = 2.0 * np.asarray(zeta) * np.sqrt(k_rot * inertia) / lever**2
-        overrides["spring:spring:stiffness"] = stiffness
+                     stiffness=float(k_eff[0]), rest_length=length - float(stretch[0]))
+        if cfg.dashpot is not None:
+            damping = cfg.per_world("dashpot", 0.0)
+        else:
+            zeta = cfg.per_world("damping_ratio", "measured_damping")
+            inertia = rig_inertia(tool, m_load, load_point)
+            k_rot = stiffness * lever**2 + gravity_stiffness(tool, m_load, load_point)
+            damping = 2.0 * np.asarray(zeta) * np.sqrt(k_rot * inertia) / lever**2
+        overrides["spring:spring:stiffness"] = k_eff
         overrides["spring:spring:damping"] = damping
+        overrides["spring:spring:rest_length"] = length - stretch
+        if cfg.progressive is not None:
+            overrides["spring:spring:progressive"] = k3
         info["dashpot_n_s_per_m"] = damping
+        info["spring_force_n"] = force
     return RingingRig(b, overrides, tool, cfg, load_point, lever, stiffness, info)
+
+
+def _stretch(force: float, k: float, k3: float) -> float:
+    """The stretch u [m] of a spring with F = k u + k3 u^3 carrying ``force`` [N] (tension positive)."""
+    if k3 == 0.0:
+        return force / k
+    roots = np.roots([k3, 0.0, k, -force])
+    return float(roots[np.argmin(np.abs(roots.imag))].real)
 
 
 @dataclass

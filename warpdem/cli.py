@@ -9,6 +9,8 @@
     warpdem calibrate draught --assembly C [--scale ci|cpu|paper] [--speed 0.62] [--screen-scale ci|cpu|paper]
                       (both: [--generations 5] [--population 20] [--parents 7] [--seed 0] [--device] [--out DIR]
                        [--gene NAME=LOW:HIGH] [--archive FILE] [--no-resume] [--ray-workers N] [--ray-address A])
+    warpdem diagnose MEASURED --rig ringing [--params FILE] [--mechanisms a,b] [--uncertainty k=v,...] [--device]
+                      [--out DIR]   (MEASURED: a summary CSV, a folder with summary.csv/series, or paper:ringing)
 
 ``reproduce`` runs the paper's study at a reduced (``cpu``, default) or full (``paper``) scale: the ringing test
 for all eight spring configurations with both spring models, the soil bin with the rigid tool and 16 and 32 springs,
@@ -282,6 +284,43 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
     return 0
 
 
+def _keyvals(text: str) -> dict[str, float]:
+    """'a=1,b=2' -> {'a': 1.0, 'b': 2.0}."""
+    out = {}
+    for part in filter(None, (p.strip() for p in text.split(","))):
+        try:
+            k, v = part.split("=")
+            out[k.strip()] = float(v)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected NAME=VALUE[,NAME=VALUE...], got {text!r}") from None
+    return out
+
+
+def run_diagnose_cmd(args: argparse.Namespace) -> int:
+    import json
+
+    from calibration import diagnosis, diagnosis_report, measured
+    from calibration.rig_models import make_rig_model
+
+    device = _setup(args)
+    data = measured.from_paper(args.measured.split(":", 1)[1]) if args.measured.startswith("paper:") \
+        else measured.load(args.measured)
+    params: dict[str, object] = json.loads(Path(args.params).read_text()) if args.params else {}
+    fixed = params.pop("fixed", {})
+    rig = make_rig_model(args.rig, data, device=device, fixed=fixed, uncertainty=args.uncertainty, **params)
+    settings = diagnosis.DiagnosisSettings(rounds=args.rounds, alpha=args.alpha, min_gain=args.min_gain,
+                                           mechanisms=tuple(args.mechanisms.split(",")) if args.mechanisms else None)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    _write_config(out, "diagnose", device, measured=args.measured, rig=args.rig, params=params, fixed=fixed,
+                  settings={"rounds": args.rounds, "alpha": args.alpha, "min_gain": args.min_gain,
+                            "mechanisms": args.mechanisms, "uncertainty": args.uncertainty})
+    d = diagnosis.diagnose(rig, settings, log=lambda m: print(m, flush=True))
+    report = diagnosis_report.write(d, out, command="warpdem " + " ".join(sys.argv[1:]))
+    print(f"verdict: {d.verdict}{': ' + ' + '.join(d.cause) if d.cause else ''}; report in {report}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="warpdem", description="DEM of soil-tool interaction on NVIDIA Warp")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -343,8 +382,22 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--no-resume", action="store_true", help="start afresh even if --out holds a saved state")
     c.add_argument("--ray-workers", type=int, default=None, help="evaluate on N Ray workers (optional extra)")
     c.add_argument("--ray-address", default=None, help="address of an existing Ray cluster")
+    q = sub.add_parser("diagnose", help="model criticism: residuals, candidate mechanisms, the named cause, its gain")
+    q.add_argument("measured", help="MEASURED data (a summary CSV or a folder; calibration.measured), or "
+                                    "paper:ringing for Table 2")
+    q.add_argument("--rig", choices=("ringing", "soil-bin"), required=True)
+    q.add_argument("--params", default=None, help="JSON: rig settings (e.g. load_force, ring_time) and "
+                                                  "'fixed': baseline parameters not to fit (e.g. dashpot)")
+    q.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
+    q.add_argument("--out", default="results/diagnose", help="results folder")
+    q.add_argument("--mechanisms", default=None, help="comma-separated candidates (default: all that apply)")
+    q.add_argument("--uncertainty", type=_keyvals, default=None,
+                   help="relative 1-sigma uncertainties, e.g. frequency=0.01,damping=0.05")
+    q.add_argument("--rounds", type=int, default=6, help="fit rounds (one grid, then Levenberg-Marquardt)")
+    q.add_argument("--alpha", type=float, default=0.05, help="family-wise significance level")
+    q.add_argument("--min-gain", type=float, default=0.3, help="least relative fall of the held-out loss")
     args = parser.parse_args(argv)
-    commands = {"demo": run_demo, "reproduce": run_reproduce, "ringing": run_ringing_cmd,
+    commands = {"diagnose": run_diagnose_cmd, "demo": run_demo, "reproduce": run_reproduce, "ringing": run_ringing_cmd,
                 "soil-bin": run_soil_bin_cmd, "shear-box": run_shear_box_cmd, "calibrate": run_calibrate_cmd}
     return commands[args.command](args)
 

@@ -1,0 +1,505 @@
+"""Model criticism: show what the rig gets wrong, name the cause, extend the rig, measure the gain on held-out data.
+
+``diagnose(rig_model)`` does four things:
+
+1. **Fit every candidate** (the baseline; the baseline plus each applicable mechanism of
+   ``calibration.mechanisms``; later pairs) by weighted least squares on the relative residuals
+   r = (sim - measured) / measured / u (u: the observable's relative uncertainty), in the genes' unit coordinates
+   (log-scaled genes in decades): a grid over the whole ranges, then Levenberg-Marquardt rounds with forward
+   differences. Every point is one DEM run of every configuration; all candidates' points of a round are the
+   worlds of one batched simulation. The simulations serve every fold: a fold's fit is the best simulated point
+   for its training configurations (the steps of each fold are simulated, so a fit is never extrapolated).
+2. **Compare on held-out data**: leave-one-configuration-out. For configuration j the candidate is fitted without
+   j and predicts j; its held-out loss is l_j = sum_k r_jk^2. A candidate beats the baseline when its held-out loss
+   falls by at least ``min_gain`` (reported with the standard error of the per-configuration gains), its
+   likelihood-ratio test against the baseline (in-sample chi^2 fall ~ chi^2(added genes), the uncertainties being
+   stated) is significant after Holm's correction over all candidates (alpha), and its AICc (in-sample
+   chi^2 + 2p + 2p(p+1)/(n-p-1)) is lower by more than 2. The held-out criterion guards against a mechanism that
+   only fits noise; the likelihood ratio against a gain that noise could give.
+3. **Name the cause**: the significant candidate of least held-out loss (with any other significant candidate
+   whose held-out loss is within sqrt(2 n) of it, the spread of a chi^2 with n data points, named as
+   indistinguishable); if the best single candidate still leaves a
+   residual inconsistent with noise (chi^2 of its held-out residuals, p < ``noise_p``), pairs of the best single
+   candidates are fitted and a pair is named when it is significant against the baseline and, by the likelihood
+   ratio and by ``min_gain / 2`` of held-out gain, against each of its members. Without a
+   significant candidate: "no significant discrepancy" if the baseline's held-out residuals are consistent with
+   the stated uncertainties, else "unexplained residual" with its pattern (rank correlations with the covariates).
+4. **Extend and measure**: the named extension is applied to the DEM rig and every configuration re-simulated,
+   with the fold parameters, for the held-out errors before and after (and with the all-data fit, for plots).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from . import mechanisms as mech
+from .genes import Gene
+from .rig_models import Case
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """The baseline rig, or the baseline with one or more mechanisms: all of its genes are fitted together."""
+
+    name: str
+    mechanisms: tuple[mech.Mechanism, ...]
+    genes: tuple[Gene, ...]
+
+    def params(self, z: np.ndarray) -> dict[str, float]:
+        """Unit coordinates (n_genes,) in [0, 1] -> baseline gene values and mechanism knobs (SI)."""
+        values = {g.name: float(g.from_ga(g.ga_range[0] + zi * (g.ga_range[1] - g.ga_range[0])))
+                  for g, zi in zip(self.genes, z, strict=True)}
+        out = {k: v for k, v in values.items() if not any(k in [g.name for g in m.genes] for m in self.mechanisms)}
+        for m in self.mechanisms:
+            out.update(m.knobs({g.name: values[g.name] for g in m.genes}))
+        return out
+
+    def values(self, z: np.ndarray) -> dict[str, float]:
+        """Unit coordinates -> every gene's value (SI)."""
+        return {g.name: float(g.from_ga(g.ga_range[0] + zi * (g.ga_range[1] - g.ga_range[0])))
+                for g, zi in zip(self.genes, z, strict=True)}
+
+
+@dataclass
+class DiagnosisSettings:
+    """How candidates are fitted and judged. Grid points per dimension by the number of fitted genes."""
+
+    rounds: int = 6
+    """one grid round, then Levenberg-Marquardt rounds."""
+    first_grid: dict[int, int] = field(default_factory=lambda: {0: 1, 1: 9, 2: 6, 3: 4, 4: 3})
+    """grid points per gene in the first round, by the number of genes."""
+    fd_step: float = 0.003
+    """forward-difference step in unit coordinates (0.3 % of a linear range; 1 % in value per 1.5 decades)."""
+    lm_damping: tuple[float, ...] = (1e-3, 1e-1)
+    """Levenberg-Marquardt damping factors tried per step (relative to the mean of diag J^T J)."""
+    alpha: float = 0.05
+    """significance level of the held-out comparison (family-wise, Holm)."""
+    min_gain: float = 0.3
+    """least relative fall of the held-out loss for a cause to be named."""
+    noise_p: float = 0.01
+    """a residual whose chi^2 p-value falls below this is 'larger than noise'."""
+    pair_pool: int = 3
+    """pairs are formed from this many best single candidates."""
+    mechanisms: tuple[str, ...] | None = None
+    """the candidate mechanisms (default: every registered one the rig supports)."""
+
+    def __post_init__(self) -> None:
+        if self.rounds < 1:
+            raise ValueError(f"rounds must be >= 1, got {self.rounds!r}")
+        if not 0 < self.alpha < 1:
+            raise ValueError(f"alpha must be in (0, 1), got {self.alpha!r}")
+        if not 0 <= self.min_gain < 1:
+            raise ValueError(f"min_gain must be in [0, 1), got {self.min_gain!r}")
+
+
+@dataclass
+class Fit:
+    """A fitted candidate: parameters (all data and per fold), losses and held-out statistics."""
+
+    candidate: Candidate
+    z_all: np.ndarray
+    z_fold: np.ndarray
+    """(n_configs, n_genes): the fit without configuration j."""
+    pred_all: np.ndarray
+    """(n_configs, n_obs) at the all-data fit."""
+    pred_heldout: np.ndarray
+    """(n_configs, n_obs): configuration j predicted by the fit without it."""
+    heldout_loss: np.ndarray
+    """(n_configs,) sum_k r_jk^2 of the held-out predictions."""
+    chi2_in: float
+    n_points: int
+    aicc: float = math.nan
+    gain: float = math.nan
+    gain_se: float = math.nan
+    p_heldout: float = math.nan
+    """one-sided paired t-test p of the held-out gain over configurations (reported; weak with few)."""
+    p_value: float = math.nan
+    """likelihood-ratio p against the baseline (in-sample chi^2 fall, stated uncertainties)."""
+    p_holm: float = math.nan
+    significant: bool = False
+
+    @property
+    def name(self) -> str:
+        return self.candidate.name
+
+    @property
+    def n_params(self) -> int:
+        return len(self.candidate.genes)
+
+    def params_all(self) -> dict[str, float]:
+        return self.candidate.values(self.z_all)
+
+
+@dataclass
+class Diagnosis:
+    """What ``diagnose`` found. ``verdict`` is "cause", "no significant discrepancy" or "unexplained residual"."""
+
+    rig: str
+    observables: tuple[str, ...]
+    configs: list[dict]
+    measured: np.ndarray
+    uncertainty: np.ndarray
+    covariates: dict[str, np.ndarray]
+    fits: dict[str, Fit]
+    ranking: list[str]
+    verdict: str
+    cause: tuple[str, ...] = ()
+    indistinguishable: list[str] = field(default_factory=list)
+    pattern: list[str] = field(default_factory=list)
+    noise_p_baseline: float = math.nan
+    noise_p_best: float = math.nan
+    verification: dict[str, object] = field(default_factory=dict)
+    n_simulations: int = 0
+    wall_s: float = 0.0
+
+    @property
+    def baseline(self) -> Fit:
+        return self.fits["baseline"]
+
+    @property
+    def named(self) -> Fit | None:
+        return self.fits["+".join(self.cause)] if self.cause else None
+
+
+def residuals(pred: np.ndarray, measured: np.ndarray, uncertainty: np.ndarray) -> np.ndarray:
+    """Relative residuals in units of the uncertainty, (..., n_obs); a failed prediction (NaN) counts as a 100 %
+    error, a missing measurement as 0."""
+    r = (pred - measured) / np.abs(measured)
+    r = np.where(np.isnan(pred), 1.0, r)
+    r = np.where(np.isnan(measured), 0.0, r)
+    return r / uncertainty
+
+
+def _grid(box: np.ndarray, n: int) -> np.ndarray:
+    """Points of a regular grid with n per dimension over box (2, d) -> (n^d, d)."""
+    d = box.shape[1]
+    if d == 0:
+        return np.zeros((1, 0))
+    axes = [np.linspace(box[0, i], box[1, i], n) if box[1, i] > box[0, i] else np.array([box[0, i]])
+            for i in range(d)]
+    return np.array(list(itertools.product(*axes)))
+
+
+class _Fitter:
+    """Zooming grid fits of many candidates against one rig model, sharing batched simulations."""
+
+    def __init__(self, rig: object, settings: DiagnosisSettings, log: Callable[[str], None]) -> None:
+        self.rig, self.settings, self.log = rig, settings, log
+        self.cache: dict[tuple[str, tuple[float, ...]], np.ndarray] = {}
+        self.n_sims = 0
+
+    def _key(self, cand: Candidate, z: np.ndarray) -> tuple[str, tuple[float, ...]]:
+        return cand.name, tuple(np.round(z, 10).tolist())
+
+    def evaluate(self, requests: list[tuple[Candidate, np.ndarray]], what: str) -> None:
+        todo, seen = [], set()
+        for cand, z in requests:
+            key = self._key(cand, z)
+            if key not in self.cache and key not in seen:
+                seen.add(key)
+                todo.append((cand, z))
+        if not todo:
+            return
+        n_cfg = self.rig.n_configs
+        cases = [Case(j, cand.params(z)) for cand, z in todo for j in range(n_cfg)]
+        t0 = time.perf_counter()
+        out = self.rig.simulate(cases)
+        self.n_sims += len(cases)
+        self.log(f"  {what}: {len(todo)} parameter sets x {n_cfg} configurations = {len(cases)} worlds, "
+                 f"{time.perf_counter() - t0:.1f} s")
+        for i, (cand, z) in enumerate(todo):
+            self.cache[self._key(cand, z)] = out.values[i * n_cfg:(i + 1) * n_cfg]
+
+    def points(self, cand: Candidate) -> tuple[np.ndarray, np.ndarray]:
+        """Every evaluated point of a candidate (m, d) and its predictions (m, n_cfg, n_obs)."""
+        keys = [k for k in self.cache if k[0] == cand.name]
+        return np.array([k[1] for k in keys]).reshape(len(keys), -1), np.array([self.cache[k] for k in keys])
+
+    def losses(self, pred: np.ndarray) -> np.ndarray:
+        """Per point and configuration: sum_k r^2, (m, n_cfg)."""
+        return np.sum(residuals(pred, self.rig.measured, self.rig.uncertainty) ** 2, axis=-1)
+
+    def best(self, cand: Candidate) -> tuple[np.ndarray, np.ndarray]:
+        """Index of the best point for all data and for each fold: (all,), (n_cfg,)."""
+        pts, pred = self.points(cand)
+        loss = self.losses(pred)  # (m, n_cfg)
+        total = loss.sum(axis=1)
+        i_all = int(np.argmin(total))
+        i_fold = np.argmin(total[:, None] - loss, axis=0)
+        return np.array([i_all]), i_fold
+
+    def fit(self, cands: list[Candidate], label: str) -> dict[str, Fit]:
+        """A grid over the genes' whole ranges, then Levenberg-Marquardt rounds: after each round, the forward
+        differences about every candidate's all-data best point are simulated and the damped Gauss-Newton steps of
+        every fold (and of all data) from that point are the next round's points."""
+        s = self.settings
+        proposals: dict[str, list[np.ndarray]] = {c.name: [] for c in cands}
+        for r in range(s.rounds):
+            if r == 0:
+                requests = [(c, z) for c in cands
+                            for z in _grid(np.array([[0.0] * len(c.genes), [1.0] * len(c.genes)]),
+                                           s.first_grid.get(len(c.genes), 3))]
+            else:
+                requests = [(c, z) for c in cands for z in proposals[c.name]]
+            self.evaluate(requests, f"{label}, round {r + 1}/{s.rounds}")
+            if r == s.rounds - 1:
+                break
+            # forward differences about each candidate's new best point, then the next steps
+            stencils, centres = [], {}
+            for c in cands:
+                if c.genes:
+                    pts, _ = self.points(c)
+                    centres[c.name] = pts[self.best(c)[0][0]]
+                    stencils += [(c, z) for z in self._stencil(centres[c.name])]
+            self.evaluate(stencils, f"{label}, round {r + 1}/{s.rounds} (differences)")
+            for c in cands:
+                if c.genes:
+                    proposals[c.name] = self._lm_steps(c, centres[c.name])
+        return {c.name: self._result(c) for c in cands}
+
+    def _stencil(self, x0: np.ndarray) -> list[np.ndarray]:
+        """Forward-difference points about x0 (one per gene, stepping inwards at the upper bound)."""
+        h = self.settings.fd_step
+        out = []
+        for i in range(x0.size):
+            z = x0.copy()
+            z[i] = z[i] + h if z[i] + h <= 1.0 else z[i] - h
+            out.append(z)
+        return out
+
+    def _lm_steps(self, cand: Candidate, x0: np.ndarray) -> list[np.ndarray]:
+        """Damped Gauss-Newton steps of every fold and of all data from x0, by the simulated forward differences
+        about it."""
+        keys = [self._key(cand, z) for z in self._stencil(x0)]
+        p0 = self.cache[self._key(cand, x0)]
+        n_cfg = self.rig.n_configs
+        r0 = residuals(p0, self.rig.measured, self.rig.uncertainty)  # (n_cfg, n_obs)
+        cols = []
+        for i, k in enumerate(keys):
+            dz = np.array(k[1])[i] - x0[i]
+            cols.append((residuals(self.cache[k], self.rig.measured, self.rig.uncertainty) - r0) / dz)
+        jac = np.stack(cols, axis=-1)  # (n_cfg, n_obs, d)
+        valid = np.isfinite(p0) & np.all(np.isfinite(np.stack([self.cache[k] for k in keys])), axis=0)
+        out = []
+        masks = [np.ones(n_cfg, bool)] + [np.arange(n_cfg) != j for j in range(n_cfg)]
+        for mask in masks:
+            rows = valid & mask[:, None]
+            a, b = jac[rows], r0[rows]
+            if a.size == 0:
+                continue
+            jtj, jtr = a.T @ a, a.T @ b
+            scale = np.trace(jtj) / max(len(jtj), 1) or 1.0
+            for lam in self.settings.lm_damping:
+                step = -np.linalg.solve(jtj + lam * scale * np.eye(len(jtj)), jtr)
+                out.append(np.clip(x0 + step, 0.0, 1.0))
+        return out
+
+    def _result(self, cand: Candidate) -> Fit:
+        pts, pred = self.points(cand)
+        i_all, i_fold = self.best(cand)
+        n_cfg = self.rig.n_configs
+        pred_all = pred[i_all[0]]
+        held = np.array([pred[i_fold[j], j] for j in range(n_cfg)])
+        r_held = residuals(held, self.rig.measured, self.rig.uncertainty)
+        r_in = residuals(pred_all, self.rig.measured, self.rig.uncertainty)
+        n_points = int(np.sum(~np.isnan(self.rig.measured)))
+        fit = Fit(cand, pts[i_all[0]], pts[i_fold], pred_all, held, np.sum(r_held**2, axis=1),
+                  float(np.sum(r_in**2)), n_points)
+        p = fit.n_params
+        corr = 2 * p * (p + 1) / (n_points - p - 1) if n_points - p - 1 > 0 else math.inf
+        fit.aicc = fit.chi2_in + 2 * p + corr
+        return fit
+
+
+def _lr_p(fit: Fit, reference: Fit) -> float:
+    """Likelihood-ratio p-value of ``fit`` against the nested ``reference``: with the stated uncertainties the
+    fall of the in-sample chi^2 is chi^2-distributed with one degree of freedom per added gene (at least one)."""
+    drop = reference.chi2_in - fit.chi2_in
+    return float(stats.chi2.sf(drop, max(fit.n_params - reference.n_params, 1))) if drop > 0 else 1.0
+
+
+def _compare(fits: list[Fit], reference: Fit, settings: DiagnosisSettings) -> None:
+    """Each fit against ``reference``: held-out gain with its standard error (paired over configurations, and the
+    one-sided t-test p of it, reported), likelihood-ratio p Holm-corrected over the fits, AICc."""
+    total = reference.heldout_loss.sum()
+    for f in fits:
+        d = reference.heldout_loss - f.heldout_loss
+        f.gain = float(1.0 - f.heldout_loss.sum() / total) if total > 0 else 0.0
+        sd = float(np.std(d, ddof=1)) if d.size > 1 else math.inf
+        f.gain_se = sd * math.sqrt(d.size) / total if total > 0 else math.inf
+        if sd == 0.0:
+            f.p_heldout = 0.0 if d.mean() > 0 else 1.0
+        else:
+            f.p_heldout = float(stats.t.sf(d.mean() / (sd / math.sqrt(d.size)), d.size - 1))
+        f.p_value = _lr_p(f, reference)
+    order = sorted(fits, key=lambda f: f.p_value)
+    running = 0.0
+    for i, f in enumerate(order):
+        running = max(running, min(1.0, (len(order) - i) * f.p_value))
+        f.p_holm = running
+        f.significant = bool(f.p_holm < settings.alpha and f.gain >= settings.min_gain
+                             and f.aicc < reference.aicc - 2.0)
+
+
+def _paired_p(a: Fit, b: Fit) -> float:
+    """One-sided p that a's held-out loss is below b's (paired t-test over configurations)."""
+    d = b.heldout_loss - a.heldout_loss
+    sd = float(np.std(d, ddof=1))
+    if sd == 0.0:
+        return 0.0 if d.mean() > 0 else 1.0
+    return float(stats.t.sf(d.mean() / (sd / math.sqrt(d.size)), d.size - 1))
+
+
+def _noise_p(fit: Fit) -> float:
+    """p-value of the held-out residuals under the stated uncertainties (chi^2 with one dof per data point)."""
+    return float(stats.chi2.sf(fit.heldout_loss.sum(), fit.n_points))
+
+
+def _pattern(rig: object, fit: Fit) -> list[str]:
+    """The residual pattern: per observable, its mean and its strongest rank correlation with a covariate."""
+    cov = rig.covariates()
+    r = (fit.pred_heldout - rig.measured) / np.abs(rig.measured)
+    out = []
+    for k, name in enumerate(rig.observables):
+        rk = r[:, k]
+        ok = np.isfinite(rk)
+        if ok.sum() < 3:
+            continue
+        best = ("", 0.0, 1.0)
+        for cname, cval in cov.items():
+            rho, p = stats.spearmanr(cval[ok], rk[ok])
+            if np.isfinite(rho) and abs(rho) > abs(best[1]):
+                best = (cname, float(rho), float(p))
+        line = f"{name}: mean residual {100 * np.nanmean(rk):+.1f} %, RMS {100 * np.sqrt(np.nanmean(rk**2)):.1f} %"
+        if best[0]:
+            line += f"; rank correlation with {best[0]} {best[1]:+.2f} (p = {best[2]:.2g})"
+        out.append(line)
+    return out
+
+
+def candidates_for(rig: object, settings: DiagnosisSettings) -> list[Candidate]:
+    """The baseline and one candidate per applicable mechanism."""
+    names = settings.mechanisms or tuple(mech.REGISTRY)
+    out = [Candidate("baseline", (), tuple(rig.genes))]
+    for n in names:
+        m = mech.get(n)
+        if rig.rig not in m.rigs and not settings.mechanisms:
+            continue
+        if not m.knob_names() <= rig.knobs:
+            if settings.mechanisms:
+                raise ValueError(f"mechanism {n!r} needs knobs {sorted(m.knob_names() - rig.knobs)} that the "
+                                 f"{rig.rig} rig does not have")
+            continue
+        if m.needs_series and not getattr(rig, "has_series", False):
+            continue
+        out.append(Candidate(n, (m,), tuple(rig.genes) + m.genes))
+    return out
+
+
+def diagnose(rig: object, settings: DiagnosisSettings | None = None,
+             log: Callable[[str], None] = lambda s: None) -> Diagnosis:
+    """Fit, compare, name and verify (module docstring) for a rig model (``calibration.rig_models``)."""
+    s = settings or DiagnosisSettings()
+    t0 = time.perf_counter()
+    fitter = _Fitter(rig, s, log)
+    cands = candidates_for(rig, s)
+    log(f"diagnosis of the {rig.rig} rig: {rig.n_configs} configurations, observables {', '.join(rig.observables)}; "
+        f"candidates: {', '.join(c.name for c in cands)}")
+    fits = fitter.fit(cands, "single mechanisms")
+    base = fits["baseline"]
+    singles = [f for n, f in fits.items() if n != "baseline"]
+    _compare(singles, base, s)
+    singles.sort(key=lambda f: f.heldout_loss.sum())
+    best = singles[0] if singles else base
+    noise_best = _noise_p(best)
+    # pairs, when the best single one leaves more than noise
+    pair_fits: list[Fit] = []
+    if len(singles) >= 2 and noise_best < s.noise_p:
+        pool = singles[:s.pair_pool]
+        pairs = []
+        for a, b in itertools.combinations(pool, 2):
+            ms = a.candidate.mechanisms + b.candidate.mechanisms
+            pairs.append(Candidate("+".join(m.name for m in ms), ms,
+                                   tuple(rig.genes) + tuple(g for m in ms for g in m.genes)))
+        fits.update(fitter.fit(pairs, "pairs of mechanisms"))
+        pair_fits = [fits[p.name] for p in pairs]
+        _compare(pair_fits, base, s)
+    ranking = sorted([n for n in fits if n != "baseline"], key=lambda n: fits[n].heldout_loss.sum())
+    verdict, cause, indist = "", (), []
+    sig_singles = [f for f in singles if f.significant]
+    sig_pairs = []
+    for p in pair_fits:
+        members = [fits[m.name] for m in p.candidate.mechanisms]
+        if p.significant and all(_lr_p(p, m) < s.alpha and p.gain > m.gain + s.min_gain / 2 for m in members):
+            sig_pairs.append(p)
+    sig_pairs.sort(key=lambda f: f.heldout_loss.sum())
+    if sig_pairs:
+        top = sig_pairs[0]
+        verdict, cause = "cause", tuple(m.name for m in top.candidate.mechanisms)
+    elif sig_singles:
+        top = sig_singles[0]
+        verdict, cause = "cause", (top.name,)
+        # within the noise of a chi^2 with one dof per data point: sqrt(2 n)
+        indist = [f.name for f in sig_singles[1:]
+                  if f.heldout_loss.sum() - top.heldout_loss.sum() < math.sqrt(2.0 * top.n_points)]
+    noise_base = _noise_p(base)
+    pattern: list[str] = []
+    if not verdict:
+        if noise_base >= s.noise_p:
+            verdict = "no significant discrepancy"
+        else:
+            verdict = "unexplained residual"
+            pattern = _pattern(rig, base)
+    diag = Diagnosis(rig.rig, tuple(rig.observables), list(rig.configs), rig.measured, rig.uncertainty,
+                     rig.covariates(), fits, ranking, verdict, cause, indist, pattern, noise_base, noise_best)
+    diag.verification = verify(rig, diag, log)
+    diag.n_simulations = fitter.n_sims + int(diag.verification.get("n_simulations", 0))
+    diag.wall_s = time.perf_counter() - t0
+    log(f"verdict: {verdict}{': ' + ' + '.join(cause) if cause else ''} ({diag.n_simulations} simulations, "
+        f"{diag.wall_s:.0f} s)")
+    return diag
+
+
+def verify(rig: object, diag: Diagnosis, log: Callable[[str], None] = lambda s: None) -> dict[str, object]:
+    """Re-simulate the baseline and the named extension: configuration j with the fit that did not see j (held-out
+    errors before and after) and every configuration with the all-data fit (kept as series for plots)."""
+    names = ["baseline"] + (["+".join(diag.cause)] if diag.cause else [])
+    n_cfg = len(diag.configs)
+    cases, index = [], []
+    for name in names:
+        f = diag.fits[name]
+        for j in range(n_cfg):
+            cases.append(Case(j, f.candidate.params(f.z_fold[j])))
+            index.append((name, "heldout", j))
+        for j in range(n_cfg):
+            cases.append(Case(j, f.candidate.params(f.z_all)))
+            index.append((name, "all", j))
+    t0 = time.perf_counter()
+    out = rig.simulate(cases, keep_series=True)
+    log(f"  re-simulation of {', '.join(names)}: {len(cases)} worlds, {time.perf_counter() - t0:.1f} s")
+    res: dict[str, object] = {"n_simulations": len(cases)}
+    for name in names:
+        sel = [i for i, k in enumerate(index) if k[0] == name and k[1] == "heldout"]
+        sel_all = [i for i, k in enumerate(index) if k[0] == name and k[1] == "all"]
+        held = out.values[sel]
+        r = residuals(held, diag.measured, diag.uncertainty)
+        rel = (held - diag.measured) / np.abs(diag.measured)
+        res[name] = {
+            "heldout_pred": held, "all_pred": out.values[sel_all],
+            "heldout_loss": np.sum(r**2, axis=1),
+            "heldout_rms_rel": np.sqrt(np.nanmean(rel**2, axis=0)),
+            "series": [out.series[i] for i in sel_all] if out.series else None,
+            "static_deflection": out.covariates.get("static_deflection", np.full(len(cases), np.nan))[sel_all],
+        }
+    if diag.cause:
+        b, e = res["baseline"], res[names[1]]
+        res["gain_abs"] = float(b["heldout_loss"].sum() - e["heldout_loss"].sum())
+        res["gain_rel"] = float(1.0 - e["heldout_loss"].sum() / b["heldout_loss"].sum())
+    return res

@@ -1,0 +1,187 @@
+"""Diagnosis outputs: ``report.md``, plots and a machine-readable ``diagnosis.json``."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .diagnosis import Diagnosis
+from .report import markdown_table
+
+
+def _f(v: float, digits: int = 4) -> float | None:
+    return None if v is None or not math.isfinite(float(v)) else round(float(v), 12 if digits > 8 else 6)
+
+
+def to_json(d: Diagnosis) -> dict[str, object]:
+    """The cause, its parameters, held-out errors before and after, and the ranking of all candidates."""
+    v = d.verification
+    named = d.named
+
+    def errors(name: str) -> dict[str, object]:
+        e = v.get(name, {})
+        return {"heldout_loss": float(np.sum(e["heldout_loss"])),
+                "heldout_rms_relative": dict(zip(d.observables, map(_f, e["heldout_rms_rel"]), strict=True))} \
+            if e else {}
+
+    return {
+        "rig": d.rig,
+        "verdict": d.verdict,
+        "cause": list(d.cause),
+        "indistinguishable_from": d.indistinguishable,
+        "parameters": named.params_all() if named else {},
+        "baseline_parameters": d.baseline.params_all(),
+        "errors_before": errors("baseline"),
+        "errors_after": errors("+".join(d.cause)) if d.cause else {},
+        "gain_abs": v.get("gain_abs"),
+        "gain_rel": v.get("gain_rel"),
+        "residual_pattern": d.pattern,
+        "noise_p_baseline": _f(d.noise_p_baseline),
+        "noise_p_best": _f(d.noise_p_best),
+        "observables": list(d.observables),
+        "uncertainty": dict(zip(d.observables, d.uncertainty.tolist(), strict=True)),
+        "configs": d.configs,
+        "ranking": [
+            {"candidate": n, "heldout_loss": float(d.fits[n].heldout_loss.sum()), "gain": _f(d.fits[n].gain),
+             "gain_se": _f(d.fits[n].gain_se), "p_lr_holm": _f(d.fits[n].p_holm),
+             "p_heldout_t": _f(d.fits[n].p_heldout), "aicc": _f(d.fits[n].aicc),
+             "significant": d.fits[n].significant, "parameters": d.fits[n].params_all()}
+            for n in ["baseline"] + d.ranking
+        ],
+        "n_simulations": d.n_simulations,
+        "wall_s": round(d.wall_s, 1),
+    }
+
+
+def plots(d: Diagnosis, out: Path) -> list[str]:
+    """observables.png (measured vs baseline vs extended, against stiffness), residuals.png (held-out residuals of
+    the baseline against each covariate) and, with series, series.png (records and re-simulations)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    files = []
+    v = d.verification
+    cov = d.covariates
+    x_name = "stiffness" if "stiffness" in cov else next(iter(cov))
+    x = cov[x_name]
+    order = np.argsort(x)
+    n_obs = len(d.observables)
+    fig, axes = plt.subplots(1, n_obs, figsize=(3.6 * n_obs, 3.4), squeeze=False)
+    for k, name in enumerate(d.observables):
+        ax = axes[0, k]
+        ax.errorbar(x[order], d.measured[order, k], yerr=np.abs(d.measured[order, k]) * d.uncertainty[k], fmt="ko",
+                    ms=4, label="measured")
+        for key, style in (("baseline", "C0s--"), ("+".join(d.cause), "C3^-")):
+            if key in v and isinstance(v[key], dict):
+                ax.plot(x[order], v[key]["heldout_pred"][order, k], style, ms=4, label=f"{key} (held out)")
+        ax.set_xscale("log")
+        ax.set_xlabel(x_name)
+        ax.set_title(name)
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "observables.png", dpi=120)
+    plt.close(fig)
+    files.append("observables.png")
+
+    res = (d.baseline.pred_heldout - d.measured) / np.abs(d.measured)
+    fig, axes = plt.subplots(1, len(cov), figsize=(3.6 * len(cov), 3.2), squeeze=False)
+    for c, (cname, cval) in enumerate(cov.items()):
+        ax = axes[0, c]
+        for k, name in enumerate(d.observables):
+            ax.plot(cval, 100 * res[:, k], "o", ms=4, label=name)
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_xlabel(cname)
+        ax.set_ylabel("baseline held-out residual [%]")
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "residuals.png", dpi=120)
+    plt.close(fig)
+    files.append("residuals.png")
+
+    base = v.get("baseline")
+    if isinstance(base, dict) and base.get("series"):
+        n = len(d.configs)
+        fig, axes = plt.subplots(n, 1, figsize=(7, 1.8 * n), squeeze=False, sharex=True)
+        for j in range(n):
+            ax = axes[j, 0]
+            for key, color in (("baseline", "C0"), ("+".join(d.cause), "C3")):
+                if key in v and isinstance(v[key], dict) and v[key].get("series"):
+                    t, s = v[key]["series"][j]
+                    ax.plot(t, 1e3 * s, color=color, lw=0.8, label=key)
+            ax.set_ylabel(f"{d.configs[j].get('springs', j)}: mm")
+        axes[0, 0].legend(fontsize=7)
+        axes[-1, 0].set_xlabel("time after the hit [s]")
+        fig.tight_layout()
+        fig.savefig(out / "series.png", dpi=120)
+        plt.close(fig)
+        files.append("series.png")
+    return files
+
+
+def write(d: Diagnosis, out: str | Path, command: str = "") -> Path:
+    """Write report.md, diagnosis.json and the plots into ``out``; return the report's path."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    js = to_json(d)
+    (out / "diagnosis.json").write_text(json.dumps(js, indent=2, default=float) + "\n")
+    files = plots(d, out)
+    lines = [f"# Diagnosis of the {d.rig} rig", ""]
+    if command:
+        lines += [f"Command: `{command}`", ""]
+    verdict = d.verdict + (f": **{' + '.join(d.cause)}**" if d.cause else "")
+    lines += [f"**Verdict: {verdict}.**", ""]
+    if d.indistinguishable:
+        lines += [f"Indistinguishable on these data: {', '.join(d.indistinguishable)}.", ""]
+    if d.cause:
+        from . import mechanisms as mech
+
+        for name in d.cause:
+            m = mech.get(name)
+            lines += [f"- *{m.title}*: {m.rationale}"]
+        lines += ["", "Fitted parameters (all data): " + ", ".join(f"{k} = {v:.4g}" for k, v in
+                                                                  d.named.params_all().items()), ""]
+        lines += [f"Held-out loss (sum over configurations of squared residuals in units of the uncertainty, "
+                  f"re-simulated): before {js['errors_before']['heldout_loss']:.3g}, after "
+                  f"{js['errors_after']['heldout_loss']:.3g}: gain {js['gain_abs']:.3g} "
+                  f"({100 * js['gain_rel']:.1f} %).", ""]
+    if d.pattern:
+        lines += ["Residual pattern of the baseline (held out):", ""] + [f"- {p}" for p in d.pattern] + [""]
+    lines += [f"Baseline held-out residuals vs the stated uncertainties: chi^2 p = {d.noise_p_baseline:.3g}; best "
+              f"candidate: p = {d.noise_p_best:.3g}.", ""]
+    lines += ["## Held-out relative errors (RMS over configurations, re-simulated)", ""]
+    rows = []
+    for key in ["baseline"] + (["+".join(d.cause)] if d.cause else []):
+        e = js["errors_after" if key != "baseline" else "errors_before"]
+        rows.append({"model": key, **{k: 100 * v if v is not None else math.nan
+                                      for k, v in e["heldout_rms_relative"].items()}})
+    lines += [markdown_table(rows), ""]
+    lines += ["## Candidates (leave-one-configuration-out)", ""]
+    lines += [markdown_table([{"candidate": r["candidate"], "held-out loss": r["heldout_loss"],
+                               "gain": r["gain"], "gain SE": r["gain_se"], "p (LR, Holm)": r["p_lr_holm"],
+                               "p (held-out t)": r["p_heldout_t"], "AICc": r["aicc"],
+                               "significant": r["significant"],
+                               "parameters": ", ".join(f"{k}={v:.3g}" for k, v in r["parameters"].items())}
+                              for r in js["ranking"]]), ""]
+    lines += ["## Measured and simulated per configuration", ""]
+    rows = []
+    for j, c in enumerate(d.configs):
+        row = dict(c)
+        for k, name in enumerate(d.observables):
+            row[f"{name} measured"] = float(d.measured[j, k])
+            row[f"{name} baseline"] = float(d.verification["baseline"]["heldout_pred"][j, k])
+            if d.cause:
+                row[f"{name} extended"] = float(d.verification["+".join(d.cause)]["heldout_pred"][j, k])
+        rows.append(row)
+    lines += [markdown_table(rows), ""]
+    lines += ["Observables' relative uncertainties: " + ", ".join(f"{k} {100 * u:.3g} %" for k, u in
+                                                                   zip(d.observables, d.uncertainty, strict=True)),
+              "", f"{d.n_simulations} DEM simulations, {d.wall_s:.0f} s.", ""]
+    lines += [f"![{f}]({f})" for f in files]
+    path = out / "report.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path
