@@ -198,8 +198,9 @@ class RingingRigModel:
                 load_force=self.load_force, stiffness=tuple(self.configs[c.config]["stiffness"] for c in chunk),
                 dashpot=tuple(float(p["dashpot"]) for p in params), settle_time=self.settle_time,
                 ring_time=self.ring_time, hit_amplitude=self.hit_amplitude, sample_rate=self.sample_rate, **fields)
+            done, size = start, len(chunk)
             res = run_ringing(cfg, device=self.device,
-                              progress=(lambda d, n, what, s0=start, m=len(chunk): progress(s0 + m * d / n, len(cases), what))
+                              progress=(lambda d, n, what, s0=done, m=size: progress(s0 + m * d / n, len(cases), what))
                               if progress else None)
             for w, p in enumerate(params):
                 x = res.displacement[:, w] + p.get("sensor_offset", 0.0) + p.get("sensor_drift", 0.0) * res.time

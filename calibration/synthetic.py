@@ -63,6 +63,6 @@ def ringing_data(
         write_summary(out / "summary.csv", data.summary, data.units)
         for s in series:
             lines = [f"# springs: {int(s.config['springs'])}", "# signal: displacement", "time [s],displacement [m]"]
-            lines += [f"{ti!r},{xi!r}" for ti, xi in zip(s.time, s.values, strict=True)]
+            lines += [f"{float(ti)!r},{float(xi)!r}" for ti, xi in zip(s.time, s.values, strict=True)]
             (out / "series" / f"springs_{int(s.config['springs']):02d}.csv").write_text("\n".join(lines) + "\n")
     return data
