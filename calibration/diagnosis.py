@@ -52,19 +52,19 @@ class Candidate:
     mechanisms: tuple[mech.Mechanism, ...]
     genes: tuple[Gene, ...]
 
+    def values(self, z: np.ndarray) -> dict[str, float]:
+        """Unit coordinates (n_genes,) in [0, 1] -> every gene's value (SI)."""
+        return {g.name: float(g.from_ga(g.ga_range[0] + zi * (g.ga_range[1] - g.ga_range[0])))
+                for g, zi in zip(self.genes, z, strict=True)}
+
     def params(self, z: np.ndarray) -> dict[str, float]:
-        """Unit coordinates (n_genes,) in [0, 1] -> baseline gene values and mechanism knobs (SI)."""
-        values = {g.name: float(g.from_ga(g.ga_range[0] + zi * (g.ga_range[1] - g.ga_range[0])))
-                  for g, zi in zip(self.genes, z, strict=True)}
-        out = {k: v for k, v in values.items() if not any(k in [g.name for g in m.genes] for m in self.mechanisms)}
+        """Unit coordinates -> baseline gene values and mechanism knobs (SI)."""
+        values = self.values(z)
+        mech_genes = {g.name for m in self.mechanisms for g in m.genes}
+        out = {k: v for k, v in values.items() if k not in mech_genes}
         for m in self.mechanisms:
             out.update(m.knobs({g.name: values[g.name] for g in m.genes}))
         return out
-
-    def values(self, z: np.ndarray) -> dict[str, float]:
-        """Unit coordinates -> every gene's value (SI)."""
-        return {g.name: float(g.from_ga(g.ga_range[0] + zi * (g.ga_range[1] - g.ga_range[0])))
-                for g, zi in zip(self.genes, z, strict=True)}
 
 
 @dataclass
@@ -334,10 +334,7 @@ def _compare(fits: list[Fit], reference: Fit, settings: DiagnosisSettings) -> No
         f.gain = float(1.0 - f.heldout_loss.sum() / total) if total > 0 else 0.0
         sd = float(np.std(d, ddof=1)) if d.size > 1 else math.inf
         f.gain_se = sd * math.sqrt(d.size) / total if total > 0 else math.inf
-        if sd == 0.0:
-            f.p_heldout = 0.0 if d.mean() > 0 else 1.0
-        else:
-            f.p_heldout = float(stats.t.sf(d.mean() / (sd / math.sqrt(d.size)), d.size - 1))
+        f.p_heldout = _paired_p(f, reference)
         f.p_value = _lr_p(f, reference)
     order = sorted(fits, key=lambda f: f.p_value)
     running = 0.0
@@ -351,7 +348,7 @@ def _compare(fits: list[Fit], reference: Fit, settings: DiagnosisSettings) -> No
 def _paired_p(a: Fit, b: Fit) -> float:
     """One-sided p that a's held-out loss is below b's (paired t-test over configurations)."""
     d = b.heldout_loss - a.heldout_loss
-    sd = float(np.std(d, ddof=1))
+    sd = float(np.std(d, ddof=1)) if d.size > 1 else math.inf
     if sd == 0.0:
         return 0.0 if d.mean() > 0 else 1.0
     return float(stats.t.sf(d.mean() / (sd / math.sqrt(d.size)), d.size - 1))

@@ -12,8 +12,9 @@ from .diagnosis import Diagnosis
 from .report import markdown_table
 
 
-def _f(v: float, digits: int = 4) -> float | None:
-    return None if v is None or not math.isfinite(float(v)) else round(float(v), 12 if digits > 8 else 6)
+def _f(v: float) -> float | None:
+    """A JSON number rounded to 6 decimals, None for missing or non-finite."""
+    return None if v is None or not math.isfinite(float(v)) else round(float(v), 6)
 
 
 def to_json(d: Diagnosis) -> dict[str, object]:
