@@ -4,7 +4,8 @@
 
 1. **Fit every candidate** (the baseline; the baseline plus each applicable mechanism of
    ``calibration.mechanisms``; later pairs) by weighted least squares on the relative residuals
-   r = (sim - measured) / measured / u (u: the observable's relative uncertainty), in the genes' unit coordinates
+   r = (sim - measured) / sigma (sigma: the rig model's 1-sigma uncertainty of each measured value, from its
+   stated relative or absolute uncertainty per observable), in the genes' unit coordinates
    (log-scaled genes in decades): a grid over the whole ranges, then Levenberg-Marquardt rounds with forward
    differences. Every point is one DEM run of every configuration; all candidates' points of a round are the
    worlds of one batched simulation. The simulations serve every fold: a fold's fit is the best simulated point
@@ -145,7 +146,11 @@ class Diagnosis:
     observables: tuple[str, ...]
     configs: list[dict]
     measured: np.ndarray
-    uncertainty: np.ndarray
+    sigma: np.ndarray
+    """1-sigma uncertainty of each measured value, in its unit (n_configs, n_obs)."""
+    uncertainty: dict[str, str]
+    """the stated uncertainty per observable, in words (e.g. "1 %", "2 (absolute)")."""
+    units: dict[str, str]
     covariates: dict[str, np.ndarray]
     fits: dict[str, Fit]
     ranking: list[str]
@@ -168,13 +173,12 @@ class Diagnosis:
         return self.fits["+".join(self.cause)] if self.cause else None
 
 
-def residuals(pred: np.ndarray, measured: np.ndarray, uncertainty: np.ndarray) -> np.ndarray:
-    """Relative residuals in units of the uncertainty, (..., n_obs); a failed prediction (NaN) counts as a 100 %
-    error, a missing measurement as 0."""
-    r = (pred - measured) / np.abs(measured)
-    r = np.where(np.isnan(pred), 1.0, r)
-    r = np.where(np.isnan(measured), 0.0, r)
-    return r / uncertainty
+def residuals(pred: np.ndarray, measured: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """Residuals in units of the uncertainty, (..., n_configs, n_obs); a failed prediction (NaN) counts as a 100 %
+    error (at least 10 sigma), a missing measurement as 0."""
+    r = (pred - measured) / sigma
+    r = np.where(np.isnan(pred), np.maximum(np.abs(measured) / sigma, 10.0), r)
+    return np.where(np.isnan(measured), 0.0, r)
 
 
 def _grid(box: np.ndarray, n: int) -> np.ndarray:
@@ -224,7 +228,7 @@ class _Fitter:
 
     def losses(self, pred: np.ndarray) -> np.ndarray:
         """Per point and configuration: sum_k r^2, (m, n_cfg)."""
-        return np.sum(residuals(pred, self.rig.measured, self.rig.uncertainty) ** 2, axis=-1)
+        return np.sum(residuals(pred, self.rig.measured, self.rig.sigma) ** 2, axis=-1)
 
     def best(self, cand: Candidate) -> tuple[np.ndarray, np.ndarray]:
         """Index of the best point for all data and for each fold: (all,), (n_cfg,)."""
@@ -280,11 +284,11 @@ class _Fitter:
         keys = [self._key(cand, z) for z in self._stencil(x0)]
         p0 = self.cache[self._key(cand, x0)]
         n_cfg = self.rig.n_configs
-        r0 = residuals(p0, self.rig.measured, self.rig.uncertainty)  # (n_cfg, n_obs)
+        r0 = residuals(p0, self.rig.measured, self.rig.sigma)  # (n_cfg, n_obs)
         cols = []
         for i, k in enumerate(keys):
             dz = np.array(k[1])[i] - x0[i]
-            cols.append((residuals(self.cache[k], self.rig.measured, self.rig.uncertainty) - r0) / dz)
+            cols.append((residuals(self.cache[k], self.rig.measured, self.rig.sigma) - r0) / dz)
         jac = np.stack(cols, axis=-1)  # (n_cfg, n_obs, d)
         valid = np.isfinite(p0) & np.all(np.isfinite(np.stack([self.cache[k] for k in keys])), axis=0)
         out = []
@@ -307,8 +311,8 @@ class _Fitter:
         n_cfg = self.rig.n_configs
         pred_all = pred[i_all[0]]
         held = np.array([pred[i_fold[j], j] for j in range(n_cfg)])
-        r_held = residuals(held, self.rig.measured, self.rig.uncertainty)
-        r_in = residuals(pred_all, self.rig.measured, self.rig.uncertainty)
+        r_held = residuals(held, self.rig.measured, self.rig.sigma)
+        r_in = residuals(pred_all, self.rig.measured, self.rig.sigma)
         n_points = int(np.sum(~np.isnan(self.rig.measured)))
         fit = Fit(cand, pts[i_all[0]], pts[i_fold], pred_all, held, np.sum(r_held**2, axis=1),
                   float(np.sum(r_in**2)), n_points)
@@ -362,7 +366,7 @@ def _noise_p(fit: Fit) -> float:
 def _pattern(rig: object, fit: Fit) -> list[str]:
     """The residual pattern: per observable, its mean and its strongest rank correlation with a covariate."""
     cov = rig.covariates()
-    r = (fit.pred_heldout - rig.measured) / np.abs(rig.measured)
+    r = (fit.pred_heldout - rig.measured) / rig.sigma
     out = []
     for k, name in enumerate(rig.observables):
         rk = r[:, k]
@@ -374,7 +378,7 @@ def _pattern(rig: object, fit: Fit) -> list[str]:
             rho, p = stats.spearmanr(cval[ok], rk[ok])
             if np.isfinite(rho) and abs(rho) > abs(best[1]):
                 best = (cname, float(rho), float(p))
-        line = f"{name}: mean residual {100 * np.nanmean(rk):+.1f} %, RMS {100 * np.sqrt(np.nanmean(rk**2)):.1f} %"
+        line = f"{name}: mean residual {np.nanmean(rk):+.2g} sigma, RMS {np.sqrt(np.nanmean(rk**2)):.2g} sigma"
         if best[0]:
             line += f"; rank correlation with {best[0]} {best[1]:+.2f} (p = {best[2]:.2g})"
         out.append(line)
@@ -454,8 +458,9 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
         else:
             verdict = "unexplained residual"
             pattern = _pattern(rig, base)
-    diag = Diagnosis(rig.rig, tuple(rig.observables), list(rig.configs), rig.measured, rig.uncertainty,
-                     rig.covariates(), fits, ranking, verdict, cause, indist, pattern, noise_base, noise_best)
+    diag = Diagnosis(rig.rig, tuple(rig.observables), list(rig.configs), rig.measured, rig.sigma,
+                     rig.describe_uncertainty(), dict(rig.units), rig.covariates(), fits, ranking, verdict, cause,
+                     indist, pattern, noise_base, noise_best)
     diag.verification = verify(rig, diag, log)
     diag.n_simulations = fitter.n_sims + int(diag.verification.get("n_simulations", 0))
     diag.wall_s = time.perf_counter() - t0
@@ -486,12 +491,15 @@ def verify(rig: object, diag: Diagnosis, log: Callable[[str], None] = lambda s: 
         sel = [i for i, k in enumerate(index) if k[0] == name and k[1] == "heldout"]
         sel_all = [i for i, k in enumerate(index) if k[0] == name and k[1] == "all"]
         held = out.values[sel]
-        r = residuals(held, diag.measured, diag.uncertainty)
-        rel = (held - diag.measured) / np.abs(diag.measured)
+        r = residuals(held, diag.measured, diag.sigma)
+        err = held - diag.measured
+        rel = err / np.abs(diag.measured)
         res[name] = {
             "heldout_pred": held, "all_pred": out.values[sel_all],
             "heldout_loss": np.sum(r**2, axis=1),
             "heldout_rms_rel": np.sqrt(np.nanmean(rel**2, axis=0)),
+            "heldout_rms": np.sqrt(np.nanmean(err**2, axis=0)),
+            "heldout_mae": np.nanmean(np.abs(err), axis=0),
             "series": [out.series[i] for i in sel_all] if out.series else None,
             "static_deflection": out.covariates.get("static_deflection", np.full(len(cases), np.nan))[sel_all],
         }

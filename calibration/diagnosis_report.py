@@ -25,8 +25,9 @@ def to_json(d: Diagnosis) -> dict[str, object]:
     def errors(name: str) -> dict[str, object]:
         e = v.get(name, {})
         return {"heldout_loss": float(np.sum(e["heldout_loss"])),
-                "heldout_rms_relative": dict(zip(d.observables, map(_f, e["heldout_rms_rel"]), strict=True))} \
-            if e else {}
+                "heldout_rms_relative": dict(zip(d.observables, map(_f, e["heldout_rms_rel"]), strict=True)),
+                "heldout_rms": dict(zip(d.observables, map(_f, e["heldout_rms"]), strict=True)),
+                "heldout_mae": dict(zip(d.observables, map(_f, e["heldout_mae"]), strict=True))} if e else {}
 
     return {
         "rig": d.rig,
@@ -43,7 +44,9 @@ def to_json(d: Diagnosis) -> dict[str, object]:
         "noise_p_baseline": _f(d.noise_p_baseline),
         "noise_p_best": _f(d.noise_p_best),
         "observables": list(d.observables),
-        "uncertainty": dict(zip(d.observables, d.uncertainty.tolist(), strict=True)),
+        "units": d.units,
+        "uncertainty": d.uncertainty,
+        "sigma": {k: d.sigma[:, i].tolist() for i, k in enumerate(d.observables)},
         "configs": d.configs,
         "ranking": [
             {"candidate": n, "heldout_loss": float(d.fits[n].heldout_loss.sum()), "gain": _f(d.fits[n].gain),
@@ -75,29 +78,29 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
     fig, axes = plt.subplots(1, n_obs, figsize=(3.6 * n_obs, 3.4), squeeze=False)
     for k, name in enumerate(d.observables):
         ax = axes[0, k]
-        ax.errorbar(x[order], d.measured[order, k], yerr=np.abs(d.measured[order, k]) * d.uncertainty[k], fmt="ko",
+        ax.errorbar(x[order], d.measured[order, k], yerr=d.sigma[order, k], fmt="ko",
                     ms=4, label="measured")
         for key, style in (("baseline", "C0s--"), ("+".join(d.cause), "C3^-")):
             if key in v and isinstance(v[key], dict):
                 ax.plot(x[order], v[key]["heldout_pred"][order, k], style, ms=4, label=f"{key} (held out)")
         ax.set_xscale("log")
         ax.set_xlabel(x_name)
-        ax.set_title(name)
+        ax.set_title(f"{name} [{d.units.get(name, '-')}]")
     axes[0, 0].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(out / "observables.png", dpi=120)
     plt.close(fig)
     files.append("observables.png")
 
-    res = (d.baseline.pred_heldout - d.measured) / np.abs(d.measured)
+    res = (d.baseline.pred_heldout - d.measured) / d.sigma
     fig, axes = plt.subplots(1, len(cov), figsize=(3.6 * len(cov), 3.2), squeeze=False)
     for c, (cname, cval) in enumerate(cov.items()):
         ax = axes[0, c]
         for k, name in enumerate(d.observables):
-            ax.plot(cval, 100 * res[:, k], "o", ms=4, label=name)
+            ax.plot(cval, res[:, k], "o", ms=4, label=name)
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_xlabel(cname)
-        ax.set_ylabel("baseline held-out residual [%]")
+        ax.set_ylabel("baseline held-out residual [sigma]")
     axes[0, 0].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(out / "residuals.png", dpi=120)
@@ -116,7 +119,7 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
                     ax.plot(t, 1e3 * s, color=color, lw=0.8, label=key)
             ax.set_ylabel(f"{d.configs[j].get('springs', j)}: mm")
         axes[0, 0].legend(fontsize=7)
-        axes[-1, 0].set_xlabel("time after the hit [s]")
+        axes[-1, 0].set_xlabel("time [s]")
         fig.tight_layout()
         fig.savefig(out / "series.png", dpi=120)
         plt.close(fig)
@@ -154,12 +157,19 @@ def write(d: Diagnosis, out: str | Path, command: str = "") -> Path:
         lines += ["Residual pattern of the baseline (held out):", ""] + [f"- {p}" for p in d.pattern] + [""]
     lines += [f"Baseline held-out residuals vs the stated uncertainties: chi^2 p = {d.noise_p_baseline:.3g}; best "
               f"candidate: p = {d.noise_p_best:.3g}.", ""]
-    lines += ["## Held-out relative errors (RMS over configurations, re-simulated)", ""]
+    lines += ["## Held-out errors (over configurations, re-simulated)", ""]
     rows = []
     for key in ["baseline"] + (["+".join(d.cause)] if d.cause else []):
         e = js["errors_after" if key != "baseline" else "errors_before"]
-        rows.append({"model": key, **{k: 100 * v if v is not None else math.nan
-                                      for k, v in e["heldout_rms_relative"].items()}})
+        row: dict[str, object] = {"model": key}
+        for k in d.observables:
+            unit = d.units.get(k, "-")
+            row[f"{k} MAE [{unit}]"] = e["heldout_mae"][k]
+            row[f"{k} RMS [{unit}]"] = e["heldout_rms"][k]
+            if unit != "%":
+                rel = e["heldout_rms_relative"][k]
+                row[f"{k} RMS [% of measured]"] = 100 * rel if rel is not None else math.nan
+        rows.append(row)
     lines += [markdown_table(rows), ""]
     lines += ["## Candidates (leave-one-configuration-out)", ""]
     lines += [markdown_table([{"candidate": r["candidate"], "held-out loss": r["heldout_loss"],
@@ -179,8 +189,7 @@ def write(d: Diagnosis, out: str | Path, command: str = "") -> Path:
                 row[f"{name} extended"] = float(d.verification["+".join(d.cause)]["heldout_pred"][j, k])
         rows.append(row)
     lines += [markdown_table(rows), ""]
-    lines += ["Observables' relative uncertainties: " + ", ".join(f"{k} {100 * u:.3g} %" for k, u in
-                                                                   zip(d.observables, d.uncertainty, strict=True)),
+    lines += ["Stated 1-sigma uncertainties: " + ", ".join(f"{k} {u}" for k, u in d.uncertainty.items()),
               "", f"{d.n_simulations} DEM simulations, {d.wall_s:.0f} s.", ""]
     lines += [f"![{f}]({f})" for f in files]
     path = out / "report.md"

@@ -7,7 +7,8 @@ mass, the spring's preload, the sensor's reading. A rig supports a set of knobs;
 the rig supports all of its knobs.
 
 Built-in mechanisms (rationale in each entry): ``pivot_friction``, ``progressive_spring``, ``series_compliance``,
-``extra_mass``, ``pose_change``, ``sensor_offset``, ``sensor_drift``, ``speed_dependence``. Register your own::
+``extra_mass``, ``load_inertia``, ``pose_change``, ``sensor_offset``, ``sensor_drift``, ``speed_dependence``.
+Register your own::
 
     from calibration.mechanisms import Mechanism, register
     from calibration.genes import Gene
@@ -106,6 +107,16 @@ register(Mechanism(
     genes=(Gene("extra_mass", 0.0, 30.0, unit="kg"),),
     knobs=lambda p: {"extra_mass": p["extra_mass"]},
     signature="all frequencies lower by one factor"))
+register(Mechanism(
+    "load_inertia", "Load force without its mass",
+    "A ringing test's load may be applied by a cable, a lever or a spring balance rather than a dead weight: the "
+    "force and its moment stay, but only part of the load's mass swings with the tool, so every frequency rises "
+    "by one factor (less so for the stiff configurations, whose own inertia weighs more) and a given dashpot's "
+    "damping ratio rises.",
+    genes=(Gene("load_mass_fraction", 0.05, 1.0, unit="-"),),
+    knobs=lambda p: {"load_mass_fraction": p["load_mass_fraction"]},
+    rigs=("ringing",),
+    signature="all frequencies higher by about one factor"))
 register(Mechanism(
     "pose_change", "Pose change with the static deflection",
     "The springs are unloaded at the drawing's pose: under the load the tool turns back by its static deflection, "

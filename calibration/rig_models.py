@@ -4,9 +4,11 @@ the observables extracted the same way from both.
 A rig model (see :class:`RingingRigModel`) states
 
 - ``configs``: one dict per measured configuration (spring count, nominal stiffness, ...);
-- ``observables`` and ``measured`` (n_configs, n_observables): what is compared, in SI units;
-- ``uncertainty`` (n_observables,): the relative measurement uncertainty of each observable (1 sigma), which weights
-  the residuals and decides whether a residual is larger than noise;
+- ``observables``, their ``units`` and ``measured`` (n_configs, n_observables): what is compared, in SI units
+  (a draught reduction in %);
+- ``sigma`` (n_configs, n_observables): the 1-sigma uncertainty of every measured value, from a stated relative or
+  absolute uncertainty per observable (``describe_uncertainty``), which weights the residuals and decides whether a
+  residual is larger than noise;
 - ``genes``: the baseline's own parameters, fitted with every candidate (``fixed`` holds those given instead);
 - ``knobs``: the physical extensions its DEM scene implements (see ``calibration.mechanisms``);
 - ``simulate(cases)``: DEM results for (configuration, parameters) pairs, all as the worlds of batched simulations;
@@ -51,6 +53,18 @@ by a few % (stiffness, hence ~1 % in frequency); log decrements from a few cycle
 about 10 % (20 % from the second half of a decay alone)."""
 
 
+def _stated(defaults: dict[str, float], given: dict[str, float] | None) -> dict[str, float]:
+    """The defaults with the user's values, each checked by name and sign."""
+    out = dict(defaults)
+    for k, v in (given or {}).items():
+        if k not in out:
+            raise ValueError(f"uncertainty: unknown observable {k!r}; known {sorted(out)}")
+        if not v > 0:
+            raise ValueError(f"uncertainty {k!r} must be positive, got {v!r}")
+        out[k] = float(v)
+    return out
+
+
 def ringdown_observables(t: np.ndarray, x: np.ndarray, late: bool) -> dict[str, float]:
     """Frequency [Hz] and damping ratio of a decay by eqs. (3)-(5) (``warpdem.analysis.ringdown``); with ``late``,
     also of its second half (from a quarter period before its middle peak on): the amplitude dependence that
@@ -85,12 +99,15 @@ class RingingRigModel:
 
     Baseline parameters: the dashpot c [N s/m] acting along the spring, one value for all configurations (fitted
     unless given in ``fixed``). Knobs: pivot_friction [N m], extra_mass [kg], progressive [N/m^3],
-    series_stiffness [N/m], free_pose (0/1), sensor_offset [m], sensor_drift [m/s] (on the displacement record).
+    series_stiffness [N/m], free_pose (0/1), load_mass_fraction [-], sensor_offset [m], sensor_drift [m/s] (on the
+    displacement record).
     """
 
     rig = "ringing"
     knobs = frozenset({"pivot_friction", "extra_mass", "progressive", "series_stiffness", "free_pose",
-                       "sensor_offset", "sensor_drift"})
+                       "load_mass_fraction", "sensor_offset", "sensor_drift"})
+
+    units = {"frequency": "Hz", "damping": "-", "frequency_late": "Hz", "damping_late": "-"}
 
     def __init__(self, measured: Measured, *, device: str | None = None, fixed: dict[str, float] | None = None,
                  ring_time: float | None = None, settle_time: float = 0.25, hit_amplitude: float = 0.5,
@@ -140,14 +157,10 @@ class RingingRigModel:
             self.measured = np.column_stack([s["frequency"], s["damping"]])
             self.ring_time = float(ring_time or 2.0)
             self.sample_rate = paper.SAMPLE_RATE
-        unc = dict(RINGING_UNCERTAINTY)
-        for k, v in (uncertainty or {}).items():
-            if k not in unc:
-                raise ValueError(f"uncertainty: unknown observable {k!r}; known {sorted(unc)}")
-            if not v > 0:
-                raise ValueError(f"uncertainty {k!r} must be positive, got {v!r}")
-            unc[k] = float(v)
-        self.uncertainty = np.array([unc[k] for k in self.observables])
+        unc = _stated(RINGING_UNCERTAINTY, uncertainty)
+        self.uncertainty = {k: unc[k] for k in self.observables}
+        """relative 1-sigma uncertainty per observable."""
+        self.sigma = np.abs(self.measured) * np.array([unc[k] for k in self.observables])
         self.genes = tuple(g for g in (Gene("dashpot", 10.0, 3e4, log=True, unit="N s/m"),)
                            if g.name not in self.fixed)
         self._geometry: dict[str, float] | None = None
@@ -159,6 +172,9 @@ class RingingRigModel:
     def describe_config(self, j: int) -> str:
         c = self.configs[j]
         return f"{c['springs']} springs (k = {c['stiffness']:.3g} N/m)"
+
+    def describe_uncertainty(self) -> dict[str, str]:
+        return {k: f"{100 * u:.3g} %" for k, u in self.uncertainty.items()}
 
     def _spring_force(self) -> float:
         """The spring's static force under the load at the CAD pose [N] (tension positive)."""
@@ -189,9 +205,10 @@ class RingingRigModel:
             chunk = cases[start:start + self.max_worlds]
             params = [{**self.fixed, **c.params} for c in chunk]
             fields: dict[str, object] = {}
-            for knob in ("pivot_friction", "extra_mass", "progressive", "series_stiffness", "free_pose"):
+            for knob in ("pivot_friction", "extra_mass", "progressive", "series_stiffness", "free_pose",
+                         "load_mass_fraction"):
                 if any(knob in p for p in params):
-                    default = math.inf if knob == "series_stiffness" else 0.0
+                    default = {"series_stiffness": math.inf, "load_mass_fraction": 1.0}.get(knob, 0.0)
                     fields[knob] = tuple(float(p.get(knob, default)) for p in params)
             cfg = RingingConfig(
                 springs=tuple(self.configs[c.config]["springs"] for c in chunk), spring_model="linear",
@@ -212,10 +229,216 @@ class RingingRigModel:
         return SimOutput(values, {"static_deflection": static}, series if keep_series else None)
 
 
-def make_rig_model(rig: str, measured: Measured, **kw: object) -> RingingRigModel:
-    """The rig model of ``rig`` ("ringing"; "soil-bin" is not built yet) for a measured data set."""
+SOIL_BIN_UNCERTAINTY = {"reduction": 2.0, "displacement_mean": 2e-4, "draught_mean": 0.03,
+                        "rigid_draught_mean": 0.03}
+"""default 1-sigma uncertainties of the measured soil-bin observables: ``reduction`` absolute, 2 percentage points
+(Table 3's eight rigid runs of one nominal condition scatter by 1.5 % (SD 5.1 N of 338 N), and a reduction is the
+difference of two runs: sqrt(2) x 1.5 %); ``displacement_mean`` absolute, 0.2 mm (the runs' own displacement SD is
+0.06-0.19 mm; the sensor's zero is set once per run); draught means relative, 3 % (twice the rigid runs'
+scatter). The simulation's own sampling error (the standard error of each steady-state mean, from the baseline's
+runs) is added in quadrature: a reduced-scale DEM run is short and noisy."""
+SOIL_BIN_ABSOLUTE = frozenset({"reduction", "displacement_mean"})
+"""observables whose stated uncertainty is absolute (in their unit); the others' is relative."""
+
+
+class SoilBinRigModel:
+    """The soil bin (``scenes.soil_bin``, linear spring model) against measured soil-bin data (like Table 3).
+
+    Configurations: the summary's rows (``springs``, ``speed`` [m/s], optional ``stiffness`` [N/m], default DIN 2093
+    of Table 2). Observables: those of ``reduction`` [%] (draught reduction of the passive tool against a rigid run
+    at the same speed), ``displacement_mean`` [m] (mean displacement at the sensor), ``draught_mean`` and
+    ``rigid_draught_mean`` [N] that the summary has; by default the reduction and the displacement, which do not
+    depend on the soil's absolute strength (a reduced-scale bed draws less than the laboratory's soil).
+
+    Baseline: the scene as calibrated (the soil's GA set, Table 2's spring rates and measured damping ratios); no
+    fitted gene (``fixed`` may set a baseline knob for every case, e.g. ``dashpot``). Table 2's support offsets (the
+    paper's final model) are off by default: the paper set them per configuration from the measured rotation of the
+    shank, so they are a fit of the displacement this diagnosis criticises (``support_offset=True`` restores them).
+    Knobs: pivot_friction, extra_mass, progressive, series_stiffness, soil_viscosity (DEM: ``scenes.soil_bin.KNOBS``)
+    and sensor_offset [m] (added to the displacement reading). Rigid runs (one per measured speed) are simulated
+    once; passive runs are cached by their physical parameters, so a sensor-only change costs no simulation.
+
+    ``scale``, ``assembly``, ``parameter_set``, ``seed``, ``working_depth``, ``travel``, ``steady_travel``,
+    ``support_offset``: the ``scenes.soil_bin.SoilBinConfig`` of the simulations; ``bed``: a deposited bed to use
+    (else made or read from ``cache_dir``); ``max_worlds``: passive worlds per simulation.
+    """
+
+    rig = "soil-bin"
+    knobs = frozenset({"pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
+                       "sensor_offset"})
+    units = {"reduction": "%", "displacement_mean": "m", "draught_mean": "N", "rigid_draught_mean": "N"}
+    has_series = False
+    genes: tuple[Gene, ...] = ()
+
+    def __init__(self, measured: Measured, *, device: str | None = None, fixed: dict[str, float] | None = None,
+                 scale: str = "ci", assembly: str = "C", parameter_set: int | None = None, seed: int = 0,
+                 working_depth: float | None = None, travel: float | None = None,
+                 steady_travel: float | None = None, support_offset: bool = False,
+                 observables: tuple[str, ...] | None = None,
+                 uncertainty: dict[str, float] | None = None, max_worlds: int = 64, bed: object | None = None,
+                 cache_dir: str | None = None) -> None:
+        from scenes import paper
+        from scenes import soil_bin as sb
+
+        self.device = device
+        self.fixed = dict(fixed or {})
+        allowed = set(sb.KNOBS) - {"stiffness"}
+        unknown = set(self.fixed) - allowed
+        if unknown:
+            raise ValueError(f"fixed: unknown knobs {sorted(unknown)}; the soil-bin rig has {sorted(allowed)}")
+        s = measured.summary
+        for col in ("springs", "speed"):
+            if col not in s:
+                raise ValueError(f"measured soil-bin data need a summary column {col!r} (have {sorted(s)})")
+        springs = [int(n) for n in s["springs"]]
+        for n in springs:
+            if n not in paper.SPRING_COUNTS:
+                raise ValueError(f"springs must be among {paper.SPRING_COUNTS}, got {n}")
+        stiffness = s.get("stiffness", np.array([paper.ringing_row(n)["stiffness_n_per_m"] for n in springs]))
+        self.configs = [{"springs": n, "speed": float(v), "stiffness": float(k)}
+                        for n, v, k in zip(springs, s["speed"], stiffness, strict=True)]
+        if observables is None:
+            observables = tuple(k for k in ("reduction", "displacement_mean") if k in s)
+        if not observables:
+            raise ValueError("measured soil-bin data need a 'reduction' or 'displacement_mean' column (or name "
+                             "the observables)")
+        for k in observables:
+            if k not in self.units:
+                raise ValueError(f"observables: unknown {k!r}; known {sorted(self.units)}")
+            if k not in s:
+                raise ValueError(f"observables: the summary has no column {k!r}")
+        self.observables = tuple(observables)
+        self.measured = np.column_stack([s[k] for k in self.observables])
+        unc = _stated(SOIL_BIN_UNCERTAINTY, uncertainty)
+        self.uncertainty = {k: unc[k] for k in self.observables}
+        self.stated_sigma = np.column_stack([
+            np.full(len(springs), unc[k]) if k in SOIL_BIN_ABSOLUTE else unc[k] * np.abs(s[k])
+            for k in self.observables])
+        self.config = sb.SoilBinConfig(scale=scale, assembly=assembly, springs=tuple(sorted(set(springs))),
+                                       spring_model="linear", parameter_set=parameter_set, seed=seed,
+                                       travel=travel, steady_travel=steady_travel, support_offset=support_offset,
+                                       **({"working_depth": working_depth} if working_depth else {}))
+        self._bed = bed
+        self.cache_dir = cache_dir
+        self.max_worlds = int(max_worlds)
+        self._rigid: dict[float, dict[str, float]] = {}
+        self._passive: dict[tuple, dict[str, object]] = {}
+        self._sim_sigma: np.ndarray | None = None
+
+    @property
+    def n_configs(self) -> int:
+        return len(self.configs)
+
+    def describe_config(self, j: int) -> str:
+        c = self.configs[j]
+        return f"{c['springs']} springs (k = {c['stiffness']:.3g} N/m, {c['speed']:.2f} m/s)"
+
+    def describe_uncertainty(self) -> dict[str, str]:
+        out = {}
+        for k, u in self.uncertainty.items():
+            out[k] = f"{u:.3g} {self.units[k]} (absolute)" if k in SOIL_BIN_ABSOLUTE else f"{100 * u:.3g} %"
+        if self._sim_sigma is not None:
+            for i, k in enumerate(self.observables):
+                out[k] += f" + simulation SEM {np.nanmedian(self._sim_sigma[:, i]):.3g} {self.units[k]} (median)"
+        return out
+
+    @property
+    def sigma(self) -> np.ndarray:
+        """Stated uncertainty and the baseline simulation's standard error of each mean, in quadrature
+        (n_configs, n_obs); the first use simulates the baseline (cached for the fits)."""
+        if self._sim_sigma is None:
+            out = self.simulate([Case(j, {}) for j in range(self.n_configs)], _sem=True)
+            self._sim_sigma = np.nan_to_num(out.values, nan=0.0)
+        return np.sqrt(self.stated_sigma**2 + self._sim_sigma**2)
+
+    def covariates(self) -> dict[str, np.ndarray]:
+        """Per configuration: spring count, stiffness [N/m], speed [m/s], measured displacement [m] (if any)."""
+        out = {k: np.array([c[k] for c in self.configs], dtype=float) for k in ("springs", "stiffness", "speed")}
+        if "displacement_mean" in self.observables:
+            out["displacement"] = self.measured[:, self.observables.index("displacement_mean")]
+        return out
+
+    def bed(self) -> object:
+        from scenes import soil_bin as sb
+
+        if self._bed is None:
+            self._bed = sb.bed_for(self.config, device=self.device, cache_dir=self.cache_dir)
+        return self._bed
+
+    def _physical(self, case: Case) -> tuple:
+        """The key of a passive run: configuration and the knobs that change the DEM (not the sensor's)."""
+        p = {**self.fixed, **case.params}
+        return (case.config,) + tuple(sorted((k, float(v)) for k, v in p.items() if k != "sensor_offset"))
+
+    def _run_rigid(self, speeds: list[float], progress: object | None) -> None:
+        from scenes import soil_bin as sb
+
+        todo = sorted({v for v in speeds if v not in self._rigid})
+        if not todo:
+            return
+        run = sb.run_soil_bin(self.config, [0] * len(todo), bed=self.bed(), device=self.device, speeds=todo,
+                              progress=progress)
+        for v, row in zip(todo, run.steady, strict=True):
+            self._rigid[v] = {"mean": row["draught_mean"], "sem": row["draught_sem"]}
+
+    def _run_passive(self, keys: list[tuple], keep_series: bool, progress: object | None) -> None:
+        from scenes import soil_bin as sb
+
+        todo = [k for k in dict.fromkeys(keys) if k not in self._passive
+                or (keep_series and "series" not in self._passive[k])]
+        for start in range(0, len(todo), self.max_worlds):
+            chunk = todo[start:start + self.max_worlds]
+            cfgs = [self.configs[k[0]] for k in chunk]
+            params = [dict(k[1:]) for k in chunk]
+            knobs: dict[str, list[float]] = {"stiffness": [c["stiffness"] for c in cfgs]}
+            for name in sorted({n for p in params for n in p}):
+                default = math.inf if name == "series_stiffness" else 0.0
+                if name == "dashpot" and not all(name in p for p in params):
+                    raise ValueError("dashpot must be given for every case or none")
+                knobs[name] = [p.get(name, default) for p in params]
+            run = sb.run_soil_bin(self.config, [c["springs"] for c in cfgs], bed=self.bed(), device=self.device,
+                                  speeds=[c["speed"] for c in cfgs], knobs=knobs, progress=progress)
+            for w, (key, row) in enumerate(zip(chunk, run.steady, strict=True)):
+                entry: dict[str, object] = {k: row[k] for k in ("draught_mean", "draught_sem", "displacement_mean",
+                                                                "displacement_sem")}
+                if keep_series:
+                    entry["series"] = (run.time.copy(), run.series["displacement"][:, w].copy())
+                self._passive[key] = entry
+
+    def simulate(self, cases: list[Case], keep_series: bool = False, progress: object | None = None,
+                 _sem: bool = False) -> SimOutput:
+        """The observables of every case (n_cases, n_obs) (with ``_sem``: their simulation standard errors)."""
+        self._run_rigid([self.configs[c.config]["speed"] for c in cases], progress)
+        keys = [self._physical(c) for c in cases]
+        self._run_passive(keys, keep_series, progress)
+        values = np.full((len(cases), len(self.observables)), np.nan)
+        series = []
+        for i, (case, key) in enumerate(zip(cases, keys, strict=True)):
+            p = {**self.fixed, **case.params}
+            speed = self.configs[case.config]["speed"]
+            rig, run = self._rigid[speed], self._passive[key]
+            drag = p.get("soil_viscosity", 0.0) * speed  # the rigid tool moves at the carriage speed exactly
+            rigid, passive = rig["mean"] + drag, float(run["draught_mean"])
+            if _sem:
+                obs = {"reduction": 100.0 * math.hypot(float(run["draught_sem"]), passive / rigid * rig["sem"])
+                       / rigid,
+                       "displacement_mean": float(run["displacement_sem"]), "draught_mean": float(run["draught_sem"]),
+                       "rigid_draught_mean": rig["sem"]}
+            else:
+                obs = {"reduction": 100.0 * (rigid - passive) / rigid,
+                       "displacement_mean": float(run["displacement_mean"]) + p.get("sensor_offset", 0.0),
+                       "draught_mean": passive, "rigid_draught_mean": rigid}
+            values[i] = [obs[k] for k in self.observables]
+            if keep_series:
+                t, x = run["series"]
+                series.append((t, x + p.get("sensor_offset", 0.0)))
+        return SimOutput(values, {}, series if keep_series else None)
+
+
+def make_rig_model(rig: str, measured: Measured, **kw: object) -> RingingRigModel | SoilBinRigModel:
+    """The rig model of ``rig`` ("ringing" or "soil-bin") for a measured data set."""
     if rig == "ringing":
         return RingingRigModel(measured, **kw)
     if rig == "soil-bin":
-        raise NotImplementedError("the soil-bin rig model for diagnosis is not built yet (see the issue's notes)")
+        return SoilBinRigModel(measured, **kw)
     raise ValueError(f"rig must be 'ringing' or 'soil-bin', got {rig!r}")

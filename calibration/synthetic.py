@@ -66,3 +66,52 @@ def ringing_data(
             lines += [f"{float(ti)!r},{float(xi)!r}" for ti, xi in zip(s.time, s.values, strict=True)]
             (out / "series" / f"springs_{int(s.config['springs']):02d}.csv").write_text("\n".join(lines) + "\n")
     return data
+
+
+def soil_bin_data(
+    springs: tuple[int, ...],
+    speeds: tuple[float, ...],
+    truth: dict[str, float],
+    *,
+    scatter: float = 0.02,
+    noise: dict[str, float] | None = None,
+    seed: int = 0,
+    device: str | None = None,
+    out: str | Path | None = None,
+    **rig: object,
+) -> Measured:
+    """A soil-bin summary (like Table 3) from the DEM rig with ``truth`` (any knobs of
+    ``calibration.rig_models.SoilBinRigModel``, e.g. ``{"sensor_offset": -1.5e-3}``).
+
+    Each configuration's true spring rate is its nominal DIN rate off by ``scatter`` (relative, 1 sigma); the
+    summary gives the nominal rate. ``noise``: measurement noise (1 sigma, absolute) added to the observables,
+    default reduction 1 percentage point and displacement 0.1 mm. ``rig``: the SoilBinRigModel's scene settings
+    (scale, assembly, bed, ...). Columns: springs, stiffness, speed, reduction, displacement_mean (and the
+    draught means); with ``out``, written there as ``summary.csv``.
+    """
+    from scenes import paper
+
+    from .rig_models import Case, SoilBinRigModel
+
+    rng = np.random.default_rng(seed)
+    noise = {"reduction": 1.0, "displacement_mean": 1e-4, **(noise or {})}
+    nominal = np.array([paper.ringing_row(n)["stiffness_n_per_m"] for n in springs])
+    true_k = nominal * (1.0 + scatter * rng.standard_normal(len(springs)))
+    n = len(springs)
+    columns = {"springs": np.array(springs, dtype=float), "stiffness": true_k, "speed": np.asarray(speeds, float),
+               **{k: np.zeros(n) for k in ("reduction", "displacement_mean", "draught_mean", "rigid_draught_mean")}}
+    truth_rig = SoilBinRigModel(Measured(columns, {}), device=device,
+                                observables=("reduction", "displacement_mean", "draught_mean", "rigid_draught_mean"),
+                                **rig)
+    sim = truth_rig.simulate([Case(j, dict(truth)) for j in range(n)]).values
+    units = {"springs": "-", "stiffness": "N/m", "speed": "m/s", "reduction": "%", "displacement_mean": "m",
+             "draught_mean": "N", "rigid_draught_mean": "N"}
+    summary = {"springs": columns["springs"], "stiffness": nominal, "speed": columns["speed"],
+               "reduction": sim[:, 0] + noise["reduction"] * rng.standard_normal(n),
+               "displacement_mean": sim[:, 1] + noise["displacement_mean"] * rng.standard_normal(n),
+               "draught_mean": sim[:, 2], "rigid_draught_mean": sim[:, 3]}
+    data = Measured(summary, units, [], "synthetic")
+    if out is not None:
+        Path(out).mkdir(parents=True, exist_ok=True)
+        write_summary(Path(out) / "summary.csv", summary, units)
+    return data

@@ -35,11 +35,16 @@ from .sweep import SweepTool, add_sweep, build_sweep
 
 SPRING_MODELS = ("paper", "linear")
 PER_WORLD = ("spring_young", "local_damping", "stiffness", "damping_ratio", "dashpot", "pivot_friction", "extra_mass",
-             "progressive", "series_stiffness", "free_pose")
+             "progressive", "series_stiffness", "free_pose", "load_mass_fraction")
 """RingingConfig fields holding one value per world."""
 LINEAR_ONLY = ("dashpot", "progressive", "series_stiffness", "free_pose")
 PIN_STIFFNESS = 1e8
 """stiffness of the pin holding the load at the blade tip [N/m]."""
+LOAD_ANCHOR = 100.0
+"""distance below the blade tip [m] of the static anchor of the massless part of the load (a constant-force spring
+along -z)."""
+PIN_DAMPING_RATIO = 0.2
+"""damping ratio of the pin holding the load (its own 350 Hz mode is damped out within a few periods)."""
 SETTLE_DAMPING = 0.7
 """local damping during settling [-] (Cundall; removed before the hit)."""
 
@@ -75,6 +80,10 @@ class RingingConfig:
     """model "linear": stiffness of the frame and shank in series with the springs [N/m] (inf: rigid): the stack
     then acts with k ks / (k + ks) (the frame taken massless; the dashpot acts across both; with a progressive
     stack, on the linear part only)."""
+    load_mass_fraction: tuple[float, ...] | None = None
+    """fraction of the load's mass (F/g) that rides with the tool, in (0, 1] (default 1: a dead weight); the rest
+    of the load force acts without mass (a cable, lever or spring balance applying it), so the tool swings with
+    less inertia under the same moment."""
     free_pose: tuple[float, ...] | None = None
     """model "linear": 1 = the spring is unloaded at the CAD pose and the tool settles under the load into its
     deflected pose (lever arms and the spring's line change with it); 0 = preloaded so that the CAD pose is the
@@ -106,6 +115,9 @@ class RingingConfig:
             if name == "series_stiffness":
                 if not all(v > 0 and not math.isnan(v) for v in values):
                     raise ValueError(f"series_stiffness must be positive (inf: rigid), got {values}")
+            elif name == "load_mass_fraction":
+                if not all(0 < v <= 1 for v in values):
+                    raise ValueError(f"load_mass_fraction must be in (0, 1], got {values}")
             elif not all(math.isfinite(v) and v >= 0 for v in values):
                 raise ValueError(f"{name} must be finite and non-negative, got {values}")
             setattr(self, name, values)
@@ -160,15 +172,17 @@ def gravity_moment(tool: SweepTool, load_mass: float, load_point: np.ndarray, g:
     return float(m_tool + np.cross(load_point - tool.pivot, load_mass * weight)[0])
 
 
-def analytic_frequency(rig: RingingRig, stiffness: float, damping: float) -> tuple[float, float]:
+def analytic_frequency(rig: RingingRig, stiffness: float, damping: float,
+                       load_mass_fraction: float = 1.0) -> tuple[float, float]:
     """Damped frequency [Hz] and damping ratio of the linear-spring rig (small oscillations about equilibrium).
 
-    I theta'' + c a^2 theta' + (k a^2 + K_g) theta = 0 with I the inertia of tool and load about the pivot, a the
-    spring's lever arm, K_g gravity's stiffness (tool's centre of mass and the load hang below the pivot).
-    Neglected: the preload's geometric stiffness (F0 * 0.02 m < 0.2 % of k a^2) and the pin's compliance.
+    I theta'' + c a^2 theta' + (k a^2 + K_g) theta = 0 with I the inertia of tool and the load's riding mass
+    (``load_mass_fraction`` of F/g) about the pivot, a the spring's lever arm, K_g the stiffness of gravity and the
+    load force (tool's centre of mass and the load point hang below the pivot; a constant vertical force acts like
+    a weight). Neglected: the preload's geometric stiffness (F0 * 0.02 m < 0.2 % of k a^2) and the pin's compliance.
     """
     m_load = rig.config.load_force / 9.81
-    inertia = rig_inertia(rig.tool, m_load, rig.load_point)
+    inertia = rig_inertia(rig.tool, load_mass_fraction * m_load, rig.load_point)
     k_rot = stiffness * rig.lever**2 + gravity_stiffness(rig.tool, m_load, rig.load_point)
     wn = math.sqrt(k_rot / inertia)
     zeta = damping * rig.lever**2 / (2.0 * math.sqrt(k_rot * inertia))
@@ -193,10 +207,20 @@ def build_ringing(config: RingingConfig | None = None, tool: SweepTool | None = 
     b.add_rigid_body(load_point, mass=m_load, inertia=np.eye(3) * 0.4 * m_load * r_load**2, blocked="xXYZ",
                      group="load", name="load")
     b.add_spring("pin", b.body_names["sweep_lower"], load_point, b.body_names["load"], load_point,
-                 stiffness=PIN_STIFFNESS, damping=2.0 * 0.2 * math.sqrt(PIN_STIFFNESS * m_load), rest_length=0.0)
+                 stiffness=PIN_STIFFNESS, damping=2.0 * PIN_DAMPING_RATIO * math.sqrt(PIN_STIFFNESS * m_load),
+                 rest_length=0.0)
     s = np.asarray(tool.sensor_point, dtype=np.float64)
     lever = float(abs(s[2] - tool.pivot[2]))
     overrides: dict[str, object] = {}
+    if cfg.load_mass_fraction is not None:
+        # part of the load as mass on the pin, the rest a massless constant force (zero-rate spring, preloaded)
+        frac = cfg.per_world("load_mass_fraction", 1.0)
+        below = load_point - (0.0, 0.0, LOAD_ANCHOR)
+        anchor = b.add_rigid_body(below, name="load_anchor")
+        b.add_spring("load_force", anchor, below, b.body_names["sweep_lower"], load_point, stiffness=0.0)
+        overrides["body:load:mass"] = frac * m_load
+        overrides["spring:pin:damping"] = 2.0 * PIN_DAMPING_RATIO * np.sqrt(PIN_STIFFNESS * frac * m_load)
+        overrides["spring:load_force:preload"] = (1.0 - frac) * cfg.load_force
     if cfg.pivot_friction is not None:
         overrides["body:sweep_lower:pivot_friction"] = cfg.per_world("pivot_friction", 0.0)
     extra = cfg.per_world("extra_mass", 0.0)
@@ -356,8 +380,9 @@ def run_ringing(config: RingingConfig | None = None, *, device: str | None = Non
             pass  # too few peaks (overdamped): left as NaN and reported
     analytic: dict[str, np.ndarray] = {}
     if cfg.spring_model == "linear":
-        pairs = [analytic_frequency(rig, float(k), float(c))
-                 for k, c in zip(rig.stiffness, rig.info["dashpot_n_s_per_m"], strict=True)]
+        pairs = [analytic_frequency(rig, float(k), float(c), float(f))
+                 for k, c, f in zip(rig.stiffness, rig.info["dashpot_n_s_per_m"],
+                                    cfg.per_world("load_mass_fraction", 1.0), strict=True)]
         analytic = {"freq_hz": np.array([p[0] for p in pairs]), "damping": np.array([p[1] for p in pairs])}
     return RingingResult(tuple(cfg.springs), cfg.spring_model, t, disp, freq, zeta, static, dt, wall, asdict(cfg),
                          analytic)

@@ -49,6 +49,16 @@ SCALES = {
     "paper": {"bin": (1.0, 2.0, 0.5), "bed_depth": 0.25, "radius": 0.007, "travel": 1.6, "steady_travel": 0.5},
 }
 SPRING_MODELS = ("linear", "paper")
+KNOBS = ("stiffness", "dashpot", "pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity")
+"""per-world settings and extensions of the passive rig with linear springs (``run_soil_bin(knobs=...)``), SI:
+stiffness [N/m] (default DIN 2093 of the configuration), dashpot [N s/m] (default: Table 2's measured damping
+ratio for the hinged tool alone), pivot_friction [N m] (Coulomb torque at the hinge), extra_mass [kg] (added to the
+tool, distributed like its own), progressive [N/m^3] (cubic term of the stack, F = k u + k3 u^3), series_stiffness
+[N/m] (frame and shank in series: k ks / (k + ks); inf = rigid), soil_viscosity [N s/m] (a rate-dependent soil
+resistance b v against travel at the share's tip; it adds to the draught). The rigid tool takes soil_viscosity
+only (its motion is prescribed: the resistance only adds to the draught)."""
+DRAG_ANCHOR = 100.0
+"""distance ahead of the tip [m] of the static anchor of the soil-viscosity dashpot: its line stays along travel."""
 
 
 @dataclass
@@ -169,9 +179,33 @@ class SoilBinRun:
     wall_s: float = 0.0
 
 
+def _check_knobs(knobs: dict[str, object] | None, n_worlds: int, rigid: bool, spring_model: str
+                 ) -> dict[str, np.ndarray]:
+    """Per-world knob arrays (n_worlds,), checked by name and value."""
+    out: dict[str, np.ndarray] = {}
+    for name, values in (knobs or {}).items():
+        if name not in KNOBS:
+            raise ValueError(f"knobs: unknown knob {name!r}; known {KNOBS}")
+        if rigid and name != "soil_viscosity":
+            raise ValueError(f"knobs: the rigid tool takes soil_viscosity only, got {name!r}")
+        if not rigid and spring_model != "linear":
+            raise ValueError(f"knobs: {name!r} needs spring_model 'linear', got {spring_model!r}")
+        a = np.broadcast_to(np.asarray(values, dtype=np.float64), (n_worlds,)).copy()
+        if name == "series_stiffness":
+            if not np.all(a > 0):
+                raise ValueError(f"knobs: series_stiffness must be positive (inf: rigid), got {a.tolist()}")
+        elif not np.all(np.isfinite(a) & (a >= 0)) or (name == "stiffness" and not np.all(a > 0)):
+            raise ValueError(f"knobs: {name} must be finite and {'positive' if name == 'stiffness' else 'non-negative'}"
+                             f", got {a.tolist()}")
+        out[name] = a
+    return out
+
+
 def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int], speeds: list[float],
-           device: str | None, soil_overrides: dict[str, object] | None = None) -> tuple[wd.Model, wd.State, dict]:
+           device: str | None, soil_overrides: dict[str, object] | None = None,
+           knobs: dict[str, np.ndarray] | None = None) -> tuple[wd.Model, wd.State, dict]:
     rigid = all(n == 0 for n in springs)
+    knobs = knobs or {}
     b = wd.ModelBuilder(gravity=(0.0, 0.0, -9.81))
     b.add_material("soil", config.soil_material())
     b.add_material("tool", wd.Material(young=paper.TOOL_YOUNG, poisson=paper.TOOL_POISSON, density=7850.0,
@@ -186,6 +220,12 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
     for name, values in (soil_overrides or {}).items():
         overrides[f"material:soil:{name}"] = values
     info: dict[str, object] = {"n_particles": int(keep.sum())}
+    if "soil_viscosity" in knobs:
+        # a dashpot from a static anchor far ahead to the tip: its force is b v against travel
+        tip = np.asarray(tool.tip, dtype=np.float64)
+        b.add_spring("soil_viscosity", b.body_names["bin"], tip + (0.0, DRAG_ANCHOR, 0.0),
+                     b.body_names["sweep_lower"], tip, stiffness=0.0)
+        overrides["spring:soil_viscosity:damping"] = knobs["soil_viscosity"]
     if not rigid:
         s = np.asarray(tool.sensor_point)
         rows = [paper.ringing_row(n) for n in springs]
@@ -200,16 +240,28 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
             carriage = b.add_rigid_body(anchor, name="carriage", velocity=v0)
             b.add_spring("spring", carriage, anchor, b.body_names["sweep_lower"], s, stiffness=1.0,
                          rest_length=length)
-            k = np.array([r["stiffness_n_per_m"] for r in rows])
-            i_p = tool.inertia_about(tool.pivot)[0, 0]
-            k_rot = k * lever**2 - tool.mass * 9.81 * (tool.com[2] - tool.pivot[2])
-            zeta = np.array([r["measured_damping"] for r in rows])
+            k = knobs.get("stiffness", np.array([r["stiffness_n_per_m"] for r in rows]))
+            if "dashpot" in knobs:
+                dashpot = knobs["dashpot"]
+            else:
+                i_p = tool.inertia_about(tool.pivot)[0, 0]
+                k_rot = k * lever**2 - tool.mass * 9.81 * (tool.com[2] - tool.pivot[2])
+                zeta = np.array([r["measured_damping"] for r in rows])
+                dashpot = 2.0 * zeta * np.sqrt(k_rot * i_p) / lever**2
+            k_s = knobs.get("series_stiffness", np.full(len(springs), math.inf))
+            k_eff = np.where(np.isinf(k_s), k, k * k_s / (k + np.where(np.isinf(k_s), 0.0, k_s)))
             overrides.update({
                 "body:carriage:velocity": [(0.0, sp, 0.0) for sp in speeds],
-                "spring:spring:stiffness": k,
-                "spring:spring:damping": 2.0 * zeta * np.sqrt(k_rot * i_p) / lever**2,
+                "spring:spring:stiffness": k_eff,
+                "spring:spring:damping": dashpot,
                 "spring:spring:rest_length": length + (np.array(offsets) - mean_off),
             })
+            if "progressive" in knobs:
+                overrides["spring:spring:progressive"] = knobs["progressive"]
+            if "pivot_friction" in knobs:
+                overrides["body:sweep_lower:pivot_friction"] = knobs["pivot_friction"]
+            if "extra_mass" in knobs:
+                overrides["body:sweep_lower:mass"] = tool.mass + knobs["extra_mass"]
         else:
             sp = paper.SPRING_SPHERE
             r = sp["radius"]
@@ -242,8 +294,12 @@ def _stop_carriages(sim: wd.Simulation, worlds: np.ndarray) -> None:
 
 def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device: str | None = None,
                  tool: SweepTool | None = None, progress: object | None = None,
-                 viewer: object | None = None, soil_overrides: dict[str, object] | None = None) -> SoilBinRun:
+                 viewer: object | None = None, soil_overrides: dict[str, object] | None = None,
+                 speeds: list[float] | None = None, knobs: dict[str, object] | None = None) -> SoilBinRun:
     """One simulation: rigid tools (every entry of ``springs`` 0) or passive configurations, one world each.
+
+    ``speeds``: carriage speed per world [m/s] (n_worlds,) (default: the config's speed of each spring count).
+    ``knobs``: per-world settings and extensions, name -> (n_worlds,) values (see :data:`KNOBS`).
 
     ``viewer``: an optional warpdem.viewer.RerunViewer factory ``f(sim) -> viewer`` streamed at every record with
     the draught, displacement and kinetic energies.
@@ -254,10 +310,16 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     if 0 in springs and any(n != 0 for n in springs):
         raise ValueError(f"rigid and passive tools run in separate simulations: springs must be all 0 or all "
                          f"passive configurations, got {springs}")
-    all_speeds = dict(zip(config.springs, config.speeds(), strict=True))
-    speeds = [all_speeds[n] for n in springs]
+    if speeds is None:
+        all_speeds = dict(zip(config.springs, config.speeds(), strict=True))
+        speeds = [all_speeds[n] for n in springs]
+    elif len(speeds) != len(springs) or not all(v > 0 for v in speeds):
+        raise ValueError(f"speeds needs one positive value per world ({len(springs)}), got {speeds}")
+    speeds = [float(v) for v in speeds]
+    rigid = all(n == 0 for n in springs)
+    knob_arrays = _check_knobs(knobs, len(springs), rigid, config.spring_model)
     tool = place_tool(bed, config.working_depth, tool)
-    model, state, info = _build(config, bed, tool, springs, speeds, device, soil_overrides)
+    model, state, info = _build(config, bed, tool, springs, speeds, device, soil_overrides, knob_arrays)
     dt = config.dt or min(0.3 * wd.pwave_timestep(model), 0.5 * wd.critical_timestep(model))
     p = config.preset
     travel = config.travel or p["travel"]
@@ -268,9 +330,17 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     speeds_a = np.asarray(speeds)
     sensor = wd.observers.body_point("sweep_lower", tool.sensor_point)
     s0 = sensor(sim)[:, 1].copy()
-    draught = wd.observers.mesh_wrench("sweep_lower")
+    contact = wd.observers.mesh_wrench("sweep_lower")
+    if "soil_viscosity" in knob_arrays:  # the dashpot pushes back (compression, < 0) while the tool advances
+        drag = wd.observers.spring_force("soil_viscosity")
+
+        def draught(s: wd.Simulation) -> np.ndarray:
+            return -contact(s)[:, 0, 1] - drag(s)
+    else:
+        def draught(s: wd.Simulation) -> np.ndarray:
+            return -contact(s)[:, 0, 1]
     observers = {
-        "draught": lambda s: -draught(s)[:, 0, 1],
+        "draught": draught,
         "displacement": lambda s: -(sensor(s)[:, 1] - s0 - np.minimum(speeds_a * s.state.time, travel)),
         "ke_tool": wd.observers.group_kinetic_energy("tool"),
         "ke_soil": wd.observers.group_kinetic_energy("soil"),

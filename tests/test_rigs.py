@@ -26,6 +26,21 @@ def test_ringing_linear_model_matches_the_analytic_rig() -> None:
     assert np.all(np.diff(res.frequency_hz) < 0)
 
 
+def test_ringing_load_without_its_mass_matches_the_analytic_rig() -> None:
+    # Same reference with only 30 % of the load's mass riding (the rest of its 200 N a massless constant force,
+    # the load_inertia mechanism of model criticism): I drops, K_g and the static pose stay. Tolerance as above.
+    cfg = ringing.RingingConfig(springs=(4, 32), spring_model="linear", load_mass_fraction=(0.3, 0.3),
+                                dashpot=(1500.0, 1500.0), ring_time=1.0)
+    res = ringing.run_ringing(cfg, device=DEVICE)
+    np.testing.assert_allclose(res.frequency_hz, res.analytic["freq_hz"], rtol=0.01)
+    np.testing.assert_allclose(res.damping_ratio, res.analytic["damping"], rtol=0.01)
+    full = ringing.run_ringing(ringing.RingingConfig(springs=(4, 32), spring_model="linear",
+                                                     dashpot=(1500.0, 1500.0), ring_time=1.0), device=DEVICE)
+    assert np.all(res.frequency_hz > 1.2 * full.frequency_hz)
+    # the massless part of the load keeps the equilibrium: no drift while settling
+    np.testing.assert_allclose(res.static_deflection, 0.0, atol=1e-6)
+
+
 @pytest.fixture(scope="module")
 def ci_bed():
     return sb.bed_for(sb.SoilBinConfig(scale="ci", assembly="A"), device=DEVICE)

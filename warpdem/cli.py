@@ -9,8 +9,9 @@
     warpdem calibrate draught --assembly C [--scale ci|cpu|paper] [--speed 0.62] [--screen-scale ci|cpu|paper]
                       (both: [--generations 5] [--population 20] [--parents 7] [--seed 0] [--device] [--out DIR]
                        [--gene NAME=LOW:HIGH] [--archive FILE] [--no-resume] [--ray-workers N] [--ray-address A])
-    warpdem diagnose MEASURED --rig ringing [--params FILE] [--mechanisms a,b] [--uncertainty k=v,...] [--device]
-                      [--out DIR]   (MEASURED: a summary CSV, a folder with summary.csv/series, or paper:ringing)
+    warpdem diagnose MEASURED --rig ringing|soil-bin [--params FILE] [--mechanisms a,b] [--uncertainty k=v,...]
+                      [--rounds N] [--device] [--out DIR]
+                      (MEASURED: a summary CSV, a folder with summary.csv/series, paper:ringing or paper:soil-bin)
 
 ``reproduce`` runs the paper's study at a reduced (``cpu``, default) or full (``paper``) scale: the ringing test
 for all eight spring configurations with both spring models, the soil bin with the rigid tool and 16 and 32 springs,
@@ -384,15 +385,17 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--ray-address", default=None, help="address of an existing Ray cluster")
     q = sub.add_parser("diagnose", help="model criticism: residuals, candidate mechanisms, the named cause, its gain")
     q.add_argument("measured", help="MEASURED data (a summary CSV or a folder; calibration.measured), or "
-                                    "paper:ringing for Table 2")
+                                    "paper:ringing (Table 2) or paper:soil-bin (Table 3)")
     q.add_argument("--rig", choices=("ringing", "soil-bin"), required=True)
-    q.add_argument("--params", default=None, help="JSON: rig settings (e.g. load_force, ring_time) and "
-                                                  "'fixed': baseline parameters not to fit (e.g. dashpot)")
+    q.add_argument("--params", default=None, help="JSON: rig settings (ringing: load_force, ring_time, ...; "
+                                                  "soil-bin: scale, assembly, travel, cache_dir, ...) and 'fixed': "
+                                                  "baseline parameters not to fit (e.g. dashpot)")
     q.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
     q.add_argument("--out", default="results/diagnose", help="results folder")
     q.add_argument("--mechanisms", default=None, help="comma-separated candidates (default: all that apply)")
     q.add_argument("--uncertainty", type=_keyvals, default=None,
-                   help="relative 1-sigma uncertainties, e.g. frequency=0.01,damping=0.05")
+                   help="1-sigma uncertainties, e.g. frequency=0.01,damping=0.05 (relative) or "
+                        "reduction=2,displacement_mean=2e-4 (absolute: %% points, m)")
     q.add_argument("--rounds", type=int, default=6, help="fit rounds (one grid, then Levenberg-Marquardt)")
     q.add_argument("--alpha", type=float, default=0.05, help="family-wise significance level")
     q.add_argument("--min-gain", type=float, default=0.3, help="least relative fall of the held-out loss")

@@ -283,6 +283,18 @@ def mesh_wrench(mesh: str, world: int | None = None) -> Callable[[object], np.nd
     return f
 
 
+def spring_force(name: str) -> Callable[[object], np.ndarray]:
+    """Observer: force of a named spring in the last step [N] (tension positive: it pulls its two points together),
+    spring + dashpot, shape (n_worlds,)."""
+
+    def f(sim: object) -> np.ndarray:
+        m = sim.model
+        idx = np.arange(m.n_worlds) * m.springs_per_world + m.names["spring"][name]
+        return sim.spring_force.numpy()[idx].astype(np.float64)
+
+    return f
+
+
 def body_point(body: str, point: object) -> Callable[[object], np.ndarray]:
     """Observer: world position [m] of a point fixed to a named body, shape (n_worlds, 3). ``point`` is given in
     the world at the initial pose [m] (3,); subtract the first record to get its displacement."""
