@@ -21,8 +21,8 @@
    whose held-out loss is within sqrt(2 n) of it, the spread of a chi^2 with n data points, named as
    indistinguishable); if the best single candidate still leaves a
    residual inconsistent with noise (chi^2 of its held-out residuals, p < ``noise_p``), pairs of the best single
-   candidates are fitted and a pair is named when it is significant against the baseline and, by the likelihood
-   ratio and by ``min_gain / 2`` of held-out gain, against each of its members. Without a
+   candidates are fitted and a pair is named when it is significant against the baseline and against each of its
+   members: likelihood ratio, and a held-out loss at most (1 - ``min_gain``) of the member's. Without a
    significant candidate: "no significant discrepancy" if the baseline's held-out residuals are consistent with
    the stated uncertainties, else "unexplained residual" with its pattern (rank correlations with the covariates).
 4. **Extend and measure**: the named extension is applied to the DEM rig and every configuration re-simulated,
@@ -31,11 +31,14 @@
 
 from __future__ import annotations
 
+import hashlib
 import itertools
+import json
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
 
 import numpy as np
 from scipy import stats
@@ -90,10 +93,15 @@ class DiagnosisSettings:
     """pairs are formed from this many best single candidates."""
     mechanisms: tuple[str, ...] | None = None
     """the candidate mechanisms (default: every registered one the rig supports)."""
+    batch_worlds: int = 0
+    """at most this many worlds per batched simulation (0: each round's new points in one); with a checkpoint, the
+    simulated points are saved after every batch."""
 
     def __post_init__(self) -> None:
         if self.rounds < 1:
             raise ValueError(f"rounds must be >= 1, got {self.rounds!r}")
+        if self.batch_worlds < 0:
+            raise ValueError(f"batch_worlds must be >= 0, got {self.batch_worlds!r}")
         if not 0 < self.alpha < 1:
             raise ValueError(f"alpha must be in (0, 1), got {self.alpha!r}")
         if not 0 <= self.min_gain < 1:
@@ -191,13 +199,47 @@ def _grid(box: np.ndarray, n: int) -> np.ndarray:
     return np.array(list(itertools.product(*axes)))
 
 
-class _Fitter:
-    """Zooming grid fits of many candidates against one rig model, sharing batched simulations."""
+def _checkpoint_key(rig: object, settings: DiagnosisSettings) -> str:
+    """What a checkpoint must match to be resumed: the rig, its settings, the data and the fit settings."""
+    text = json.dumps({"rig": rig.rig, "settings": getattr(rig, "settings", dict)(), "configs": rig.configs,
+                       "observables": list(rig.observables), "measured": np.asarray(rig.measured).tolist(),
+                       "uncertainty": rig.uncertainty, "fit": asdict(settings)}, sort_keys=True, default=str)
+    return hashlib.sha1(text.encode()).hexdigest()
 
-    def __init__(self, rig: object, settings: DiagnosisSettings, log: Callable[[str], None]) -> None:
+
+class _Fitter:
+    """Grid and Levenberg-Marquardt fits of many candidates against one rig model, sharing batched simulations.
+    Every simulated point is kept (``cache``) and, with a checkpoint file, saved after every batch: a killed
+    diagnosis run again with the same checkpoint simulates only what it had not."""
+
+    def __init__(self, rig: object, settings: DiagnosisSettings, log: Callable[[str], None],
+                 checkpoint: str | Path | None = None) -> None:
         self.rig, self.settings, self.log = rig, settings, log
         self.cache: dict[tuple[str, tuple[float, ...]], np.ndarray] = {}
         self.n_sims = 0
+        self.checkpoint = Path(checkpoint) if checkpoint else None
+        self.key = _checkpoint_key(rig, settings)
+        if self.checkpoint is not None and self.checkpoint.exists():
+            data = json.loads(self.checkpoint.read_text())
+            if data.get("key") != self.key:
+                raise ValueError(f"checkpoint {str(self.checkpoint)!r} belongs to another diagnosis (other data, rig "
+                                 f"or settings): remove it or write elsewhere")
+            if hasattr(rig, "restore"):
+                rig.restore(data["rig_state"])
+            for name, z, values in data["cache"]:
+                self.cache[(name, tuple(z))] = np.array(values, dtype=np.float64).reshape(rig.n_configs, -1)
+            self.n_sims = int(data["n_sims"])
+            log(f"  resumed from {self.checkpoint}: {len(self.cache)} simulated parameter sets")
+        self.sigma = rig.sigma  # fixed before any fit (a rig may simulate its own noise level here)
+
+    def save(self) -> None:
+        if self.checkpoint is None:
+            return
+        from .archive import write_json_atomic
+
+        write_json_atomic(self.checkpoint, {
+            "key": self.key, "n_sims": self.n_sims, "rig_state": getattr(self.rig, "state", dict)(),
+            "cache": [[k[0], list(k[1]), np.where(np.isfinite(v), v, None).tolist()] for k, v in self.cache.items()]})
 
     def _key(self, cand: Candidate, z: np.ndarray) -> tuple[str, tuple[float, ...]]:
         return cand.name, tuple(np.round(z, 10).tolist())
@@ -212,14 +254,19 @@ class _Fitter:
         if not todo:
             return
         n_cfg = self.rig.n_configs
-        cases = [Case(j, cand.params(z)) for cand, z in todo for j in range(n_cfg)]
-        t0 = time.perf_counter()
-        out = self.rig.simulate(cases)
-        self.n_sims += len(cases)
-        self.log(f"  {what}: {len(todo)} parameter sets x {n_cfg} configurations = {len(cases)} worlds, "
-                 f"{time.perf_counter() - t0:.1f} s")
-        for i, (cand, z) in enumerate(todo):
-            self.cache[self._key(cand, z)] = out.values[i * n_cfg:(i + 1) * n_cfg]
+        per = max(1, self.settings.batch_worlds // n_cfg) if self.settings.batch_worlds else len(todo)
+        for start in range(0, len(todo), per):
+            batch = todo[start:start + per]
+            cases = [Case(j, cand.params(z)) for cand, z in batch for j in range(n_cfg)]
+            t0 = time.perf_counter()
+            out = self.rig.simulate(cases)
+            self.n_sims += len(cases)
+            part = f" (batch {start // per + 1}/{-(-len(todo) // per)})" if per < len(todo) else ""
+            self.log(f"  {what}{part}: {len(batch)} parameter sets x {n_cfg} configurations = {len(cases)} worlds, "
+                     f"{time.perf_counter() - t0:.1f} s")
+            for i, (cand, z) in enumerate(batch):
+                self.cache[self._key(cand, z)] = out.values[i * n_cfg:(i + 1) * n_cfg]
+            self.save()
 
     def points(self, cand: Candidate) -> tuple[np.ndarray, np.ndarray]:
         """Every evaluated point of a candidate (m, d) and its predictions (m, n_cfg, n_obs)."""
@@ -228,7 +275,7 @@ class _Fitter:
 
     def losses(self, pred: np.ndarray) -> np.ndarray:
         """Per point and configuration: sum_k r^2, (m, n_cfg)."""
-        return np.sum(residuals(pred, self.rig.measured, self.rig.sigma) ** 2, axis=-1)
+        return np.sum(residuals(pred, self.rig.measured, self.sigma) ** 2, axis=-1)
 
     def best(self, cand: Candidate) -> tuple[np.ndarray, np.ndarray]:
         """Index of the best point for all data and for each fold: (all,), (n_cfg,)."""
@@ -284,11 +331,11 @@ class _Fitter:
         keys = [self._key(cand, z) for z in self._stencil(x0)]
         p0 = self.cache[self._key(cand, x0)]
         n_cfg = self.rig.n_configs
-        r0 = residuals(p0, self.rig.measured, self.rig.sigma)  # (n_cfg, n_obs)
+        r0 = residuals(p0, self.rig.measured, self.sigma)  # (n_cfg, n_obs)
         cols = []
         for i, k in enumerate(keys):
             dz = np.array(k[1])[i] - x0[i]
-            cols.append((residuals(self.cache[k], self.rig.measured, self.rig.sigma) - r0) / dz)
+            cols.append((residuals(self.cache[k], self.rig.measured, self.sigma) - r0) / dz)
         jac = np.stack(cols, axis=-1)  # (n_cfg, n_obs, d)
         valid = np.isfinite(p0) & np.all(np.isfinite(np.stack([self.cache[k] for k in keys])), axis=0)
         out = []
@@ -311,8 +358,8 @@ class _Fitter:
         n_cfg = self.rig.n_configs
         pred_all = pred[i_all[0]]
         held = np.array([pred[i_fold[j], j] for j in range(n_cfg)])
-        r_held = residuals(held, self.rig.measured, self.rig.sigma)
-        r_in = residuals(pred_all, self.rig.measured, self.rig.sigma)
+        r_held = residuals(held, self.rig.measured, self.sigma)
+        r_in = residuals(pred_all, self.rig.measured, self.sigma)
         n_points = int(np.sum(~np.isnan(self.rig.measured)))
         fit = Fit(cand, pts[i_all[0]], pts[i_fold], pred_all, held, np.sum(r_held**2, axis=1),
                   float(np.sum(r_in**2)), n_points)
@@ -405,11 +452,15 @@ def candidates_for(rig: object, settings: DiagnosisSettings) -> list[Candidate]:
 
 
 def diagnose(rig: object, settings: DiagnosisSettings | None = None,
-             log: Callable[[str], None] = lambda s: None) -> Diagnosis:
-    """Fit, compare, name and verify (module docstring) for a rig model (``calibration.rig_models``)."""
+             log: Callable[[str], None] = lambda s: None, checkpoint: str | Path | None = None) -> Diagnosis:
+    """Fit, compare, name and verify (module docstring) for a rig model (``calibration.rig_models``).
+
+    ``checkpoint``: a JSON file that keeps every simulated point (written after every batched simulation, see
+    ``DiagnosisSettings.batch_worlds``); a diagnosis started again with the same file, rig, data and settings
+    resumes where it stopped and comes to the same result."""
     s = settings or DiagnosisSettings()
     t0 = time.perf_counter()
-    fitter = _Fitter(rig, s, log)
+    fitter = _Fitter(rig, s, log, checkpoint)
     cands = candidates_for(rig, s)
     log(f"diagnosis of the {rig.rig} rig: {rig.n_configs} configurations, observables {', '.join(rig.observables)}; "
         f"candidates: {', '.join(c.name for c in cands)}")
@@ -438,7 +489,9 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
     sig_pairs = []
     for p in pair_fits:
         members = [fits[m.name] for m in p.candidate.mechanisms]
-        if p.significant and all(_lr_p(p, m) < s.alpha and p.gain > m.gain + s.min_gain / 2 for m in members):
+        if p.significant and all(_lr_p(p, m) < s.alpha
+                                 and p.heldout_loss.sum() <= (1.0 - s.min_gain) * m.heldout_loss.sum()
+                                 for m in members):
             sig_pairs.append(p)
     sig_pairs.sort(key=lambda f: f.heldout_loss.sum())
     if sig_pairs:
@@ -469,6 +522,13 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
     return diag
 
 
+def _nanmean(x: np.ndarray) -> np.ndarray:
+    """Mean over configurations (axis 0) of the finite values; NaN, without a warning, where there is none."""
+    ok = np.isfinite(x)
+    n = ok.sum(axis=0)
+    return np.where(n > 0, np.where(ok, x, 0.0).sum(axis=0) / np.maximum(n, 1), np.nan)
+
+
 def verify(rig: object, diag: Diagnosis, log: Callable[[str], None] = lambda s: None) -> dict[str, object]:
     """Re-simulate the baseline and the named extension: configuration j with the fit that did not see j (held-out
     errors before and after) and every configuration with the all-data fit (kept as series for plots)."""
@@ -497,9 +557,9 @@ def verify(rig: object, diag: Diagnosis, log: Callable[[str], None] = lambda s: 
         res[name] = {
             "heldout_pred": held, "all_pred": out.values[sel_all],
             "heldout_loss": np.sum(r**2, axis=1),
-            "heldout_rms_rel": np.sqrt(np.nanmean(rel**2, axis=0)),
-            "heldout_rms": np.sqrt(np.nanmean(err**2, axis=0)),
-            "heldout_mae": np.nanmean(np.abs(err), axis=0),
+            "heldout_rms_rel": np.sqrt(_nanmean(rel**2)),
+            "heldout_rms": np.sqrt(_nanmean(err**2)),
+            "heldout_mae": _nanmean(np.abs(err)),
             "series": [out.series[i] for i in sel_all] if out.series else None,
             "static_deflection": out.covariates.get("static_deflection", np.full(len(cases), np.nan))[sel_all],
         }

@@ -67,6 +67,7 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
 
     files = []
     v = d.verification
@@ -84,6 +85,7 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
             if key in v and isinstance(v[key], dict):
                 ax.plot(x[order], v[key]["heldout_pred"][order, k], style, ms=4, label=f"{key} (held out)")
         ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(NullFormatter())  # minor labels of a short log axis overlap
         ax.set_xlabel(x_name)
         ax.set_title(f"{name} [{d.units.get(name, '-')}]")
     axes[0, 0].legend(fontsize=7)

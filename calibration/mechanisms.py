@@ -113,7 +113,7 @@ register(Mechanism(
     "force and its moment stay, but only part of the load's mass swings with the tool, so every frequency rises "
     "by one factor (less so for the stiff configurations, whose own inertia weighs more) and a given dashpot's "
     "damping ratio rises.",
-    genes=(Gene("load_mass_fraction", 0.05, 1.0, unit="-"),),
+    genes=(Gene("load_mass_fraction", 0.02, 1.0, unit="-"),),
     knobs=lambda p: {"load_mass_fraction": p["load_mass_fraction"]},
     rigs=("ringing",),
     signature="all frequencies higher by about one factor"))

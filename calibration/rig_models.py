@@ -12,7 +12,9 @@ A rig model (see :class:`RingingRigModel`) states
 - ``genes``: the baseline's own parameters, fitted with every candidate (``fixed`` holds those given instead);
 - ``knobs``: the physical extensions its DEM scene implements (see ``calibration.mechanisms``);
 - ``simulate(cases)``: DEM results for (configuration, parameters) pairs, all as the worlds of batched simulations;
-- ``covariates()``: per-configuration quantities a residual may depend on.
+- ``covariates()``: per-configuration quantities a residual may depend on;
+- optionally ``settings()`` (what the simulations depend on besides the cases), ``state()`` and ``restore(state)``
+  (results a resumed diagnosis must reuse), for checkpoints.
 """
 
 from __future__ import annotations
@@ -176,6 +178,19 @@ class RingingRigModel:
     def describe_uncertainty(self) -> dict[str, str]:
         return {k: f"{100 * u:.3g} %" for k, u in self.uncertainty.items()}
 
+    def settings(self) -> dict[str, object]:
+        """What the simulations depend on besides the cases (a diagnosis checkpoint must match it)."""
+        return {"fixed": self.fixed, "ring_time": self.ring_time, "settle_time": self.settle_time,
+                "hit_amplitude": self.hit_amplitude, "load_force": self.load_force, "sample_rate": self.sample_rate,
+                "max_worlds": self.max_worlds, "device": str(self.device)}
+
+    def state(self) -> dict[str, object]:
+        """Results a resumed diagnosis must not simulate again (none: every ringing result is the fitter's)."""
+        return {}
+
+    def restore(self, state: dict[str, object]) -> None:
+        """Take back :meth:`state`."""
+
     def _spring_force(self) -> float:
         """The spring's static force under the load at the CAD pose [N] (tension positive)."""
         if self._geometry is None:
@@ -259,7 +274,9 @@ class SoilBinRigModel:
     once; passive runs are cached by their physical parameters, so a sensor-only change costs no simulation.
 
     ``scale``, ``assembly``, ``parameter_set``, ``seed``, ``working_depth``, ``travel``, ``steady_travel``,
-    ``support_offset``: the ``scenes.soil_bin.SoilBinConfig`` of the simulations; ``bed``: a deposited bed to use
+    ``support_offset``: the ``scenes.soil_bin.SoilBinConfig`` of the simulations; ``soil``: soil contact parameters
+    replacing the GA set's in every run (``friction_angle`` [deg], ``normal_cohesion``, ``shear_cohesion`` [Pa],
+    ``eta_roll``, ``eta_twist`` [-]; e.g. a set calibrated at the simulation's scale); ``bed``: a deposited bed to use
     (else made or read from ``cache_dir``); ``max_worlds``: passive worlds per simulation.
     """
 
@@ -274,6 +291,7 @@ class SoilBinRigModel:
                  scale: str = "ci", assembly: str = "C", parameter_set: int | None = None, seed: int = 0,
                  working_depth: float | None = None, travel: float | None = None,
                  steady_travel: float | None = None, support_offset: bool = False,
+                 soil: dict[str, float] | None = None,
                  observables: tuple[str, ...] | None = None,
                  uncertainty: dict[str, float] | None = None, max_worlds: int = 64, bed: object | None = None,
                  cache_dir: str | None = None) -> None:
@@ -318,6 +336,13 @@ class SoilBinRigModel:
                                        spring_model="linear", parameter_set=parameter_set, seed=seed,
                                        travel=travel, steady_travel=steady_travel, support_offset=support_offset,
                                        **({"working_depth": working_depth} if working_depth else {}))
+        fields = ("friction_angle", "normal_cohesion", "shear_cohesion", "eta_roll", "eta_twist")
+        self.soil = {k: float(v) for k, v in (soil or {}).items()}
+        for k, v in self.soil.items():
+            if k not in fields:
+                raise ValueError(f"soil: unknown parameter {k!r}; known {fields}")
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"soil: {k} must be finite and non-negative, got {v!r}")
         self._bed = bed
         self.cache_dir = cache_dir
         self.max_worlds = int(max_worlds)
@@ -343,13 +368,38 @@ class SoilBinRigModel:
         return out
 
     @property
-    def sigma(self) -> np.ndarray:
-        """Stated uncertainty and the baseline simulation's standard error of each mean, in quadrature
+    def simulation_sigma(self) -> np.ndarray:
+        """The baseline simulation's standard error of each observable's steady-state mean, in its unit
         (n_configs, n_obs); the first use simulates the baseline (cached for the fits)."""
         if self._sim_sigma is None:
             out = self.simulate([Case(j, {}) for j in range(self.n_configs)], _sem=True)
             self._sim_sigma = np.nan_to_num(out.values, nan=0.0)
-        return np.sqrt(self.stated_sigma**2 + self._sim_sigma**2)
+        return self._sim_sigma
+
+    @property
+    def sigma(self) -> np.ndarray:
+        """Stated uncertainty and the simulation's standard error, in quadrature (n_configs, n_obs)."""
+        return np.sqrt(self.stated_sigma**2 + self.simulation_sigma**2)
+
+    def settings(self) -> dict[str, object]:
+        """What the simulations depend on besides the cases (a diagnosis checkpoint must match it)."""
+        from dataclasses import asdict
+
+        return {"fixed": self.fixed, "config": asdict(self.config), "soil": self.soil, "max_worlds": self.max_worlds,
+                "bed": None if self._bed is None or self.cache_dir else "given", "device": str(self.device)}
+
+    def state(self) -> dict[str, object]:
+        """The simulation's standard errors and the rigid runs, which a resumed diagnosis must reuse (a new
+        realisation would not match the fitted points)."""
+        return {"sim_sigma": None if self._sim_sigma is None else self._sim_sigma.tolist(),
+                "rigid": [[v, r["mean"], r["sem"]] for v, r in self._rigid.items()]}
+
+    def restore(self, state: dict[str, object]) -> None:
+        """Take back :meth:`state`."""
+        if state.get("sim_sigma") is not None:
+            self._sim_sigma = np.array(state["sim_sigma"], dtype=np.float64)
+        for v, mean, sem in state.get("rigid", []):
+            self._rigid[float(v)] = {"mean": float(mean), "sem": float(sem)}
 
     def covariates(self) -> dict[str, np.ndarray]:
         """Per configuration: spring count, stiffness [N/m], speed [m/s], measured displacement [m] (if any)."""
@@ -370,6 +420,9 @@ class SoilBinRigModel:
         p = {**self.fixed, **case.params}
         return (case.config,) + tuple(sorted((k, float(v)) for k, v in p.items() if k != "sensor_offset"))
 
+    def _soil(self, n: int) -> dict[str, object] | None:
+        return {k: [v] * n for k, v in self.soil.items()} or None
+
     def _run_rigid(self, speeds: list[float], progress: object | None) -> None:
         from scenes import soil_bin as sb
 
@@ -377,7 +430,7 @@ class SoilBinRigModel:
         if not todo:
             return
         run = sb.run_soil_bin(self.config, [0] * len(todo), bed=self.bed(), device=self.device, speeds=todo,
-                              progress=progress)
+                              progress=progress, soil_overrides=self._soil(len(todo)))
         for v, row in zip(todo, run.steady, strict=True):
             self._rigid[v] = {"mean": row["draught_mean"], "sem": row["draught_sem"]}
 
@@ -397,7 +450,8 @@ class SoilBinRigModel:
                     raise ValueError("dashpot must be given for every case or none")
                 knobs[name] = [p.get(name, default) for p in params]
             run = sb.run_soil_bin(self.config, [c["springs"] for c in cfgs], bed=self.bed(), device=self.device,
-                                  speeds=[c["speed"] for c in cfgs], knobs=knobs, progress=progress)
+                                  speeds=[c["speed"] for c in cfgs], knobs=knobs, progress=progress,
+                                  soil_overrides=self._soil(len(cfgs)))
             for w, (key, row) in enumerate(zip(chunk, run.steady, strict=True)):
                 entry: dict[str, object] = {k: row[k] for k in ("draught_mean", "draught_sem", "displacement_mean",
                                                                 "displacement_sem")}

@@ -128,3 +128,51 @@ def test_registry() -> None:
     finally:
         mechanisms.REGISTRY.pop("bushing", None)
         mechanisms.REGISTRY.pop("wind", None)
+
+
+class _Killed(Exception):
+    pass
+
+
+class _DiesAfter:
+    """A rig model whose run is killed after ``calls`` batched simulations."""
+
+    def __init__(self, rig: RingingRigModel, calls: int) -> None:
+        self._inner, self.left = rig, calls
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(self._inner, name)
+
+    def simulate(self, cases: list, **kw: object) -> object:
+        if self.left == 0:
+            raise _Killed
+        self.left -= 1
+        return self._inner.simulate(cases, **kw)
+
+
+def test_a_killed_diagnosis_resumes_to_the_same_result(tmp_path: pytest.TempPathFactory) -> None:
+    # Reference: the uninterrupted diagnosis. Killed after three batched simulations and resumed from its
+    # checkpoint, it must simulate only what it had not and end with the same fits, bit for bit (CPU worlds are
+    # deterministic and the resumed batches are the same as the uninterrupted run's).
+    data = synthetic.ringing_data((4, 16, 32), {"dashpot": DASHPOT, "extra_mass": 6.0}, seed=5, device=DEVICE,
+                                  ring_time=0.8)
+    settings = diagnosis.DiagnosisSettings(rounds=2, first_grid={0: 1, 1: 5}, mechanisms=("extra_mass",),
+                                           batch_worlds=12)
+
+    def rig() -> RingingRigModel:
+        return RingingRigModel(data, device=DEVICE, uncertainty=UNCERTAINTY)
+
+    whole = diagnosis.diagnose(rig(), settings)
+    ck = tmp_path / "checkpoint.json"
+    with pytest.raises(_Killed):
+        diagnosis.diagnose(_DiesAfter(rig(), 3), settings, checkpoint=ck)
+    saved = json.loads(ck.read_text())
+    assert saved["n_sims"] == 3 * len(saved["cache"]) > 0
+    resumed = diagnosis.diagnose(rig(), settings, checkpoint=ck)
+    assert (resumed.verdict, resumed.cause) == (whole.verdict, whole.cause)
+    assert resumed.n_simulations == whole.n_simulations
+    for name, f in whole.fits.items():
+        np.testing.assert_array_equal(resumed.fits[name].z_fold, f.z_fold)
+        np.testing.assert_array_equal(resumed.fits[name].heldout_loss, f.heldout_loss)
+    with pytest.raises(ValueError, match="belongs to another diagnosis"):
+        diagnosis.diagnose(rig(), diagnosis.DiagnosisSettings(rounds=3), checkpoint=ck)

@@ -104,3 +104,20 @@ def test_clump_volume_against_monte_carlo(members: int) -> None:
         inside |= np.sum((pts - c) ** 2, axis=1) <= r * r
     v_mc = inside.mean() * np.prod(hi - lo)
     assert particle_volume(r, members) == pytest.approx(v_mc, rel=0.01)
+
+
+def test_soil_viscosity_adds_b_v_to_the_rigid_draught(ci_bed) -> None:
+    # Reference: the speed-dependence knob is a dashpot from a static anchor far ahead to the share's tip,
+    # F = b v against travel (model criticism's speed_dependence). The rigid tool's motion is prescribed, so the
+    # soil sees the same tool in both worlds and the draught differs by b v exactly while the carriage moves; the
+    # tolerance (3 standard errors of the difference, plus 1 N) covers any divergence of the two worlds' soil from
+    # the order of floating-point sums.
+    b_visc, speed = 300.0, 0.6
+    cfg = sb.SoilBinConfig(scale="ci", assembly="A", springs=(0,), travel=0.2, steady_travel=0.1)
+    run = sb.run_soil_bin(cfg, [0, 0], bed=ci_bed, device=DEVICE, speeds=[speed, speed],
+                          knobs={"soil_viscosity": [0.0, b_visc]})
+    moving = (run.travel[:, 0] >= 0.1) & (run.travel[:, 0] < 0.2 - 1e-9)
+    diff = run.series["draught"][moving, 1] - run.series["draught"][moving, 0]
+    assert abs(diff.mean() - b_visc * speed) < 3 * _sem(diff) + 1.0, (diff.mean(), b_visc * speed)
+    with pytest.raises(ValueError, match="rigid tool takes soil_viscosity only"):
+        sb.run_soil_bin(cfg, [0], bed=ci_bed, device=DEVICE, knobs={"pivot_friction": [0.1]})

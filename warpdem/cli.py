@@ -10,7 +10,7 @@
                       (both: [--generations 5] [--population 20] [--parents 7] [--seed 0] [--device] [--out DIR]
                        [--gene NAME=LOW:HIGH] [--archive FILE] [--no-resume] [--ray-workers N] [--ray-address A])
     warpdem diagnose MEASURED --rig ringing|soil-bin [--params FILE] [--mechanisms a,b] [--uncertainty k=v,...]
-                      [--rounds N] [--device] [--out DIR]
+                      [--rounds N] [--batch-worlds N] [--no-resume] [--device] [--out DIR]
                       (MEASURED: a summary CSV, a folder with summary.csv/series, paper:ringing or paper:soil-bin)
 
 ``reproduce`` runs the paper's study at a reduced (``cpu``, default) or full (``paper``) scale: the ringing test
@@ -310,13 +310,17 @@ def run_diagnose_cmd(args: argparse.Namespace) -> int:
     fixed = params.pop("fixed", {})
     rig = make_rig_model(args.rig, data, device=device, fixed=fixed, uncertainty=args.uncertainty, **params)
     settings = diagnosis.DiagnosisSettings(rounds=args.rounds, alpha=args.alpha, min_gain=args.min_gain,
-                                           mechanisms=tuple(args.mechanisms.split(",")) if args.mechanisms else None)
+                                           mechanisms=tuple(args.mechanisms.split(",")) if args.mechanisms else None,
+                                           batch_worlds=args.batch_worlds)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    checkpoint = out / "checkpoint.json"
+    if args.no_resume and checkpoint.exists():
+        checkpoint.unlink()
     _write_config(out, "diagnose", device, measured=args.measured, rig=args.rig, params=params, fixed=fixed,
                   settings={"rounds": args.rounds, "alpha": args.alpha, "min_gain": args.min_gain,
                             "mechanisms": args.mechanisms, "uncertainty": args.uncertainty})
-    d = diagnosis.diagnose(rig, settings, log=lambda m: print(m, flush=True))
+    d = diagnosis.diagnose(rig, settings, log=lambda m: print(m, flush=True), checkpoint=checkpoint)
     report = diagnosis_report.write(d, out, command="warpdem " + " ".join(sys.argv[1:]))
     print(f"verdict: {d.verdict}{': ' + ' + '.join(d.cause) if d.cause else ''}; report in {report}")
     return 0
@@ -399,6 +403,9 @@ def main(argv: list[str] | None = None) -> int:
     q.add_argument("--rounds", type=int, default=6, help="fit rounds (one grid, then Levenberg-Marquardt)")
     q.add_argument("--alpha", type=float, default=0.05, help="family-wise significance level")
     q.add_argument("--min-gain", type=float, default=0.3, help="least relative fall of the held-out loss")
+    q.add_argument("--batch-worlds", type=int, default=0,
+                   help="at most N worlds per batched simulation, the checkpoint saved after each (0: one per round)")
+    q.add_argument("--no-resume", action="store_true", help="start afresh even if --out holds a checkpoint")
     args = parser.parse_args(argv)
     commands = {"diagnose": run_diagnose_cmd, "demo": run_demo, "reproduce": run_reproduce, "ringing": run_ringing_cmd,
                 "soil-bin": run_soil_bin_cmd, "shear-box": run_shear_box_cmd, "calibrate": run_calibrate_cmd}
