@@ -169,6 +169,8 @@ class Diagnosis:
     noise_p_baseline: float = math.nan
     noise_p_best: float = math.nan
     verification: dict[str, object] = field(default_factory=dict)
+    measured_series: list[tuple[np.ndarray, np.ndarray]] | None = None
+    """the measured records per configuration (time [s], signal), when the rig compared records."""
     n_simulations: int = 0
     wall_s: float = 0.0
 
@@ -514,6 +516,7 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
     diag = Diagnosis(rig.rig, tuple(rig.observables), list(rig.configs), rig.measured, rig.sigma,
                      rig.describe_uncertainty(), dict(rig.units), rig.covariates(), fits, ranking, verdict, cause,
                      indist, pattern, noise_base, noise_best)
+    diag.measured_series = getattr(rig, "measured_series", None)
     diag.verification = verify(rig, diag, log)
     diag.n_simulations = fitter.n_sims + int(diag.verification.get("n_simulations", 0))
     diag.wall_s = time.perf_counter() - t0

@@ -60,9 +60,26 @@ def to_json(d: Diagnosis) -> dict[str, object]:
     }
 
 
+def decay_curve(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Damping ratio of each cycle of a decay against its amplitude: from consecutive peaks A_i, A_i+1 (above the
+    fitted offset), zeta_i = d / sqrt(4 pi^2 + d^2) with d = ln(A_i / A_i+1); (amplitudes A_i, zeta_i), each (k,).
+    Viscous damping gives a flat curve, dry friction one that rises as the amplitude falls. Empty without a decay."""
+    from warpdem import analysis
+
+    try:
+        fit = analysis.ringdown(t, x)
+    except ValueError:
+        return np.array([]), np.array([])
+    a = np.asarray(fit.peak_amplitudes, dtype=np.float64)
+    ok = (a[:-1] > 0) & (a[1:] > 0)
+    dec = np.log(a[:-1][ok] / a[1:][ok])
+    return a[:-1][ok], dec / np.sqrt(4 * np.pi**2 + dec**2)
+
+
 def plots(d: Diagnosis, out: Path) -> list[str]:
     """observables.png (measured vs baseline vs extended, against stiffness), residuals.png (held-out residuals of
-    the baseline against each covariate) and, with series, series.png (records and re-simulations)."""
+    the baseline against each covariate) and, with series, series.png (records and re-simulations) and, with
+    measured records, decay.png (each cycle's damping ratio against its amplitude: the covariate within a decay)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -126,6 +143,29 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
         fig.savefig(out / "series.png", dpi=120)
         plt.close(fig)
         files.append("series.png")
+        if d.measured_series is not None:
+            # the covariate within a decay: each cycle's damping ratio against its amplitude
+            cols = min(n, 4)
+            rows = -(-n // cols)
+            fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.6 * rows), squeeze=False)
+            for j in range(n):
+                ax = axes[j // cols, j % cols]
+                a, z = decay_curve(*d.measured_series[j])
+                ax.plot(1e3 * a, z, "ko", ms=3, label="measured")
+                for key, style in (("baseline", "C0s--"), ("+".join(d.cause), "C3^-")):
+                    if key in v and isinstance(v[key], dict) and v[key].get("series"):
+                        a, z = decay_curve(*v[key]["series"][j])
+                        ax.plot(1e3 * a, z, style, ms=3, label=key)
+                ax.set_title(f"{d.configs[j].get('springs', j)} springs", fontsize=9)
+                ax.set_xlabel("amplitude [mm]")
+                ax.set_ylabel("damping ratio per cycle")
+            for j in range(n, rows * cols):
+                axes[j // cols, j % cols].axis("off")
+            axes[0, 0].legend(fontsize=7)
+            fig.tight_layout()
+            fig.savefig(out / "decay.png", dpi=120)
+            plt.close(fig)
+            files.append("decay.png")
     return files
 
 

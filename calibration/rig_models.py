@@ -148,6 +148,7 @@ class RingingRigModel:
                 x = series[n]
                 rows.append([ringdown_observables(x.time, x.values, True)[k] for k in self.observables])
             self.measured = np.array(rows)
+            self.measured_series = [(series[n].time, series[n].values) for n in springs]
             duration = max(float(series[n].time[-1] - series[n].time[0]) for n in springs)
             self.ring_time = float(ring_time or duration)
             self.sample_rate = float(np.median([series[n].sample_rate for n in springs]))
@@ -157,6 +158,7 @@ class RingingRigModel:
                 raise ValueError(f"measured ringing data need series or summary columns {missing}")
             self.observables = ("frequency", "damping")
             self.measured = np.column_stack([s["frequency"], s["damping"]])
+            self.measured_series = None
             self.ring_time = float(ring_time or 2.0)
             self.sample_rate = paper.SAMPLE_RATE
         unc = _stated(RINGING_UNCERTAINTY, uncertainty)

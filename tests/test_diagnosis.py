@@ -78,6 +78,7 @@ def test_hidden_series_compliance_through_the_command(tmp_path: pytest.TempPathF
                                                        "series_compliance", "extra_mass", "pose_change"}
     report = (out / "report.md").read_text()
     assert "series_compliance" in report and (out / "observables.png").exists() and (out / "series.png").exists()
+    assert (out / "decay.png").exists()
 
 
 def test_hidden_sensor_offset_in_the_soil_bin() -> None:
@@ -102,6 +103,22 @@ def test_hidden_sensor_offset_in_the_soil_bin() -> None:
     sigma_disp = float(np.median(rig.sigma[:, rig.observables.index("displacement_mean")]))
     assert d.named.params_all()["sensor_offset"] == pytest.approx(-1.5e-3, abs=2 * sigma_disp)
     assert d.verification["gain_rel"] > 0.5
+
+
+def test_decay_curve_of_a_viscous_decay_is_flat() -> None:
+    # Reference: x = A exp(-zeta wn t) cos(wd t) + c has the damping ratio zeta in every cycle (log decrement
+    # 2 pi zeta / sqrt(1 - zeta^2) between consecutive peaks); sampled at 2400 Hz, peaks are refined by the ringdown
+    # fit, so each cycle's ratio must be zeta within 2 %; the amplitudes fall by exp(-zeta wn T) per cycle.
+    from calibration.diagnosis_report import decay_curve
+
+    zeta, f_d = 0.03, 5.0
+    wd = 2 * np.pi * f_d
+    wn = wd / np.sqrt(1 - zeta**2)
+    t = np.arange(0.0, 2.0, 1 / 2400)
+    a, z = decay_curve(t, 1e-3 * np.exp(-zeta * wn * t) * np.cos(wd * t) + 2e-4)
+    assert a.size >= 8
+    np.testing.assert_allclose(z, zeta, rtol=0.02)
+    np.testing.assert_allclose(a[1:] / a[:-1], np.exp(-zeta * wn / f_d), rtol=0.01)
 
 
 def test_registry() -> None:
