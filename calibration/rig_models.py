@@ -55,6 +55,10 @@ by a few % (stiffness, hence ~1 % in frequency); log decrements from a few cycle
 about 10 % (20 % from the second half of a decay alone)."""
 
 
+KNOB_OFF = {"series_stiffness": math.inf, "load_mass_fraction": 1.0}
+"""the value of a knob that leaves a rig as it is, where it is not 0 (a case without the knob gets it)."""
+
+
 def _stated(defaults: dict[str, float], given: dict[str, float] | None) -> dict[str, float]:
     """The defaults with the user's values, each checked by name and sign."""
     out = dict(defaults)
@@ -225,8 +229,7 @@ class RingingRigModel:
             for knob in ("pivot_friction", "extra_mass", "progressive", "series_stiffness", "free_pose",
                          "load_mass_fraction"):
                 if any(knob in p for p in params):
-                    default = {"series_stiffness": math.inf, "load_mass_fraction": 1.0}.get(knob, 0.0)
-                    fields[knob] = tuple(float(p.get(knob, default)) for p in params)
+                    fields[knob] = tuple(float(p.get(knob, KNOB_OFF.get(knob, 0.0))) for p in params)
             cfg = RingingConfig(
                 springs=tuple(self.configs[c.config]["springs"] for c in chunk), spring_model="linear",
                 load_force=self.load_force, stiffness=tuple(self.configs[c.config]["stiffness"] for c in chunk),
@@ -447,10 +450,9 @@ class SoilBinRigModel:
             params = [dict(k[1:]) for k in chunk]
             knobs: dict[str, list[float]] = {"stiffness": [c["stiffness"] for c in cfgs]}
             for name in sorted({n for p in params for n in p}):
-                default = math.inf if name == "series_stiffness" else 0.0
                 if name == "dashpot" and not all(name in p for p in params):
                     raise ValueError("dashpot must be given for every case or none")
-                knobs[name] = [p.get(name, default) for p in params]
+                knobs[name] = [p.get(name, KNOB_OFF.get(name, 0.0)) for p in params]
             run = sb.run_soil_bin(self.config, [c["springs"] for c in cfgs], bed=self.bed(), device=self.device,
                                   speeds=[c["speed"] for c in cfgs], knobs=knobs, progress=progress,
                                   soil_overrides=self._soil(len(cfgs)))

@@ -112,14 +112,7 @@ class RingingConfig:
             values = tuple(float(v) for v in np.ravel(values))
             if len(values) != len(self.springs):
                 raise ValueError(f"{name} needs one value per world ({len(self.springs)}), got {len(values)}")
-            if name == "series_stiffness":
-                if not all(v > 0 and not math.isnan(v) for v in values):
-                    raise ValueError(f"series_stiffness must be positive (inf: rigid), got {values}")
-            elif name == "load_mass_fraction":
-                if not all(0 < v <= 1 for v in values):
-                    raise ValueError(f"load_mass_fraction must be in (0, 1], got {values}")
-            elif not all(math.isfinite(v) and v >= 0 for v in values):
-                raise ValueError(f"{name} must be finite and non-negative, got {values}")
+            check_per_world(name, values)
             setattr(self, name, values)
         if self.spring_model == "paper":
             for name in LINEAR_ONLY:
@@ -135,6 +128,29 @@ class RingingConfig:
             else:
                 values = [column] * len(self.springs)
         return np.asarray(values, dtype=np.float64)
+
+
+def check_per_world(name: str, values: tuple[float, ...]) -> None:
+    """Check per-world values of a rig setting (ringing and soil bin): series_stiffness > 0 (inf: rigid),
+    load_mass_fraction in (0, 1], stiffness finite and > 0, anything else finite and >= 0."""
+    if name == "series_stiffness":
+        ok, rule = all(v > 0 and not math.isnan(v) for v in values), "positive (inf: rigid)"
+    elif name == "load_mass_fraction":
+        ok, rule = all(0 < v <= 1 for v in values), "in (0, 1]"
+    elif name == "stiffness":
+        ok, rule = all(math.isfinite(v) and v > 0 for v in values), "finite and positive"
+    else:
+        ok, rule = all(math.isfinite(v) and v >= 0 for v in values), "finite and non-negative"
+    if not ok:
+        raise ValueError(f"{name} must be {rule}, got {values}")
+
+
+def series_rate(k: np.ndarray, k_s: np.ndarray) -> np.ndarray:
+    """Rate [N/m] of springs k in series with a compliance of rate k_s (inf: rigid): k k_s / (k + k_s), (n,)."""
+    k, k_s = np.asarray(k, dtype=np.float64), np.asarray(k_s, dtype=np.float64)
+    rigid = np.isinf(k_s)
+    finite = np.where(rigid, 1.0, k_s)
+    return np.where(rigid, k, k * finite / (k + finite))
 
 
 @dataclass
@@ -247,7 +263,7 @@ def build_ringing(config: RingingConfig | None = None, tool: SweepTool | None = 
         force = ((1.0 + extra / tool.mass) * m_tool + gravity_moment(tool, m_load, load_point) - m_tool) / lever
         force = force * (1.0 - cfg.per_world("free_pose", 0.0))
         k_s = cfg.per_world("series_stiffness", math.inf)
-        k_eff = np.where(np.isinf(k_s), stiffness, stiffness * k_s / (stiffness + np.where(np.isinf(k_s), 0, k_s)))
+        k_eff = series_rate(stiffness, k_s)
         k3 = cfg.per_world("progressive", 0.0)
         stretch = np.array([_stretch(f, k, c) for f, k, c in zip(force, k_eff, k3, strict=True)])
         b.add_spring("spring", carriage, s - (0.0, length, 0.0), b.body_names["sweep_lower"], s,

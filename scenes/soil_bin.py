@@ -35,6 +35,7 @@ from warpdem import analysis
 
 from . import paper
 from .assemblies import AssemblySpec, Bed, bin_mesh, deposit
+from .ringing import check_per_world, series_rate
 from .sweep import SweepTool, add_sweep, build_sweep
 
 DEFAULT_SET = {"A": 1, "B": 8, "C": 11}
@@ -191,12 +192,7 @@ def _check_knobs(knobs: dict[str, object] | None, n_worlds: int, rigid: bool, sp
         if not rigid and spring_model != "linear":
             raise ValueError(f"knobs: {name!r} needs spring_model 'linear', got {spring_model!r}")
         a = np.broadcast_to(np.asarray(values, dtype=np.float64), (n_worlds,)).copy()
-        if name == "series_stiffness":
-            if not np.all(a > 0):
-                raise ValueError(f"knobs: series_stiffness must be positive (inf: rigid), got {a.tolist()}")
-        elif not np.all(np.isfinite(a) & (a >= 0)) or (name == "stiffness" and not np.all(a > 0)):
-            raise ValueError(f"knobs: {name} must be finite and {'positive' if name == 'stiffness' else 'non-negative'}"
-                             f", got {a.tolist()}")
+        check_per_world(name, tuple(a.tolist()))
         out[name] = a
     return out
 
@@ -248,8 +244,7 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
                 k_rot = k * lever**2 - tool.mass * 9.81 * (tool.com[2] - tool.pivot[2])
                 zeta = np.array([r["measured_damping"] for r in rows])
                 dashpot = 2.0 * zeta * np.sqrt(k_rot * i_p) / lever**2
-            k_s = knobs.get("series_stiffness", np.full(len(springs), math.inf))
-            k_eff = np.where(np.isinf(k_s), k, k * k_s / (k + np.where(np.isinf(k_s), 0.0, k_s)))
+            k_eff = series_rate(k, knobs.get("series_stiffness", np.full(len(springs), math.inf)))
             overrides.update({
                 "body:carriage:velocity": [(0.0, sp, 0.0) for sp in speeds],
                 "spring:spring:stiffness": k_eff,
