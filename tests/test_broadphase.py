@@ -119,3 +119,40 @@ def test_mesh_in_body_frame_follows_rotation() -> None:
     gap = point_triangle_distance(x[:, None], tri[None, :, 0], tri[None, :, 1], tri[None, :, 2]) - 0.01
     touching = {(i, f) for i, f in zip(*np.nonzero(gap < 0), strict=True)}
     assert touching and touching <= found
+
+
+def test_contact_counts_on_the_device_equal_brute_force() -> None:
+    # Reference: overlapping pairs (gap < 0) counted by all pairs on the host, per world and per group; the
+    # coordination number is 2 x (contacts inside the group) / (spheres of the group). Two groups share one box so
+    # that the group filter matters. A mesh adds sphere-triangle contacts, which are compared with the host's
+    # contact table (edge and vertex de-duplication makes a brute-force triangle count differ).
+    import trimesh
+
+    rng = np.random.default_rng(5)
+    n = 300
+    pos = rng.uniform(-0.04, 0.04, (n, 3))
+    rad = rng.uniform(0.004, 0.008, n)
+    mesh = trimesh.creation.box(extents=(0.03, 0.03, 0.03))
+    b = wd.ModelBuilder(gravity=(0, 0, 0))
+    b.add_material("m", wd.Material(young=1e5, poisson=0.3, density=2700, friction_angle=30))
+    b.add_spheres(pos[: n // 2], rad[: n // 2], "m", group="a")
+    b.add_spheres(pos[n // 2:], rad[n // 2:], "m", group="b")
+    b.add_mesh("box", np.asarray(mesh.vertices), np.asarray(mesh.faces), "m")
+    model, state = b.finalize(DEVICE, n_worlds=2)
+    sim = wd.Simulation(model, state, dt=1e-9, max_speed=1e9, force_dt=True)
+    sim.step()  # contacts become active in the first step; nothing moves measurably in 1 ns
+    d = np.linalg.norm(pos[:, None] - pos[None], axis=2) - rad[:, None] - rad[None]
+    assert np.abs(d[np.triu_indices(n, 1)]).min() > 1e-9  # no pair at the boundary
+    touching = np.triu(d < 0, 1)
+    counts = wd.observers.contact_count(sim)
+    table = wd.observers.contact_table(sim)
+    assert counts[:, 0].tolist() == [int(touching.sum())] * 2
+    assert np.bincount(table["world"].astype(int) * 2 + table["kind"].astype(int), minlength=4).tolist() == \
+        counts.reshape(-1).tolist()
+    half = n // 2
+    z_a = 2 * touching[:half, :half].sum() / half
+    z_b = 2 * touching[half:, half:].sum() / (n - half)
+    np.testing.assert_allclose(wd.observers.coordination_number("a")(sim), [z_a, z_a], rtol=1e-12)
+    np.testing.assert_allclose(wd.observers.coordination_number("b")(sim), [z_b, z_b], rtol=1e-12)
+    np.testing.assert_allclose(wd.observers.coordination_number()(sim), [2 * touching.sum() / n] * 2, rtol=1e-12)
+    assert 1 < z_a < 12 and counts[0, 1] > 10  # a meaningful sample

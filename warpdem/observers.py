@@ -11,7 +11,7 @@ from collections.abc import Callable
 import numpy as np
 import warp as wp
 
-from .contact_law import ACTIVE
+from .contact_law import ACTIVE, Hist
 from .contacts import (
     E_DAMPING,
     E_ROLLING,
@@ -226,33 +226,67 @@ def contact_table(sim: object) -> dict[str, np.ndarray]:
     return out
 
 
+@wp.kernel
+def _active_contacts_kernel(
+    sphere_body: wp.array(dtype=int),
+    sphere_world: wp.array(dtype=int),
+    body_group: wp.array(dtype=int),
+    group: int,
+    start: wp.array(dtype=int),
+    count: wp.array(dtype=int),
+    key_a: wp.array(dtype=int),
+    hist: wp.array(dtype=Hist),
+    out: wp.array(dtype=int),
+):
+    """out[world] += the active entries of sphere i's candidate list; group >= 0 (sphere-sphere lists only):
+    only contacts between two different bodies of that group."""
+    i = wp.tid()
+    bi = sphere_body[i]
+    if group >= 0 and body_group[bi] != group:
+        return
+    n = int(0)
+    for k in range(start[i], start[i] + count[i]):
+        if (hist[k].flags & ACTIVE) != 0:
+            if group < 0:
+                n += 1
+            else:
+                bj = sphere_body[key_a[k]]
+                if bj != bi and body_group[bj] == group:
+                    n += 1
+    if n > 0:
+        wp.atomic_add(out, sphere_world[i], n)
+
+
+def _count_active(sim: object, pairs: object, group: int) -> np.ndarray:
+    """Active contacts of one candidate list per world, counted on the device, shape (n_worlds,)."""
+    m = sim.model
+    out = wp.zeros(m.n_worlds, dtype=int, device=m.device)
+    if m.n_spheres:
+        wp.launch(_active_contacts_kernel, m.n_spheres,
+                  inputs=[m.sphere_body, m.sphere_world, m.body_group, int(group), pairs.start, pairs.count,
+                          pairs.key_a, pairs.hist], outputs=[out], device=m.device)
+    return out.numpy().astype(np.int64)
+
+
 def contact_count(sim: object) -> np.ndarray:
     """Number of active contacts per world, shape (n_worlds, 2): [sphere-sphere, sphere-triangle]."""
-    ct = contact_table(sim)
-    out = np.zeros((sim.model.n_worlds, 2), dtype=np.int64)
-    np.add.at(out, (ct["world"].astype(int), ct["kind"].astype(int)), 1)
-    return out
+    ss = _count_active(sim, sim.ss, -1)
+    st = _count_active(sim, sim.st, -1) if sim.model.n_meshes else np.zeros_like(ss)
+    return np.stack([ss, st], axis=1)
 
 
 def coordination_number(group: str | None = None) -> Callable[[object], np.ndarray]:
     """Observer: mean coordination number per world, shape (n_worlds,): 2 x (sphere-sphere contacts between
     different bodies of the group) / (number of bodies of the group). A clump counts as one particle; each
-    member-member contact counts (as Yade counts interactions)."""
+    member-member contact counts (as Yade counts interactions). Counted on the device (one small copy)."""
 
     def f(sim: object) -> np.ndarray:
         m = sim.model
-        ct = contact_table(sim)
         groups = m.host["body_group"]
-        sel = ct["kind"] == 0
-        if group is not None:
-            g = m.group_index(group)
-            sel &= (groups[ct["body1"].astype(int)] == g) & (groups[ct["body2"].astype(int)] == g)
-            members = groups == g
-        else:
-            members = np.isin(np.arange(m.n_bodies), m.host["sphere_body"])
-        n_contacts = np.bincount(ct["world"][sel].astype(int), minlength=m.n_worlds)
+        g = m.group_index(group) if group is not None else -1
+        members = groups == g if group is not None else np.isin(np.arange(m.n_bodies), m.host["sphere_body"])
         n_bodies = np.bincount(m.host["body_world"][members], minlength=m.n_worlds)
-        return 2.0 * n_contacts / np.maximum(n_bodies, 1)
+        return 2.0 * _count_active(sim, sim.ss, g) / np.maximum(n_bodies, 1)
 
     return f
 
