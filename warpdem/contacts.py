@@ -37,7 +37,8 @@ E_DAMPING = wp.constant(0)
 E_SLIDING = wp.constant(1)
 E_ROLLING = wp.constant(2)
 E_SPRING_DAMPER = wp.constant(3)
-N_ENERGY = wp.constant(4)  # slots per world in the energy accumulator
+E_DRIVEN = wp.constant(4)  # work done by drivers (kinematic bodies, imposed velocities, carried pivots)
+N_ENERGY = wp.constant(5)  # slots per world in the energy accumulator
 
 
 @wp.struct

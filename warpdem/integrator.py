@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from .contacts import E_DAMPING, E_SPRING_DAMPER, N_ENERGY
+from .contacts import E_DAMPING, E_DRIVEN, E_SPRING_DAMPER, N_ENERGY
 from .model import ALL_DOFS, FLAG_ASPHERICAL, FLAG_PIVOT, ROT_DOFS
 
 wp.set_module_options({"enable_backward": False})
@@ -58,6 +58,14 @@ def dot_q(w_b: wp.vec3d, q: wp.quatd) -> wp.quatd:
 @wp.func
 def cw_div(a: wp.vec3d, b: wp.vec3d) -> wp.vec3d:
     return wp.vec3d(a[0] / b[0], a[1] / b[1], a[2] / b[2])
+
+
+@wp.func
+def rotational_energy(inertia: wp.vec3d, q: wp.quatd, omega: wp.vec3d) -> wp.float64:
+    """omega^T I omega / 2 [J] of a body of principal inertia ``inertia`` [kg m^2] at orientation q."""
+    w_b = wp.quat_rotate_inv(q, omega)
+    return wp.float64(0.5) * (inertia[0] * w_b[0] * w_b[0] + inertia[1] * w_b[1] * w_b[1]
+                              + inertia[2] * w_b[2] * w_b[2])
 
 
 @wp.func
@@ -166,27 +174,42 @@ def integrate_bodies_kernel(
     flags = body_flags[b]
     v = body_vel[b]
     omega = body_angvel[b]
-    if (flags & ALL_DOFS) == ALL_DOFS:
-        # fully prescribed motion
-        body_pos[b] = body_pos[b] + dt * v
-        body_quat[b] = quat_integrate(body_quat[b], omega, dt)
-        return
     w = body_world[b]
-    lam = wp.float64(group_damping[w * n_groups + body_group[b]])
     m = body_mass[b]
     f = wp.vec3d(body_force[b])
+    if (flags & ALL_DOFS) == ALL_DOFS:
+        # fully prescribed motion; the driver's work: against the contact and spring forces, plus the change of
+        # the body's own rotational kinetic energy (gravity on such a body is not in the balance)
+        q_new = quat_integrate(body_quat[b], omega, dt)
+        if track_energy != 0:
+            t = wp.vec3d(body_torque[b])
+            work = -(wp.dot(f, v) + wp.dot(t, omega)) * dt
+            work += rotational_energy(body_inertia[b], q_new, omega) - rotational_energy(body_inertia[b],
+                                                                                          body_quat[b], omega)
+            wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, work)
+        body_pos[b] = body_pos[b] + dt * v
+        body_quat[b] = q_new
+        return
+    lam = wp.float64(group_damping[w * n_groups + body_group[b]])
     if (flags & FLAG_PIVOT) != 0:
         friction = body_pivot_friction[b]
-        work = integrate_hinged(b, flags, m, body_inertia[b], body_pivot[b], body_pivot_vel[b], friction, gravity,
+        pivot_vel = body_pivot_vel[b]
+        work = integrate_hinged(b, flags, m, body_inertia[b], body_pivot[b], pivot_vel, friction, gravity,
                                 dt, lam, f, wp.vec3d(body_torque[b]), body_pos, body_quat, body_vel, body_angvel,
                                 body_angmom)
-        if track_energy != 0 and (lam > wp.float64(0.0) or friction > wp.float64(0.0)):
-            wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, work)
+        if track_energy != 0:
+            if lam > wp.float64(0.0) or friction > wp.float64(0.0):
+                wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, work)
+            # the carriage's work: the pivot reaction m a - f - m g times the pivot's velocity
+            reaction = m * (body_vel[b] - v) - (f + m * gravity) * dt
+            wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, wp.dot(reaction, pivot_vel))
         return
     a = f / m + gravity
+    driven = wp.float64(0.0)
     for k in range(3):
         if (flags & (1 << k)) != 0:
             a[k] = wp.float64(0.0)
+            driven -= (f[k] + m * gravity[k]) * v[k] * dt  # the driver holds the imposed velocity
     a_d = damp(a, v, dt, lam)
     if track_energy != 0 and lam > wp.float64(0.0):
         e = wp.float64(0.0)
@@ -202,13 +225,28 @@ def integrate_bodies_kernel(
     q = body_quat[b]
     rot_blocked = flags & ROT_DOFS
     if rot_blocked == ROT_DOFS:
-        body_quat[b] = quat_integrate(q, omega, dt)
+        q_new = quat_integrate(q, omega, dt)
+        if track_energy != 0:
+            driven += -wp.dot(t, omega) * dt + rotational_energy(inertia, q_new, omega) - rotational_energy(
+                inertia, q, omega)
+            wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, driven)
+        body_quat[b] = q_new
         return
+    if track_energy != 0 and (flags & 7) != 0:  # a blocked translation
+        wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, driven)
     if rot_blocked != 0:
         # constrained rotation about the free world axes
         r = wp.quat_to_matrix(q)
         iw = r * wp.diag(inertia) * wp.transpose(r)
         alpha = solve_free_rotations(iw, t - wp.cross(omega, iw * omega), flags)
+        if track_energy != 0:
+            # the driver's torque on the blocked axes, iw alpha - (t - omega x iw omega), times their velocity
+            c = iw * alpha - (t - wp.cross(omega, iw * omega))
+            e = wp.float64(0.0)
+            for k in range(3):
+                if (flags & (1 << (k + 3))) != 0:
+                    e += c[k] * omega[k] * dt
+            wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, e)
         alpha_d = damp(alpha, omega, dt, lam)
         omega = omega + dt * alpha_d
         body_angvel[b] = omega

@@ -14,6 +14,7 @@ import warp as wp
 from .contact_law import ACTIVE, Hist
 from .contacts import (
     E_DAMPING,
+    E_DRIVEN,
     E_ROLLING,
     E_SLIDING,
     E_SPRING_DAMPER,
@@ -138,9 +139,17 @@ def dissipated_energy(sim: object) -> dict[str, np.ndarray]:
     return {name: e[:, slot].copy() for name, slot in ENERGY_TERMS.items()}
 
 
+def driven_work(sim: object) -> np.ndarray:
+    """Work done on the scene by its drivers since the start per world [J], shape (n_worlds,) (needs
+    ``track_energy=True``): kinematic bodies (against contact and spring forces), imposed velocities of blocked
+    degrees of freedom, and carried pivots of hinged bodies (the pivot reaction times the carriage velocity).
+    A velocity changed from the host (``Simulation.set_body_velocity``) is outside it."""
+    return sim.energy.numpy().reshape(sim.model.n_worlds, -1)[:, E_DRIVEN].copy()
+
+
 def energy_balance(sim: object) -> dict[str, np.ndarray]:
-    """All energy terms per world [J] and their sum ``total`` = kinetic + elastic + gravity + dissipated, which
-    stays constant for a scene without driven (kinematic) bodies; shape (n_worlds,) each."""
+    """All energy terms per world [J] and their sum ``total`` = kinetic + elastic + gravity + dissipated - work of
+    the drivers (:func:`driven_work`), which stays constant; shape (n_worlds,) each."""
     terms = {
         "kinetic": kinetic_energy(sim),
         "contact_elastic": contact_elastic_energy(sim),
@@ -148,7 +157,8 @@ def energy_balance(sim: object) -> dict[str, np.ndarray]:
         "gravity": gravity_potential(sim),
     }
     terms.update({"dissipated_" + k: v for k, v in dissipated_energy(sim).items()})
-    terms["total"] = sum(terms.values())
+    terms["driven_work"] = driven_work(sim)
+    terms["total"] = sum(v for k, v in terms.items() if k != "driven_work") - terms["driven_work"]
     return terms
 
 
