@@ -412,9 +412,8 @@ def _noise_p(fit: Fit) -> float:
     return float(stats.chi2.sf(fit.heldout_loss.sum(), fit.n_points))
 
 
-def _pattern(rig: object, fit: Fit) -> list[str]:
+def _pattern(cov: dict[str, np.ndarray], rig: object, fit: Fit) -> list[str]:
     """The residual pattern: per observable, its mean and its strongest rank correlation with a covariate."""
-    cov = rig.covariates()
     r = (fit.pred_heldout - rig.measured) / rig.sigma
     out = []
     for k, name in enumerate(rig.observables):
@@ -506,18 +505,18 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
         indist = [f.name for f in sig_singles[1:]
                   if f.heldout_loss.sum() - top.heldout_loss.sum() < math.sqrt(2.0 * top.n_points)]
     noise_base = _noise_p(base)
-    pattern: list[str] = []
     if not verdict:
-        if noise_base >= s.noise_p:
-            verdict = "no significant discrepancy"
-        else:
-            verdict = "unexplained residual"
-            pattern = _pattern(rig, base)
+        verdict = "no significant discrepancy" if noise_base >= s.noise_p else "unexplained residual"
     diag = Diagnosis(rig.rig, tuple(rig.observables), list(rig.configs), rig.measured, rig.sigma,
                      rig.describe_uncertainty(), dict(rig.units), rig.covariates(), fits, ranking, verdict, cause,
-                     indist, pattern, noise_base, noise_best)
+                     indist, [], noise_base, noise_best)
     diag.measured_series = getattr(rig, "measured_series", None)
     diag.verification = verify(rig, diag, log)
+    simulated = diag.verification["baseline"]["static_deflection"]
+    if np.all(np.isfinite(simulated)):  # the covariate as the fitted baseline simulates it, not the nominal one
+        diag.covariates["static_deflection"] = np.asarray(simulated, dtype=np.float64)
+    if verdict == "unexplained residual":
+        diag.pattern = _pattern(diag.covariates, rig, base)
     diag.n_simulations = fitter.n_sims + int(diag.verification.get("n_simulations", 0))
     diag.wall_s = time.perf_counter() - t0
     log(f"verdict: {verdict}{': ' + ' + '.join(cause) if cause else ''} ({diag.n_simulations} simulations, "

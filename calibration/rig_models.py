@@ -210,7 +210,8 @@ class RingingRigModel:
         return self._geometry["force"]
 
     def covariates(self) -> dict[str, np.ndarray]:
-        """Per configuration: spring count, nominal stiffness [N/m] and nominal static deflection [m]."""
+        """Per configuration: spring count, nominal stiffness [N/m] and nominal static deflection |F| / k [m] (the
+        diagnosis replaces it with the one its fitted baseline simulates)."""
         k = np.array([c["stiffness"] for c in self.configs])
         return {"springs": np.array([c["springs"] for c in self.configs], dtype=float), "stiffness": k,
                 "static_deflection": np.abs(self._spring_force()) / k}
@@ -243,7 +244,7 @@ class RingingRigModel:
                 x = res.displacement[:, w] + p.get("sensor_offset", 0.0) + p.get("sensor_drift", 0.0) * res.time
                 obs = ringdown_observables(res.time, x, self.has_series)
                 values[start + w] = [obs[k] for k in self.observables]
-                static[start + w] = res.static_deflection[w]
+                static[start + w] = abs(res.spring_deflection[w])
                 if keep_series:
                     series.append((res.time.copy(), x.copy()))
         return SimOutput(values, {"static_deflection": static}, series if keep_series else None)
@@ -407,7 +408,8 @@ class SoilBinRigModel:
             self._rigid[float(v)] = {"mean": float(mean), "sem": float(sem)}
 
     def covariates(self) -> dict[str, np.ndarray]:
-        """Per configuration: spring count, stiffness [N/m], speed [m/s], measured displacement [m] (if any)."""
+        """Per configuration: spring count, stiffness [N/m], speed [m/s], measured displacement [m] (if any); the
+        diagnosis adds the static deflection its fitted baseline simulates (the tool's mean deflection at work)."""
         out = {k: np.array([c[k] for c in self.configs], dtype=float) for k in ("springs", "stiffness", "speed")}
         if "displacement_mean" in self.observables:
             out["displacement"] = self.measured[:, self.observables.index("displacement_mean")]
@@ -470,6 +472,7 @@ class SoilBinRigModel:
         keys = [self._physical(c) for c in cases]
         self._run_passive(keys, keep_series, progress)
         values = np.full((len(cases), len(self.observables)), np.nan)
+        static = np.full(len(cases), np.nan)
         series = []
         for i, (case, key) in enumerate(zip(cases, keys, strict=True)):
             p = {**self.fixed, **case.params}
@@ -487,10 +490,11 @@ class SoilBinRigModel:
                        "displacement_mean": float(run["displacement_mean"]) + p.get("sensor_offset", 0.0),
                        "draught_mean": passive, "rigid_draught_mean": rigid}
             values[i] = [obs[k] for k in self.observables]
+            static[i] = abs(float(run["displacement_mean"]))  # the tool's deflection under the working load
             if keep_series:
                 t, x = run["series"]
                 series.append((t, x + p.get("sensor_offset", 0.0)))
-        return SimOutput(values, {}, series if keep_series else None)
+        return SimOutput(values, {"static_deflection": static}, series if keep_series else None)
 
 
 def make_rig_model(rig: str, measured: Measured, **kw: object) -> RingingRigModel | SoilBinRigModel:

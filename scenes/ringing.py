@@ -282,6 +282,7 @@ def build_ringing(config: RingingConfig | None = None, tool: SweepTool | None = 
             overrides["spring:spring:progressive"] = k3
         info["dashpot_n_s_per_m"] = damping
         info["spring_force_n"] = force
+        info["spring_stretch_m"] = stretch
     return RingingRig(b, overrides, tool, cfg, load_point, lever, stiffness, info)
 
 
@@ -308,6 +309,9 @@ class RingingResult:
     static_deflection: np.ndarray
     """sensor displacement while settling under the load before the hit [m] (n_configs,) (about 0 for the linear
     model, whose spring starts preloaded at equilibrium)."""
+    spring_deflection: np.ndarray
+    """the spring's deflection at rest under the load, as simulated [m] (n_configs,): linear model, its stretch
+    (from the preload) plus the settling; spring spheres, the settling."""
     dt: float
     wall_s: float
     config: dict
@@ -400,5 +404,6 @@ def run_ringing(config: RingingConfig | None = None, *, device: str | None = Non
                  for k, c, f in zip(rig.stiffness, rig.info["dashpot_n_s_per_m"],
                                     cfg.per_world("load_mass_fraction", 1.0), strict=True)]
         analytic = {"freq_hz": np.array([p[0] for p in pairs]), "damping": np.array([p[1] for p in pairs])}
-    return RingingResult(tuple(cfg.springs), cfg.spring_model, t, disp, freq, zeta, static, dt, wall, asdict(cfg),
-                         analytic)
+    spring = static + rig.info["spring_stretch_m"] if cfg.spring_model == "linear" else static
+    return RingingResult(tuple(cfg.springs), cfg.spring_model, t, disp, freq, zeta, static, spring, dt, wall,
+                         asdict(cfg), analytic)

@@ -48,6 +48,22 @@ def test_hidden_effect_is_named_and_the_extension_gains_on_held_out_data(effect:
     assert d.verification["gain_rel"] > 0.5
     assert d.noise_p_best > 1e-3
     assert d.baseline.heldout_loss.sum() > 4 * d.named.heldout_loss.sum()
+    if effect == "extra_mass":
+        # the static-deflection covariate is the simulated one: an extra mass (distributed like the tool's) adds
+        # (extra / M) x the tool's weight moment about the pivot to the spring's load, so the extended rig's spring
+        # deflects by that / (lever k) more than the baseline's (the rig's equilibrium in closed form; 1 %)
+        from scenes.ringing import gravity_moment
+        from scenes.sweep import build_sweep
+
+        tool = build_sweep()
+        lever = abs(tool.sensor_point[2] - tool.pivot[2])
+        moment = gravity_moment(tool, 200.0 / 9.81, tool.tip)
+        extra = d.named.params_all()["extra_mass"] / tool.mass * gravity_moment(tool, 0.0, tool.tip)
+        k = np.array([c["stiffness"] for c in d.configs])
+        v = d.verification
+        np.testing.assert_allclose(d.covariates["static_deflection"], v["baseline"]["static_deflection"])
+        np.testing.assert_allclose(v["extra_mass"]["static_deflection"] - v["baseline"]["static_deflection"],
+                                   (abs(moment + extra) - abs(moment)) / lever / k, rtol=0.01)
 
 
 def test_noise_only_data_get_no_cause() -> None:

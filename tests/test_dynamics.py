@@ -176,6 +176,8 @@ def test_hinged_pendulum_period_and_moving_pivot() -> None:
     n = int(5.2 * period / dt)
     w = np.empty((n, 2, 3))
     pivots = np.empty((n, 2, 3))
+    pivot_point = wd.observers.body_point("tool", (0, 0, 0))  # fixed to the swinging body, 0.3 m from its centre
+    pivot_point(sim)
     for k in range(n):
         sim.step()
         s = state.numpy()
@@ -194,6 +196,7 @@ def test_hinged_pendulum_period_and_moving_pivot() -> None:
         assert measured == pytest.approx(period * (1 + theta0**2 / 16), rel=2e-4)
     np.testing.assert_allclose(pivots[:, 0], 0.0, atol=1e-12)
     np.testing.assert_allclose(pivots[:, 1], t[:, None] * speed, atol=1e-12)
+    np.testing.assert_allclose(pivot_point(sim), pivots[-1], atol=1e-12)
     assert body == 0
 
 

@@ -21,7 +21,7 @@ from .contacts import (
     sphere_sphere_elastic_kernel,
     sphere_triangle_elastic_kernel,
 )
-from .mass import quat_to_matrix
+from .mass import quats_to_matrices
 from .model import ALL_DOFS
 
 wp.set_module_options({"enable_backward": False})
@@ -350,8 +350,9 @@ def body_point(body: str, point: object) -> Callable[[object], np.ndarray]:
         idx = np.arange(m.n_worlds) * m.bodies_per_world + m.names["body"][body]
         pos = sim.state.body_pos.numpy()[idx]
         quat = sim.state.body_quat.numpy()[idx]
+        rot = quats_to_matrices(quat)
         if "local" not in cache:  # the point in each body's frame, from the current (first) pose
-            cache["local"] = np.stack([quat_to_matrix(q).T @ (point - x) for x, q in zip(pos, quat, strict=True)])
-        return np.stack([x + quat_to_matrix(q) @ p for x, q, p in zip(pos, quat, cache["local"], strict=True)])
+            cache["local"] = np.einsum("nji,nj->ni", rot, point - pos)
+        return pos + np.einsum("nij,nj->ni", rot, cache["local"])
 
     return f

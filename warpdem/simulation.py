@@ -111,7 +111,8 @@ class Simulation:
         bounds: (lower (3,), upper (3,)) [m]; a body leaving it stops the run (default: the initial bounding box
             grown by its size plus 1 m on every side).
         capacity_factor: candidate-list capacity as a multiple of the first build's needs.
-        graph_steps: on CUDA, the host checks for faults and list capacity every ``graph_steps`` steps.
+        graph_steps: the host checks for faults and list capacity every ``graph_steps`` steps of :meth:`advance`
+            (:meth:`step` checks after every step).
     """
 
     def __init__(
@@ -228,11 +229,11 @@ class Simulation:
                 raise InputError(f"bounds must be (lower (3,), upper (3,)) with lower < upper, got {bounds!r}")
         self.bounds = (lo, hi)
 
-    def _update_spheres(self) -> None:
+    def _update_spheres(self, launch: Callable[..., object] = wp.launch) -> None:
         m = self.model
         if m.n_spheres == 0:
             return
-        wp.launch(
+        launch(
             update_spheres_kernel,
             m.n_spheres,
             inputs=[m.sphere_body, m.sphere_offset, self.state.body_pos, self.state.body_quat, self.state.body_vel,
@@ -320,17 +321,34 @@ class Simulation:
         return grew
 
     # ------------------------------------------------------------------ the step
-    def _launch_step(self) -> None:
+    def _launch_step(self, record: bool = False) -> list[Callable[[], object]]:
         """The kernels of one step (capturable): contacts, springs, integration, checks, and at the end the
-        decision whether the candidate lists must be rebuilt before the next step (``_rebuild_flag``)."""
+        decision whether the candidate lists must be rebuilt before the next step (``_rebuild_flag``).
+
+        ``record``: nothing runs; returns the step as a list of calls to replay (recorded launches, whose
+        arguments are packed once: on the CPU that packing costs more than a small scene's kernels)."""
         m, s, dev = self.model, self.state, self.device
+        ops: list[Callable[[], object]] = []
+
+        def launch(kernel: object, dim: int, **kw: object) -> None:
+            if record:
+                ops.append(wp.launch(kernel, dim, record_cmd=True, **kw).launch)
+            else:
+                wp.launch(kernel, dim, **kw)
+
+        def zero(arr: wp.array) -> None:
+            if record:
+                ops.append(arr.zero_)
+            else:
+                arr.zero_()
+
         ns = m.n_spheres
-        self.body_force.zero_()
-        self.body_torque.zero_()
-        self.mesh_force.zero_()
-        self.mesh_torque.zero_()
+        zero(self.body_force)
+        zero(self.body_torque)
+        zero(self.mesh_force)
+        zero(self.mesh_torque)
         if ns:
-            wp.launch(
+            launch(
                 sphere_sphere_kernel, ns,
                 inputs=[m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, self.materials,
                         self.options, self.sphere_pos, self.sphere_vel, self.sphere_angvel, self.sphere_arm,
@@ -339,7 +357,7 @@ class Simulation:
                 device=dev,
             )
         if ns and m.n_meshes:
-            wp.launch(
+            launch(
                 sphere_triangle_kernel, ns,
                 inputs=[m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, m.mesh_body,
                         m.mesh_material, m.mesh_tri_offset, m.tri_vertices, self.materials, self.options,
@@ -350,7 +368,7 @@ class Simulation:
                 device=dev,
             )
         if m.n_springs:
-            wp.launch(
+            launch(
                 spring_kernel, m.n_springs,
                 inputs=[m.spring_body_a, m.spring_body_b, m.spring_point_a, m.spring_point_b, m.spring_stiffness,
                         m.spring_damping, m.spring_rest_length, m.spring_preload, m.spring_progressive, m.body_world,
@@ -359,7 +377,7 @@ class Simulation:
                 outputs=[self.body_force, self.body_torque, self.spring_force, self.energy],
                 device=dev,
             )
-        wp.launch(
+        launch(
             integrate_bodies_kernel, m.n_bodies,
             inputs=[m.body_world, m.body_group, m.body_flags, m.body_mass, m.body_inertia, m.body_pivot,
                     m.body_pivot_vel, m.body_pivot_friction, m.group_damping,
@@ -368,24 +386,25 @@ class Simulation:
             outputs=[s.body_pos, s.body_quat, s.body_vel, s.body_angvel, s.body_angmom, self.energy],
             device=dev,
         )
-        wp.launch(
+        launch(
             _check_bodies_kernel, m.n_bodies,
             inputs=[m.body_flags, s.body_pos, s.body_vel, s.body_angvel, wp.float64(self.max_speed),
                     wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1]), self.counters],
             outputs=[self.fault], device=dev,
         )
-        self.cohesion_now.zero_()
-        self._update_spheres()
+        zero(self.cohesion_now)
+        self._update_spheres(launch)
         # broad phase next step? when the displacements since the last build could hide a contact
         if ns:
-            wp.launch(bp._sphere_displacement_kernel, ns, inputs=[self.sphere_pos, self.build_pos],
+            launch(bp._sphere_displacement_kernel, ns, inputs=[self.sphere_pos, self.build_pos],
                       outputs=[self._disp], device=dev)
         if m.n_meshes:
-            wp.launch(bp._mesh_displacement_kernel, m.n_meshes,
+            launch(bp._mesh_displacement_kernel, m.n_meshes,
                       inputs=[m.mesh_body, self.mesh_rmax, s.body_pos, s.body_quat, self.mesh_build_pos,
                               self.mesh_build_quat], outputs=[self._disp], device=dev)
-        wp.launch(_end_step_kernel, 1, inputs=[self.skin, self._disp, self._rebuild_flag, self.counters],
+        launch(_end_step_kernel, 1, inputs=[self.skin, self._disp, self._rebuild_flag, self.counters],
                   device=dev)
+        return ops
 
     def _check(self) -> None:
         """Raise SimulationError on a recorded fault or list overflow; grow lists that are nearly full."""
@@ -465,23 +484,31 @@ class Simulation:
         self.cohesion_now.fill_(1)
 
     def advance(self, n_steps: int) -> None:
-        """Advance ``n_steps`` steps. On CUDA each step is one captured graph; between graphs the host reads the
-        rebuild flag (one small synchronisation per step) and rebuilds outside the graph when asked, and every
-        ``graph_steps`` steps it checks for faults and list capacity."""
-        if self.device.is_cpu or self.graph_steps <= 1:
-            for _ in range(n_steps):
-                self.step()
-            return
+        """Advance ``n_steps`` steps. Between steps the host reads the rebuild flag (one small synchronisation per
+        step, only in scenes with spheres) and rebuilds when asked; every ``graph_steps`` steps, and after the
+        last, it checks for faults (a fault names the step where it happened) and list capacity. On CUDA each step
+        is one captured graph."""
+        graph = not self.device.is_cpu and self.graph_steps > 1
+        every = max(self.graph_steps, 1)
+        spheres = self.model.n_spheres > 0
         for k in range(n_steps):
-            self._rebuild_if_flagged()
-            if self._graph is None:
-                with wp.ScopedCapture(device=self.device) as capture:
-                    self._launch_step()
-                self._graph = capture.graph
-            wp.capture_launch(self._graph)
+            if spheres:
+                self._rebuild_if_flagged()
+            if self._graph is None:  # the captured (CUDA) or recorded (CPU) step; None when arrays moved
+                if graph:
+                    with wp.ScopedCapture(device=self.device) as capture:
+                        self._launch_step()
+                    self._graph = capture.graph
+                else:
+                    self._graph = self._launch_step(record=True)
+            if graph:
+                wp.capture_launch(self._graph)
+            else:
+                for op in self._graph:
+                    op()
             self.state.step += 1
             self.state.time += self.dt
-            if (k + 1) % self.graph_steps == 0 or k == n_steps - 1:
+            if (k + 1) % every == 0 or k == n_steps - 1:
                 self._check()
 
     def run(
