@@ -202,7 +202,7 @@ def reproduce(out: str | Path, *, scale: str = "cpu", device: str | None = None,
     plot_ringing(ring, out / "fig06_ringing.png")
     study, plots = None, []
     if soil:
-        study = sb.run_study(sb_cfg, device=device, cache_dir=out / "beds",
+        study = sb.run_study(sb_cfg, device=device, cache_dir=out / "beds", checkpoint_dir=out / "checkpoints",
                              progress=progress and (lambda d, n: progress("soil bin", d, n)))
         study["steady_travel"] = sb_cfg.steady_travel or sb.SCALES[scale]["steady_travel"]
         arrays = {}

@@ -287,10 +287,51 @@ def _stop_carriages(sim: wd.Simulation, worlds: np.ndarray) -> None:
             sim.set_body_velocity(name, (0.0, 0.0, 0.0), worlds)
 
 
+class RunCheckpoint:
+    """Checkpoints of one soil-bin run in a folder: the engine's state (``sim_<step>.npz``, which includes the
+    stopped carriages), the records so far (``records_<step>.npz``) and ``latest.json`` naming the last complete
+    pair and the run it belongs to (written last, atomically: a kill at any moment leaves a usable checkpoint)."""
+
+    def __init__(self, folder: str | Path, key: str) -> None:
+        self.folder = Path(folder)
+        self.key = key
+
+    def load(self, sim: wd.Simulation) -> tuple[int, dict[str, np.ndarray]] | None:
+        """Restore the latest checkpoint into ``sim``; returns (step, records so far) or None if there is none."""
+        latest = self.folder / "latest.json"
+        if not latest.exists():
+            return None
+        meta = json.loads(latest.read_text())
+        if meta["key"] != self.key:
+            raise ValueError(f"checkpoint folder {str(self.folder)!r} belongs to another soil-bin run (other scene, "
+                             "configurations, speeds, knobs or soil); remove it or choose another folder")
+        step = int(meta["step"])
+        wd.checkpoint.load(sim, self.folder / f"sim_{step}.npz")
+        with np.load(self.folder / f"records_{step}.npz") as f:
+            records = {k: f[k] for k in f.files}
+        return step, records
+
+    def save(self, sim: wd.Simulation, records: dict[str, np.ndarray]) -> None:
+        """Write the state at the current step and the records so far, then point latest.json at them."""
+        self.folder.mkdir(parents=True, exist_ok=True)
+        step = sim.state.step
+        wd.checkpoint.save(sim, self.folder / f"sim_{step}.npz")
+        tmp = self.folder / f"records_{step}.tmp.npz"
+        np.savez(tmp, **records)
+        tmp.replace(self.folder / f"records_{step}.npz")
+        meta = self.folder / "latest.json.tmp"
+        meta.write_text(json.dumps({"key": self.key, "step": step}))
+        meta.replace(self.folder / "latest.json")
+        for old in self.folder.glob("*_*.npz"):
+            if old.stem.split("_")[-1] != str(step):
+                old.unlink()
+
+
 def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device: str | None = None,
                  tool: SweepTool | None = None, progress: object | None = None,
                  viewer: object | None = None, soil_overrides: dict[str, object] | None = None,
-                 speeds: list[float] | None = None, knobs: dict[str, object] | None = None) -> SoilBinRun:
+                 speeds: list[float] | None = None, knobs: dict[str, object] | None = None,
+                 checkpoint: str | Path | None = None, checkpoint_every: float = 60.0) -> SoilBinRun:
     """One simulation: rigid tools (every entry of ``springs`` 0) or passive configurations, one world each.
 
     ``speeds``: carriage speed per world [m/s] (n_worlds,) (default: the config's speed of each spring count).
@@ -300,6 +341,9 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     the draught, displacement and kinetic energies.
     ``soil_overrides``: per-world soil material fields, field -> (n_worlds,) values (e.g. ``friction_angle`` [deg],
     ``normal_cohesion`` [Pa]): a calibration population as worlds of one simulation.
+    ``checkpoint``: a folder (see :class:`RunCheckpoint`) written every ``checkpoint_every`` seconds of wall time
+    and at every carriage stop; when it holds a checkpoint of the same run, the run resumes from it and ends as
+    the uninterrupted one would (bit for bit on the CPU).
     """
     t0 = time.perf_counter()
     if 0 in springs and any(n != 0 for n in springs):
@@ -352,12 +396,31 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
                                                                          "ke_soil")})
     parts: list[dict[str, np.ndarray]] = []
     done = 0
+    ck = None
+    if checkpoint is not None:
+        key = json.dumps([asdict(config), list(springs), speeds, {k: np.asarray(v).tolist() for k, v in
+                          knob_arrays.items()}, {k: np.asarray(v).tolist() for k, v in (soil_overrides or {}).items()},
+                          bed.n_particles, float(dt)], sort_keys=True, default=str)
+        ck = RunCheckpoint(checkpoint, hashlib.sha256(key.encode()).hexdigest())
+        resumed = ck.load(sim)
+        if resumed is not None:
+            done, records = resumed
+            parts.append({k: v for k, v in records.items() if k != "viewer"})
+    chunk = every * max(1, int(round(0.05 / (every * dt))))  # 0.05 s of simulated time between checkpoint chances
+    saved_at = time.perf_counter()
     for end in sorted(set(stop.tolist())):
-        part = sim.run(end - done, record_every=every, observers=observers,
-                       progress=(lambda d, n, base=done: progress(base + d, n_steps)) if progress else None)
-        parts.append(part if not parts else {k: v[1:] for k, v in part.items()})  # drop the repeated record
-        done = end
-        _stop_carriages(sim, np.nonzero(stop == end)[0])
+        while done < end:
+            k = min(chunk if ck is not None else end - done, end - done)
+            part = sim.run(k, record_every=every, observers=observers,
+                           progress=(lambda d, n, base=done: progress(base + d, n_steps)) if progress else None)
+            parts.append(part if not parts else {kk: v[1:] for kk, v in part.items()})  # drop the repeated record
+            done += k
+            if done == end:
+                _stop_carriages(sim, np.nonzero(stop == end)[0])
+            if ck is not None and (done == end or time.perf_counter() - saved_at >= checkpoint_every):
+                parts = [{kk: np.concatenate([p_[kk] for p_ in parts]) for kk in parts[0] if kk != "viewer"}]
+                ck.save(sim, parts[0])
+                saved_at = time.perf_counter()
     out = {k: np.concatenate([p_[k] for p_ in parts]) for k in parts[0]}
     if view is not None:
         view.close()
@@ -385,17 +448,25 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
 
 
 def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,
-              progress: object | None = None, viewer: object | None = None) -> dict[str, object]:
+              progress: object | None = None, viewer: object | None = None,
+              checkpoint_dir: str | Path | None = None) -> dict[str, object]:
     """The bed, the rigid run (if 0 in springs) and the passive runs (one simulation, one world each).
-    ``viewer`` (see :func:`run_soil_bin`) streams the passive run (or the rigid one if there is none)."""
+    ``viewer`` (see :func:`run_soil_bin`) streams the passive run (or the rigid one if there is none).
+    ``checkpoint_dir``: each run checkpoints into a subfolder (``rigid``, ``passive``) and resumes from it after a
+    kill; a finished run's subfolder is removed."""
+    import shutil
+
     bed = bed_for(config, device=device, cache_dir=cache_dir)
     runs = {}
     passive = [n for n in config.springs if n != 0]
-    if 0 in config.springs:
-        runs["rigid"] = run_soil_bin(config, [0], bed=bed, device=device, progress=progress,
-                                     viewer=None if passive else viewer)
-    if passive:
-        runs["passive"] = run_soil_bin(config, passive, bed=bed, device=device, progress=progress, viewer=viewer)
+    for name, springs in (("rigid", [0] if 0 in config.springs else []), ("passive", passive)):
+        if not springs:
+            continue
+        folder = Path(checkpoint_dir) / name if checkpoint_dir is not None else None
+        runs[name] = run_soil_bin(config, springs, bed=bed, device=device, progress=progress,
+                                  viewer=viewer if name == "passive" or not passive else None, checkpoint=folder)
+        if folder is not None:
+            shutil.rmtree(folder, ignore_errors=True)
     rows = [r for run in runs.values() for r in run.steady]
     rigid_mean = next((r["draught_mean"] for r in rows if r["springs"] == 0), math.nan)
     for r in rows:

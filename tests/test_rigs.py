@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from conftest import DEVICE
@@ -121,3 +123,35 @@ def test_soil_viscosity_adds_b_v_to_the_rigid_draught(ci_bed) -> None:
     assert abs(diff.mean() - b_visc * speed) < 3 * _sem(diff) + 1.0, (diff.mean(), b_visc * speed)
     with pytest.raises(ValueError, match="rigid tool takes soil_viscosity only"):
         sb.run_soil_bin(cfg, [0], bed=ci_bed, device=DEVICE, knobs={"pivot_friction": [0.1]})
+
+
+class _Killed(Exception):
+    pass
+
+
+def test_a_killed_soil_bin_run_resumes_to_the_same_result(ci_bed, tmp_path) -> None:
+    # Reference: the uninterrupted run. A passive run with two carriage speeds (the faster carriage stops first:
+    # a change made mid-run that the checkpoint must hold) is killed after its first stop and run again with the
+    # same checkpoint folder; CPU runs are deterministic, so every record and statistic must be equal exactly.
+    cfg = sb.SoilBinConfig(scale="ci", assembly="A", springs=(16, 32), travel=0.08, steady_travel=0.02)
+    speeds = [0.7, 0.5]
+    whole = sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=speeds)
+    first_stop = 0.08 / 0.7 / whole.dt
+
+    def kill(done: int, total: int) -> None:
+        if done > 1.2 * first_stop:
+            raise _Killed
+
+    folder = tmp_path / "ck"
+    with pytest.raises(_Killed):
+        sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=speeds, checkpoint=folder,
+                        checkpoint_every=0.0, progress=kill)
+    step = json.loads((folder / "latest.json").read_text())["step"]
+    assert first_stop < step < whole.steps
+    again = sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=speeds, checkpoint=folder)
+    np.testing.assert_array_equal(again.time, whole.time)
+    for k, v in whole.series.items():
+        np.testing.assert_array_equal(again.series[k], v, err_msg=k)
+    assert again.steady == whole.steady
+    with pytest.raises(ValueError, match="another soil-bin run"):
+        sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=[0.6, 0.5], checkpoint=folder)

@@ -1,5 +1,7 @@
 """Checkpoints: save the full dynamic state of a Simulation (bodies, contact history, broad-phase reference
-positions, counters, energy accumulators) and restore it into a Simulation built from the same scene.
+positions, counters, energy accumulators, and the model values a run may change while it goes: pivot velocities
+set by ``set_body_velocity`` and local damping set by ``set_local_damping``) and restore it into a Simulation built
+from the same scene.
 
 A restored CPU run continues bit for bit as the uninterrupted one would.
 """
@@ -13,8 +15,10 @@ import warp as wp
 
 from .errors import InputError
 
-_FORMAT = 1
+_FORMAT = 2  # 2: five energy slots (driven work), mutable model arrays
 _SIM_ARRAYS = ("energy", "counters", "build_pos", "mesh_build_pos", "mesh_build_quat", "cohesion_now", "fault")
+_MODEL_ARRAYS = ("body_pivot_vel", "group_damping")
+"""model arrays that the Simulation's setters change during a run."""
 
 
 def _signature(sim: object) -> np.ndarray:
@@ -32,6 +36,8 @@ def save(sim: object, path: str | os.PathLike) -> None:
     data["dt"] = np.array(sim.dt)
     for k in _SIM_ARRAYS:
         data["sim/" + k] = getattr(sim, k).numpy()
+    for k in _MODEL_ARRAYS:
+        data["model/" + k] = getattr(sim.model, k).numpy()
     for name in ("ss", "st"):
         lst = getattr(sim, name)
         data[f"{name}/capacity"] = np.array(lst.capacity)
@@ -61,6 +67,8 @@ def load(sim: object, path: str | os.PathLike) -> None:
     sim.state.step = int(data["step"])
     for k in _SIM_ARRAYS:
         getattr(sim, k).assign(data["sim/" + k])
+    for k in _MODEL_ARRAYS:
+        getattr(sim.model, k).assign(data["model/" + k])
     for name in ("ss", "st"):
         lst, scratch = getattr(sim, name), getattr(sim, name + "_new")
         cap = int(data[f"{name}/capacity"])

@@ -214,7 +214,7 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
 
     _write_config(out, "soil-bin", device, config=asdict(cfg), preset=sb.SCALES[args.scale])
     study = sb.run_study(cfg, device=device, cache_dir=out / "beds", progress=lambda d, n: _bar("soil bin", d, n),
-                         viewer=viewer)
+                         viewer=viewer, checkpoint_dir=out / "checkpoints")
     (out / "summary.json").write_text(json.dumps(study["table"], indent=2, default=float))
     for r in study["table"]:
         name = "rigid" if r["springs"] == 0 else f"{r['springs']} springs"
