@@ -78,8 +78,9 @@ def decay_curve(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def plots(d: Diagnosis, out: Path) -> list[str]:
     """observables.png (measured vs baseline vs extended, against stiffness), residuals.png (held-out residuals of
-    the baseline against each covariate) and, with series, series.png (records and re-simulations) and, with
-    measured records, decay.png (each cycle's damping ratio against its amplitude: the covariate within a decay)."""
+    the baseline against each covariate) and, with series, series.png (measured records and re-simulations against
+    time: the covariate along a run) and, with the ringing rig's measured records, decay.png (each cycle's damping
+    ratio against its amplitude: the covariate within a decay)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -132,6 +133,9 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
         fig, axes = plt.subplots(n, 1, figsize=(7, 1.8 * n), squeeze=False, sharex=True)
         for j in range(n):
             ax = axes[j, 0]
+            if d.measured_series is not None:
+                t, s = d.measured_series[j]
+                ax.plot(t, 1e3 * s, color="k", lw=0.6, alpha=0.6, label="measured")
             for key, color in (("baseline", "C0"), ("+".join(d.cause), "C3")):
                 if key in v and isinstance(v[key], dict) and v[key].get("series"):
                     t, s = v[key]["series"][j]
@@ -143,7 +147,7 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
         fig.savefig(out / "series.png", dpi=120)
         plt.close(fig)
         files.append("series.png")
-        if d.measured_series is not None:
+        if d.measured_series is not None and d.rig == "ringing":
             # the covariate within a decay: each cycle's damping ratio against its amplitude
             cols = min(n, 4)
             rows = -(-n // cols)

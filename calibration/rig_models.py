@@ -250,15 +250,16 @@ class RingingRigModel:
         return SimOutput(values, {"static_deflection": static}, series if keep_series else None)
 
 
-SOIL_BIN_UNCERTAINTY = {"reduction": 2.0, "displacement_mean": 2e-4, "draught_mean": 0.03,
-                        "rigid_draught_mean": 0.03}
+SOIL_BIN_UNCERTAINTY = {"reduction": 2.0, "displacement_mean": 2e-4, "displacement_trend": 1e-4,
+                        "draught_mean": 0.03, "rigid_draught_mean": 0.03}
 """default 1-sigma uncertainties of the measured soil-bin observables: ``reduction`` absolute, 2 percentage points
 (Table 3's eight rigid runs of one nominal condition scatter by 1.5 % (SD 5.1 N of 338 N), and a reduction is the
 difference of two runs: sqrt(2) x 1.5 %); ``displacement_mean`` absolute, 0.2 mm (the runs' own displacement SD is
-0.06-0.19 mm; the sensor's zero is set once per run); draught means relative, 3 % (twice the rigid runs'
-scatter). The simulation's own sampling error (the standard error of each steady-state mean, from the baseline's
-runs) is added in quadrature: a reduced-scale DEM run is short and noisy."""
-SOIL_BIN_ABSOLUTE = frozenset({"reduction", "displacement_mean"})
+0.06-0.19 mm; the sensor's zero is set once per run); ``displacement_trend`` (from series) absolute, 0.1 mm/s
+(over a 3 s laboratory run it moves the reading by 0.3 mm, beyond the runs' SD); draught means relative, 3 % (twice
+the rigid runs' scatter). The simulation's own sampling error (the standard error of each steady-state mean or
+trend, from the baseline's runs) is added in quadrature: a reduced-scale DEM run is short and noisy."""
+SOIL_BIN_ABSOLUTE = frozenset({"reduction", "displacement_mean", "displacement_trend"})
 """observables whose stated uncertainty is absolute (in their unit); the others' is relative."""
 
 
@@ -279,6 +280,13 @@ class SoilBinRigModel:
     and sensor_offset [m] (added to the displacement reading). Rigid runs (one per measured speed) are simulated
     once; passive runs are cached by their physical parameters, so a sensor-only change costs no simulation.
 
+    Series: with a displacement series for every configuration (``signal: displacement``, keyed by ``springs``),
+    ``displacement_mean`` and ``displacement_trend`` [m/s] (its least-squares slope in time) come from the series'
+    steady part (travel = speed x time from the record's start >= ``measured_steady_travel``, default the
+    simulation's steady travel), and the knob sensor_drift [m/s] joins: a reading off by drift x time since the
+    record's start, applied on the measured record's time base (so it shifts a mean by drift x the window's mean
+    time, and a trend by drift).
+
     ``scale``, ``assembly``, ``parameter_set``, ``seed``, ``working_depth``, ``travel``, ``steady_travel``,
     ``support_offset``: the ``scenes.soil_bin.SoilBinConfig`` of the simulations; ``soil``: soil contact parameters
     replacing the GA set's in every run (``friction_angle`` [deg], ``normal_cohesion``, ``shear_cohesion`` [Pa],
@@ -289,8 +297,8 @@ class SoilBinRigModel:
     rig = "soil-bin"
     knobs = frozenset({"pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
                        "sensor_offset"})
-    units = {"reduction": "%", "displacement_mean": "m", "draught_mean": "N", "rigid_draught_mean": "N"}
-    has_series = False
+    units = {"reduction": "%", "displacement_mean": "m", "displacement_trend": "m/s", "draught_mean": "N",
+             "rigid_draught_mean": "N"}
     genes: tuple[Gene, ...] = ()
 
     def __init__(self, measured: Measured, *, device: str | None = None, fixed: dict[str, float] | None = None,
@@ -300,7 +308,8 @@ class SoilBinRigModel:
                  soil: dict[str, float] | None = None,
                  observables: tuple[str, ...] | None = None,
                  uncertainty: dict[str, float] | None = None, max_worlds: int = 64, bed: object | None = None,
-                 cache_dir: str | None = None) -> None:
+                 cache_dir: str | None = None, measured_steady_travel: float | None = None,
+                 runs_from: SoilBinRigModel | None = None) -> None:
         from scenes import paper
         from scenes import soil_bin as sb
 
@@ -321,27 +330,47 @@ class SoilBinRigModel:
         stiffness = s.get("stiffness", np.array([paper.ringing_row(n)["stiffness_n_per_m"] for n in springs]))
         self.configs = [{"springs": n, "speed": float(v), "stiffness": float(k)}
                         for n, v, k in zip(springs, s["speed"], stiffness, strict=True)]
-        if observables is None:
-            observables = tuple(k for k in ("reduction", "displacement_mean") if k in s)
-        if not observables:
-            raise ValueError("measured soil-bin data need a 'reduction' or 'displacement_mean' column (or name "
-                             "the observables)")
-        for k in observables:
-            if k not in self.units:
-                raise ValueError(f"observables: unknown {k!r}; known {sorted(self.units)}")
-            if k not in s:
-                raise ValueError(f"observables: the summary has no column {k!r}")
-        self.observables = tuple(observables)
-        self.measured = np.column_stack([s[k] for k in self.observables])
-        unc = _stated(SOIL_BIN_UNCERTAINTY, uncertainty)
-        self.uncertainty = {k: unc[k] for k in self.observables}
-        self.stated_sigma = np.column_stack([
-            np.full(len(springs), unc[k]) if k in SOIL_BIN_ABSOLUTE else unc[k] * np.abs(s[k])
-            for k in self.observables])
         self.config = sb.SoilBinConfig(scale=scale, assembly=assembly, springs=tuple(sorted(set(springs))),
                                        spring_model="linear", parameter_set=parameter_set, seed=seed,
                                        travel=travel, steady_travel=steady_travel, support_offset=support_offset,
                                        **({"working_depth": working_depth} if working_depth else {}))
+        columns = dict(s)
+        disp = {int(x.config["springs"]): x for x in measured.series if x.signal == "displacement"}
+        self.has_series = bool(disp) and all(n in disp for n in springs)
+        self.measured_series = None
+        self._drift_time = None
+        if self.has_series:
+            if len(set(springs)) != len(springs):
+                raise ValueError(f"series are keyed by spring count: one configuration per count, got {springs}")
+            start = float(measured_steady_travel or self.config.steady_travel or self.config.preset["steady_travel"])
+            stats = []
+            for c in self.configs:
+                x = disp[c["springs"]]
+                t = x.time - x.time[0]
+                stats.append(analysis.steady_state(t, x.values, c["speed"] * t, start_travel=start))
+            columns["displacement_mean"] = np.array([st.mean for st in stats])
+            columns["displacement_trend"] = np.array([st.trend for st in stats])
+            self._drift_time = np.array([st.t_mean for st in stats])
+            self.measured_series = [(disp[c["springs"]].time - disp[c["springs"]].time[0],
+                                     disp[c["springs"]].values) for c in self.configs]
+            self.knobs = type(self).knobs | {"sensor_drift"}
+        if observables is None:
+            observables = tuple(k for k in ("reduction", "displacement_mean", "displacement_trend") if k in columns)
+        if not observables:
+            raise ValueError("measured soil-bin data need a 'reduction' or 'displacement_mean' column or "
+                             "displacement series (or name the observables)")
+        for k in observables:
+            if k not in self.units:
+                raise ValueError(f"observables: unknown {k!r}; known {sorted(self.units)}")
+            if k not in columns:
+                raise ValueError(f"observables: the measured data have no {k!r} (summary column or series)")
+        self.observables = tuple(observables)
+        self.measured = np.column_stack([columns[k] for k in self.observables])
+        unc = _stated(SOIL_BIN_UNCERTAINTY, uncertainty)
+        self.uncertainty = {k: unc[k] for k in self.observables}
+        self.stated_sigma = np.column_stack([
+            np.full(len(springs), unc[k]) if k in SOIL_BIN_ABSOLUTE else unc[k] * np.abs(columns[k])
+            for k in self.observables])
         fields = ("friction_angle", "normal_cohesion", "shear_cohesion", "eta_roll", "eta_twist")
         self.soil = {k: float(v) for k, v in (soil or {}).items()}
         for k, v in self.soil.items():
@@ -355,6 +384,10 @@ class SoilBinRigModel:
         self._rigid: dict[float, dict[str, float]] = {}
         self._passive: dict[tuple, dict[str, object]] = {}
         self._sim_sigma: np.ndarray | None = None
+        if runs_from is not None:  # the same scene's simulated runs, e.g. for a second data set
+            if runs_from.settings() != self.settings():
+                raise ValueError("runs_from: the other rig model simulates another scene (settings differ)")
+            self._bed, self._rigid, self._passive = runs_from._bed, runs_from._rigid, runs_from._passive
 
     @property
     def n_configs(self) -> int:
@@ -425,7 +458,8 @@ class SoilBinRigModel:
     def _physical(self, case: Case) -> tuple:
         """The key of a passive run: configuration and the knobs that change the DEM (not the sensor's)."""
         p = {**self.fixed, **case.params}
-        return (case.config,) + tuple(sorted((k, float(v)) for k, v in p.items() if k != "sensor_offset"))
+        return (case.config,) + tuple(sorted((k, float(v)) for k, v in p.items()
+                                             if k not in ("sensor_offset", "sensor_drift")))
 
     def _soil(self, n: int) -> dict[str, object] | None:
         return {k: [v] * n for k, v in self.soil.items()} or None
@@ -460,9 +494,11 @@ class SoilBinRigModel:
                                   soil_overrides=self._soil(len(cfgs)))
             for w, (key, row) in enumerate(zip(chunk, run.steady, strict=True)):
                 entry: dict[str, object] = {k: row[k] for k in ("draught_mean", "draught_sem", "displacement_mean",
-                                                                "displacement_sem")}
-                if keep_series:
-                    entry["series"] = (run.time.copy(), run.series["displacement"][:, w].copy())
+                                                                "displacement_sem", "displacement_trend",
+                                                                "displacement_trend_sem", "steady_time_mean")}
+                if keep_series:  # up to the carriage's stop (a faster carriage stops before the run ends)
+                    n_moving = int(np.argmax(run.travel[:, w] >= run.travel[:, w].max())) + 1
+                    entry["series"] = (run.time[:n_moving].copy(), run.series["displacement"][:n_moving, w].copy())
                 self._passive[key] = entry
 
     def simulate(self, cases: list[Case], keep_series: bool = False, progress: object | None = None,
@@ -480,20 +516,25 @@ class SoilBinRigModel:
             rig, run = self._rigid[speed], self._passive[key]
             drag = p.get("soil_viscosity", 0.0) * speed  # the rigid tool moves at the carriage speed exactly
             rigid, passive = rig["mean"] + drag, float(run["draught_mean"])
+            # the sensor: offset + drift x time since the record's start (the measured record's time base)
+            offset, drift = p.get("sensor_offset", 0.0), p.get("sensor_drift", 0.0)
+            t_mean = float(run["steady_time_mean"]) if self._drift_time is None else self._drift_time[case.config]
             if _sem:
                 obs = {"reduction": 100.0 * math.hypot(float(run["draught_sem"]), passive / rigid * rig["sem"])
                        / rigid,
-                       "displacement_mean": float(run["displacement_sem"]), "draught_mean": float(run["draught_sem"]),
-                       "rigid_draught_mean": rig["sem"]}
+                       "displacement_mean": float(run["displacement_sem"]),
+                       "displacement_trend": float(run["displacement_trend_sem"]),
+                       "draught_mean": float(run["draught_sem"]), "rigid_draught_mean": rig["sem"]}
             else:
                 obs = {"reduction": 100.0 * (rigid - passive) / rigid,
-                       "displacement_mean": float(run["displacement_mean"]) + p.get("sensor_offset", 0.0),
+                       "displacement_mean": float(run["displacement_mean"]) + offset + drift * t_mean,
+                       "displacement_trend": float(run["displacement_trend"]) + drift,
                        "draught_mean": passive, "rigid_draught_mean": rigid}
             values[i] = [obs[k] for k in self.observables]
             static[i] = abs(float(run["displacement_mean"]))  # the tool's deflection under the working load
             if keep_series:
                 t, x = run["series"]
-                series.append((t, x + p.get("sensor_offset", 0.0)))
+                series.append((t, x + offset + drift * t))
         return SimOutput(values, {"static_deflection": static}, series if keep_series else None)
 
 

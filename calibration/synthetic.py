@@ -58,14 +58,20 @@ def ringing_data(
     data = Measured({"springs": np.array(springs, dtype=float), "stiffness": nominal},
                     {"springs": "-", "stiffness": "N/m"}, series, "synthetic")
     if out is not None:
-        out = Path(out)
-        (out / "series").mkdir(parents=True, exist_ok=True)
-        write_summary(out / "summary.csv", data.summary, data.units)
-        for s in series:
-            lines = [f"# springs: {int(s.config['springs'])}", "# signal: displacement", "time [s],displacement [m]"]
-            lines += [f"{float(ti)!r},{float(xi)!r}" for ti, xi in zip(s.time, s.values, strict=True)]
-            (out / "series" / f"springs_{int(s.config['springs']):02d}.csv").write_text("\n".join(lines) + "\n")
+        _write(Path(out), data)
     return data
+
+
+def _write(out: Path, data: Measured) -> None:
+    """Write ``data`` in the MEASURED format: ``summary.csv`` and one ``series/springs_NN.csv`` per series."""
+    out.mkdir(parents=True, exist_ok=True)
+    write_summary(out / "summary.csv", data.summary, data.units)
+    if data.series:
+        (out / "series").mkdir(exist_ok=True)
+    for s in data.series:
+        lines = [f"# springs: {int(s.config['springs'])}", "# signal: displacement", "time [s],displacement [m]"]
+        lines += [f"{float(ti)!r},{float(xi)!r}" for ti, xi in zip(s.time, s.values, strict=True)]
+        (out / "series" / f"springs_{int(s.config['springs']):02d}.csv").write_text("\n".join(lines) + "\n")
 
 
 def soil_bin_data(
@@ -78,6 +84,7 @@ def soil_bin_data(
     seed: int = 0,
     device: str | None = None,
     out: str | Path | None = None,
+    series: bool = False,
     **rig: object,
 ) -> Measured:
     """A soil-bin summary (like Table 3) from the DEM rig with ``truth`` (any knobs of
@@ -87,14 +94,16 @@ def soil_bin_data(
     summary gives the nominal rate. ``noise``: measurement noise (1 sigma, absolute) added to the observables,
     default reduction 1 percentage point and displacement 0.1 mm. ``rig``: the SoilBinRigModel's scene settings
     (scale, assembly, bed, ...). Columns: springs, stiffness, speed, reduction, displacement_mean (and the
-    draught means); with ``out``, written there as ``summary.csv``.
+    draught means). ``series``: also the displacement record of every configuration (the DEM's samples, the
+    sensor's offset and drift, white noise of ``noise["displacement_series"]``, default 0.1 mm). With ``out``,
+    written there in the MEASURED format.
     """
     from scenes import paper
 
     from .rig_models import Case, SoilBinRigModel
 
     rng = np.random.default_rng(seed)
-    noise = {"reduction": 1.0, "displacement_mean": 1e-4, **(noise or {})}
+    noise = {"reduction": 1.0, "displacement_mean": 1e-4, "displacement_series": 1e-4, **(noise or {})}
     nominal = np.array([paper.ringing_row(n)["stiffness_n_per_m"] for n in springs])
     true_k = nominal * (1.0 + scatter * rng.standard_normal(len(springs)))
     n = len(springs)
@@ -103,15 +112,20 @@ def soil_bin_data(
     truth_rig = SoilBinRigModel(Measured(columns, {}), device=device,
                                 observables=("reduction", "displacement_mean", "draught_mean", "rigid_draught_mean"),
                                 **rig)
-    sim = truth_rig.simulate([Case(j, dict(truth)) for j in range(n)]).values
+    out_sim = truth_rig.simulate([Case(j, dict(truth)) for j in range(n)], keep_series=series)
+    sim = out_sim.values
     units = {"springs": "-", "stiffness": "N/m", "speed": "m/s", "reduction": "%", "displacement_mean": "m",
              "draught_mean": "N", "rigid_draught_mean": "N"}
     summary = {"springs": columns["springs"], "stiffness": nominal, "speed": columns["speed"],
                "reduction": sim[:, 0] + noise["reduction"] * rng.standard_normal(n),
                "displacement_mean": sim[:, 1] + noise["displacement_mean"] * rng.standard_normal(n),
                "draught_mean": sim[:, 2], "rigid_draught_mean": sim[:, 3]}
-    data = Measured(summary, units, [], "synthetic")
+    records = []
+    if series:
+        for n_springs, (t, x) in zip(springs, out_sim.series, strict=True):
+            x = x + noise["displacement_series"] * rng.standard_normal(x.size)
+            records.append(Series({"springs": float(n_springs)}, "displacement", t, x, f"synthetic:{n_springs}"))
+    data = Measured(summary, units, records, "synthetic")
     if out is not None:
-        Path(out).mkdir(parents=True, exist_ok=True)
-        write_summary(Path(out) / "summary.csv", summary, units)
+        _write(Path(out), data)
     return data

@@ -173,6 +173,9 @@ class SoilBinRun:
     """draught [N], displacement [m] (sensor relative to the carriage, along y), ke_tool / ke_soil [J]
     (translational, rotational) (k, n_worlds, 2), coordination [-]; each (k, n_worlds[, 2])."""
     steady: list[dict[str, float]] = field(default_factory=list)
+    """per world, over the steady part of its travel: draught_/displacement_ mean, std, sem, trend [unit/s],
+    trend_sem (see ``warpdem.analysis.steady_state``), steady_time_mean [s], ke_tool_/ke_soil_ mean and std,
+    coordination_start/_end."""
     n_particles: int = 0
     n_spheres: int = 0
     dt: float = 0.0
@@ -436,6 +439,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
         for k in ("draught", "displacement"):
             st = analysis.steady_state(t[moving], series[k][moving, w], trav[moving, w], start_travel=start)
             row[f"{k}_mean"], row[f"{k}_std"], row[f"{k}_sem"] = st.mean, st.std, st.sem
+            row[f"{k}_trend"], row[f"{k}_trend_sem"] = st.trend, st.trend_sem
+        row["steady_time_mean"] = st.t_mean
         for k in ("ke_tool", "ke_soil"):
             st = analysis.steady_state(t[moving], series[k][moving, w].sum(axis=-1), trav[moving, w],
                                        start_travel=start)
@@ -450,8 +455,9 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
 def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,
               progress: object | None = None, viewer: object | None = None,
               checkpoint_dir: str | Path | None = None) -> dict[str, object]:
-    """The bed, the rigid run (if 0 in springs) and the passive runs (one simulation, one world each).
-    ``viewer`` (see :func:`run_soil_bin`) streams the passive run (or the rigid one if there is none).
+    """The bed, the rigid run (if 0 in springs) and the passive runs (one simulation, one world each; with the
+    paper's spring spheres and support offsets, one simulation per configuration, as each needs its own offset).
+    ``viewer`` (see :func:`run_soil_bin`) streams the (first) passive run (or the rigid one if there is none).
     ``checkpoint_dir``: each run checkpoints into a subfolder (``rigid``, ``passive``) and resumes from it after a
     kill; a finished run's subfolder is removed."""
     import shutil
@@ -459,12 +465,17 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
     bed = bed_for(config, device=device, cache_dir=cache_dir)
     runs = {}
     passive = [n for n in config.springs if n != 0]
-    for name, springs in (("rigid", [0] if 0 in config.springs else []), ("passive", passive)):
-        if not springs:
-            continue
+    groups = [("rigid", [0] if 0 in config.springs else [])]
+    if config.spring_model == "paper" and config.support_offset and len(passive) > 1:
+        groups += [(f"passive_{n}", [n]) for n in passive]  # spring spheres: one support offset per simulation
+    else:
+        groups.append(("passive", passive))
+    groups = [(name, springs) for name, springs in groups if springs]
+    streamed = groups[-1][0] if len(groups) == 1 else groups[1][0]  # the (first) passive run, else the rigid one
+    for name, springs in groups:
         folder = Path(checkpoint_dir) / name if checkpoint_dir is not None else None
         runs[name] = run_soil_bin(config, springs, bed=bed, device=device, progress=progress,
-                                  viewer=viewer if name == "passive" or not passive else None, checkpoint=folder)
+                                  viewer=viewer if name == streamed else None, checkpoint=folder)
         if folder is not None:
             shutil.rmtree(folder, ignore_errors=True)
     rows = [r for run in runs.values() for r in run.steady]

@@ -347,10 +347,12 @@ def test_standard_error_of_a_correlated_record(phi: float) -> None:
     # Reference: an AR(1) series x_k = phi x_{k-1} + e_k has n_eff -> n (1 - phi) / (1 + phi) and its mean a
     # standard error sigma_x / sqrt(n_eff). Over 200 records of 4000 samples the spread of the means must match the
     # average reported sem within 15 % (the spread of 200 means is itself uncertain by 1/sqrt(400) = 5 %, and
-    # the truncated autocorrelation sum is biased low by a few % at phi = 0.8).
+    # the truncated autocorrelation sum is biased low by a few % at phi = 0.8). The same for the trend: a drift
+    # b = 0.3 /s under the noise is recovered without bias (within 3 standard errors of the average) and the spread
+    # of the fitted slopes matches the reported trend_sem within 15 % (OLS slope variance sigma^2 / (n_eff var t)).
     rng = np.random.default_rng(1)
-    n, reps = 4000, 200
-    means, sems, neffs = [], [], []
+    n, reps, drift = 4000, 200, 0.3
+    means, sems, neffs, trends, trend_sems = [], [], [], [], []
     for _ in range(reps):
         e = rng.normal(size=n + 200)
         x = np.empty_like(e)
@@ -358,9 +360,15 @@ def test_standard_error_of_a_correlated_record(phi: float) -> None:
         for k in range(1, len(e)):
             x[k] = phi * x[k - 1] + e[k]
         x = x[200:]
-        st = analysis.steady_state(np.arange(n) * 1e-3, x, np.ones(n), start_travel=0.5)
+        t = np.arange(n) * 1e-3
+        st = analysis.steady_state(t, x, np.ones(n), start_travel=0.5)
         means.append(st.mean)
         sems.append(st.sem)
         neffs.append(analysis.effective_samples(x))
+        tr = analysis.steady_state(t, x + drift * t, np.ones(n), start_travel=0.5)
+        trends.append(tr.trend)
+        trend_sems.append(tr.trend_sem)
     assert np.mean(neffs) == pytest.approx(n * (1 - phi) / (1 + phi), rel=0.15)
     assert np.mean(sems) == pytest.approx(np.std(means), rel=0.15)
+    assert np.mean(trends) == pytest.approx(drift, abs=3 * np.std(trends) / np.sqrt(reps))
+    assert np.mean(trend_sems) == pytest.approx(np.std(trends), rel=0.15)

@@ -129,6 +129,7 @@ class _Killed(Exception):
     pass
 
 
+@pytest.mark.skipif(DEVICE != "cpu", reason="on CUDA every soil run is a new realization (float32 atomics)")
 def test_a_killed_soil_bin_run_resumes_to_the_same_result(ci_bed, tmp_path) -> None:
     # Reference: the uninterrupted run. A passive run with two carriage speeds (the faster carriage stops first:
     # a change made mid-run that the checkpoint must hold) is killed after its first stop and run again with the
@@ -155,3 +156,30 @@ def test_a_killed_soil_bin_run_resumes_to_the_same_result(ci_bed, tmp_path) -> N
     assert again.steady == whole.steady
     with pytest.raises(ValueError, match="another soil-bin run"):
         sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=[0.6, 0.5], checkpoint=folder)
+
+
+def test_soil_bin_series_give_the_trend_and_a_sensor_drift_moves_it(ci_bed) -> None:
+    # Reference: a displacement record read by a sensor drifting at d [m/s] from the record's start has its steady
+    # mean raised by d x (mean time of the steady window) and its least-squares trend by d, exactly. "Measured"
+    # series made by the rig with a hidden drift (no spring scatter, no noise) must be reproduced by the rig model
+    # with the drift knob to round-off (CPU runs are deterministic), and its baseline must differ by exactly those
+    # (one run serves both: the drift is a sensor knob).
+    from calibration import synthetic
+    from calibration.rig_models import Case, SoilBinRigModel
+
+    scene = {"assembly": "A", "bed": ci_bed, "travel": 0.1, "steady_travel": 0.04}
+    drift = 0.02
+    data = synthetic.soil_bin_data((16,), (0.6,), {"sensor_drift": drift}, scatter=0.0, series=True,
+                                   noise={"reduction": 0.0, "displacement_mean": 0.0, "displacement_series": 0.0},
+                                   device=DEVICE, **scene)
+    rig = SoilBinRigModel(data, device=DEVICE, **scene)
+    assert rig.has_series and "sensor_drift" in rig.knobs
+    assert rig.observables == ("reduction", "displacement_mean", "displacement_trend")
+    t, x = rig.measured_series[0]
+    steady = analysis.steady_state(t, x, 0.6 * t, start_travel=0.04)
+    np.testing.assert_allclose(rig.measured[0, 1:], [steady.mean, steady.trend], rtol=1e-12)
+    base, drifting = rig.simulate([Case(0, {}), Case(0, {"sensor_drift": drift})]).values
+    if DEVICE == "cpu":  # the same run again (on CUDA a new realization)
+        np.testing.assert_allclose(drifting, rig.measured[0], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(drifting - base, [0.0, drift * steady.t_mean, drift], rtol=1e-9, atol=1e-12)
+    assert steady.t_mean > 0.04 / 0.6

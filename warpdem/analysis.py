@@ -129,6 +129,10 @@ class SteadyState:
         t_start: time of the first sample used [s].
         sem: standard error of the mean [units of the signal]: std / sqrt(n_eff), with n_eff the effective number
             of independent samples of the correlated signal (:func:`effective_samples`).
+        trend: least-squares slope of the signal against time [units of the signal per s] (a drift, or a run that
+            has not settled).
+        trend_sem: its standard error: residual std / (std of the times x sqrt(n_eff of the residual)).
+        t_mean: mean time of the samples used [s].
     """
 
     mean: float
@@ -136,6 +140,9 @@ class SteadyState:
     n: int
     t_start: float
     sem: float = math.nan
+    trend: float = math.nan
+    trend_sem: float = math.nan
+    t_mean: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -692,8 +699,15 @@ def steady_state(t: object, x: object, travel: object, *, start_travel: float = 
         )
     values = x[steady]
     std = float(values.std(ddof=ddof))
+    tc = t[steady] - t[steady].mean()
+    trend = trend_sem = math.nan
+    if n > 2 and tc.std() > 0:
+        trend = float(np.dot(tc, values - values.mean()) / np.dot(tc, tc))
+        resid = values - values.mean() - trend * tc
+        trend_sem = float(resid.std() / (tc.std() * math.sqrt(effective_samples(resid))))
     return SteadyState(mean=float(values.mean()), std=std, n=n, t_start=float(t[np.argmax(steady)]),
-                       sem=std / math.sqrt(effective_samples(values)) if n > 1 else math.nan)
+                       sem=std / math.sqrt(effective_samples(values)) if n > 1 else math.nan, trend=trend,
+                       trend_sem=trend_sem, t_mean=float(t[steady].mean()))
 
 
 def effective_samples(x: object) -> float:
