@@ -9,7 +9,8 @@ Frame: x lateral, y travel (the carriage moves +y), z up; the bin spans x in [-W
   ratio for the hinged tool alone; "paper": three spring spheres and a support sphere with Table 2's calibrated
   Young's modulus and local damping (its stiff, light spheres need a ~5e-6 s step, 10x smaller than the soil's).
   Table 2's support offset (+ = against travel) moves the spring's anchor (or the support sphere) back, which lets
-  the tool lean back (the paper's "initial backward bending").
+  the tool lean back (the paper's "initial backward bending"); the support sphere is moved into its offset over
+  the run's first ``SUPPORT_RAMP`` seconds, each world by its own offset.
 - Soil: a deposited :class:`~scenes.assemblies.Bed` with the paper's E, nu, rho and a GA parameter set of Tables
   4-6 (default: the set closest to the laboratory shear box for the assembly: A 1, B 8, C 11), cohesion set on the
   initial contacts, rolling/twisting resistance on every contact, no local damping (as the paper).
@@ -58,6 +59,9 @@ tool, distributed like its own), progressive [N/m^3] (cubic term of the stack, F
 [N/m] (frame and shank in series: k ks / (k + ks); inf = rigid), soil_viscosity [N s/m] (a rate-dependent soil
 resistance b v against travel at the share's tip; it adds to the draught). The rigid tool takes soil_viscosity
 only (its motion is prescribed: the resistance only adds to the draught)."""
+SUPPORT_RAMP = 0.1
+"""time [s] over which the paper's spring model moves its support into Table 2's offset at the start of a run
+(set at once, an offset of millimetres would overlap the 3.4 g spring spheres by that much and blow them apart)."""
 DRAG_ANCHOR = 100.0
 """distance ahead of the tip [m] of the static anchor of the soil-viscosity dashpot: its line stays along travel."""
 
@@ -268,10 +272,9 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
             for kk in range(3):
                 b.add_sphere(s - (0.0, (2 * kk + 1) * r, 0.0), r, "spring", blocked="xzXZ", group="springs",
                              velocity=v0)
-            if len(set(offsets)) > 1:
-                raise ValueError("the paper's spring model needs one support offset for all worlds: run the "
-                                 "configurations separately or set support_offset=False")
-            b.add_sphere(s - (0.0, 7 * r + offsets[0], 0.0), r, "spring", blocked="xyzXYZ", group="support",
+            # the support starts touching the column and is moved into its offset during the run's first
+            # SUPPORT_RAMP seconds (run_soil_bin)
+            b.add_sphere(s - (0.0, 7 * r, 0.0), r, "spring", blocked="xyzXYZ", group="support",
                          velocity=v0, name="support")
             overrides.update({
                 "material:spring:young": [row["dem_spring_young_pa"] for row in rows],
@@ -393,6 +396,15 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     # the slowest one does
     stop = (np.ceil(travel / speeds_a / dt / every) * every).astype(int)
     n_steps = int(stop.max())
+    # the spring spheres' support moves into its offset (+ = against travel) over SUPPORT_RAMP, then rides along
+    events, ramp = set(stop.tolist()), -1
+    if config.spring_model == "paper" and not rigid and any(info["support_offset_m"]):
+        ramp = int(np.ceil(SUPPORT_RAMP / dt / every) * every)
+        events.add(ramp)
+        off = np.asarray(info["support_offset_m"])
+        sim.set_body_velocity("support", np.stack([np.zeros_like(off), speeds_a - off / (ramp * dt),
+                                                   np.zeros_like(off)], axis=1))
+
     view = viewer(sim) if viewer is not None else None
     if view is not None:
         observers["viewer"] = view.as_observer({k: observers[k] for k in ("draught", "displacement", "ke_tool",
@@ -411,13 +423,17 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
             parts.append({k: v for k, v in records.items() if k != "viewer"})
     chunk = every * max(1, int(round(0.05 / (every * dt))))  # 0.05 s of simulated time between checkpoint chances
     saved_at = time.perf_counter()
-    for end in sorted(set(stop.tolist())):
+    for end in sorted(events):
         while done < end:
             k = min(chunk if ck is not None else end - done, end - done)
             part = sim.run(k, record_every=every, observers=observers,
                            progress=(lambda d, n, base=done: progress(base + d, n_steps)) if progress else None)
             parts.append(part if not parts else {kk: v[1:] for kk, v in part.items()})  # drop the repeated record
             done += k
+            if done == ramp:  # the support has reached its offset: it rides with the carriage
+                moving = np.nonzero(stop > ramp)[0]
+                sim.set_body_velocity("support", np.stack([0.0 * speeds_a, speeds_a, 0.0 * speeds_a], axis=1)[moving],
+                                      moving)
             if done == end:
                 _stop_carriages(sim, np.nonzero(stop == end)[0])
             if ck is not None and (done == end or time.perf_counter() - saved_at >= checkpoint_every):
@@ -455,9 +471,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
 def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,
               progress: object | None = None, viewer: object | None = None,
               checkpoint_dir: str | Path | None = None) -> dict[str, object]:
-    """The bed, the rigid run (if 0 in springs) and the passive runs (one simulation, one world each; with the
-    paper's spring spheres and support offsets, one simulation per configuration, as each needs its own offset).
-    ``viewer`` (see :func:`run_soil_bin`) streams the (first) passive run (or the rigid one if there is none).
+    """The bed, the rigid run (if 0 in springs) and the passive runs (one simulation, one world each).
+    ``viewer`` (see :func:`run_soil_bin`) streams the passive run (or the rigid one if there is none).
     ``checkpoint_dir``: each run checkpoints into a subfolder (``rigid``, ``passive``) and resumes from it after a
     kill; a finished run's subfolder is removed."""
     import shutil
@@ -465,13 +480,9 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
     bed = bed_for(config, device=device, cache_dir=cache_dir)
     runs = {}
     passive = [n for n in config.springs if n != 0]
-    groups = [("rigid", [0] if 0 in config.springs else [])]
-    if config.spring_model == "paper" and config.support_offset and len(passive) > 1:
-        groups += [(f"passive_{n}", [n]) for n in passive]  # spring spheres: one support offset per simulation
-    else:
-        groups.append(("passive", passive))
-    groups = [(name, springs) for name, springs in groups if springs]
-    streamed = groups[-1][0] if len(groups) == 1 else groups[1][0]  # the (first) passive run, else the rigid one
+    groups = [(name, springs) for name, springs in (("rigid", [0] if 0 in config.springs else []),
+                                                    ("passive", passive)) if springs]
+    streamed = groups[-1][0]  # the passive run, else the rigid one
     for name, springs in groups:
         folder = Path(checkpoint_dir) / name if checkpoint_dir is not None else None
         runs[name] = run_soil_bin(config, springs, bed=bed, device=device, progress=progress,
