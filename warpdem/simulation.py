@@ -397,13 +397,12 @@ class Simulation:
         # broad phase next step? when the displacements since the last build could hide a contact
         if ns:
             launch(bp._sphere_displacement_kernel, ns, inputs=[self.sphere_pos, self.build_pos],
-                      outputs=[self._disp], device=dev)
+                   outputs=[self._disp], device=dev)
         if m.n_meshes:
             launch(bp._mesh_displacement_kernel, m.n_meshes,
-                      inputs=[m.mesh_body, self.mesh_rmax, s.body_pos, s.body_quat, self.mesh_build_pos,
-                              self.mesh_build_quat], outputs=[self._disp], device=dev)
-        launch(_end_step_kernel, 1, inputs=[self.skin, self._disp, self._rebuild_flag, self.counters],
-                  device=dev)
+                   inputs=[m.mesh_body, self.mesh_rmax, s.body_pos, s.body_quat, self.mesh_build_pos,
+                           self.mesh_build_quat], outputs=[self._disp], device=dev)
+        launch(_end_step_kernel, 1, inputs=[self.skin, self._disp, self._rebuild_flag, self.counters], device=dev)
         return ops
 
     def _check(self) -> None:
