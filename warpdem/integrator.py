@@ -248,6 +248,8 @@ def integrate_bodies_kernel(
                     e += c[k] * omega[k] * dt
             wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, e)
         alpha_d = damp(alpha, omega, dt, lam)
+        if track_energy != 0 and lam > wp.float64(0.0):
+            wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, wp.abs(wp.dot(iw * (alpha - alpha_d), omega)) * dt)
         omega = omega + dt * alpha_d
         body_angvel[b] = omega
         body_angmom[b] = iw * omega
