@@ -280,7 +280,9 @@ class SoilBinRigModel:
     and sensor_offset [m] (added to the displacement reading). Rigid runs (one per measured speed) are simulated
     once; passive runs are cached by their physical parameters, so a sensor-only change costs no simulation.
 
-    Series: with a displacement series for every configuration (``signal: displacement``, keyed by ``springs``),
+    Series: with a force (draught) series for every configuration and no ``draught_mean`` column, their steady
+    means are ``draught_mean`` (an observable to ask for: by default the draught's level is not compared).
+    With a displacement series for every configuration (``signal: displacement``, keyed by ``springs``),
     ``displacement_mean`` and ``displacement_trend`` [m/s] (its least-squares slope in time) come from the series'
     steady part (travel = speed x time from the record's start >= ``measured_steady_travel``, default the
     simulation's steady travel), and the knob sensor_drift [m/s] joins: a reading off by drift x time since the
@@ -335,19 +337,26 @@ class SoilBinRigModel:
                                        travel=travel, steady_travel=steady_travel, support_offset=support_offset,
                                        **({"working_depth": working_depth} if working_depth else {}))
         columns = dict(s)
-        disp = {int(x.config["springs"]): x for x in measured.series if x.signal == "displacement"}
+        start = float(measured_steady_travel or self.config.steady_travel or self.config.preset["steady_travel"])
+
+        def steady(x: object, speed: float) -> analysis.SteadyState:
+            t = x.time - x.time[0]
+            return analysis.steady_state(t, x.values, speed * t, start_travel=start)
+
+        by_signal = {sig: {int(x.config["springs"]): x for x in measured.series if x.signal == sig}
+                     for sig in ("displacement", "force")}
+        if (by_signal["displacement"] or by_signal["force"]) and len(set(springs)) != len(springs):
+            raise ValueError(f"series are keyed by spring count: one configuration per count, got {springs}")
+        force = by_signal["force"]
+        if force and all(n in force for n in springs) and "draught_mean" not in columns:
+            # draught records of the passive tool: their steady means are the draught_mean observable
+            columns["draught_mean"] = np.array([steady(force[c["springs"]], c["speed"]).mean for c in self.configs])
+        disp = by_signal["displacement"]
         self.has_series = bool(disp) and all(n in disp for n in springs)
         self.measured_series = None
         self._drift_time = None
         if self.has_series:
-            if len(set(springs)) != len(springs):
-                raise ValueError(f"series are keyed by spring count: one configuration per count, got {springs}")
-            start = float(measured_steady_travel or self.config.steady_travel or self.config.preset["steady_travel"])
-            stats = []
-            for c in self.configs:
-                x = disp[c["springs"]]
-                t = x.time - x.time[0]
-                stats.append(analysis.steady_state(t, x.values, c["speed"] * t, start_travel=start))
+            stats = [steady(disp[c["springs"]], c["speed"]) for c in self.configs]
             columns["displacement_mean"] = np.array([st.mean for st in stats])
             columns["displacement_trend"] = np.array([st.trend for st in stats])
             self._drift_time = np.array([st.t_mean for st in stats])

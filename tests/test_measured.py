@@ -89,3 +89,32 @@ def test_bad_measured_files_are_named(tmp_path) -> None:
         measured.load(tmp_path / "d")
     with pytest.raises(FileNotFoundError, match="neither a file nor a directory"):
         measured.load(tmp_path / "nowhere")
+
+
+def test_soil_bin_records_in_the_measured_format_give_the_observables(tmp_path) -> None:
+    # Reference: records written in the MEASURED format (draught in kN, displacement in mm, times in ms) of known
+    # signals: draught 300 N + 2 N/s drift, displacement 4 mm + 0.5 mm/s, both with noise, at 0.6 m/s. Read back
+    # through the soil-bin rig model (nothing is simulated), the observables are the steady parts' (travel >= 0.15
+    # m) mean and trend, equal to analysis.steady_state of the same samples (round-off), and near the truth
+    # (5 standard errors).
+    from calibration.rig_models import SoilBinRigModel
+
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 1.5, 1 / 500)
+    (tmp_path / "series").mkdir()
+    (tmp_path / "summary.csv").write_text("springs [-],speed [m/s]\n16,0.6\n")
+    truth = {"force": (300.0 + 2.0 * t, 20.0, 1e-3, "kN"), "displacement": (4e-3 + 5e-4 * t, 2e-4, 1e3, "mm")}
+    samples = {}
+    for signal, (clean, noise, factor, unit) in truth.items():
+        samples[signal] = clean + noise * rng.standard_normal(t.size)
+        lines = ["# springs: 16", f"# signal: {signal}", f"time [ms],{signal} [{unit}]"]
+        lines += [f"{float(1e3 * ti)!r},{float(factor * xi)!r}" for ti, xi in zip(t, samples[signal], strict=True)]
+        (tmp_path / "series" / f"{signal}.csv").write_text("\n".join(lines) + "\n")
+    rig = SoilBinRigModel(measured.load(tmp_path), observables=("draught_mean", "displacement_mean",
+                                                                "displacement_trend"), steady_travel=0.15)
+    draught = analysis.steady_state(t, samples["force"], 0.6 * t, start_travel=0.15)
+    disp = analysis.steady_state(t, samples["displacement"], 0.6 * t, start_travel=0.15)
+    np.testing.assert_allclose(rig.measured[0], [draught.mean, disp.mean, disp.trend], rtol=1e-9)
+    assert rig.has_series and "sensor_drift" in rig.knobs
+    assert abs(draught.mean - (300.0 + 2.0 * draught.t_mean)) < 5 * draught.sem
+    assert abs(disp.trend - 5e-4) < 5 * disp.trend_sem
