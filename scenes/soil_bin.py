@@ -398,12 +398,12 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     n_steps = int(stop.max())
     # the spring spheres' support moves into its offset (+ = against travel) over SUPPORT_RAMP, then rides along
     events, ramp = set(stop.tolist()), -1
+    carriage_vel = np.stack([np.zeros_like(speeds_a), speeds_a, np.zeros_like(speeds_a)], axis=1)
     if config.spring_model == "paper" and not rigid and any(info["support_offset_m"]):
         ramp = int(np.ceil(SUPPORT_RAMP / dt / every) * every)
         events.add(ramp)
         off = np.asarray(info["support_offset_m"])
-        sim.set_body_velocity("support", np.stack([np.zeros_like(off), speeds_a - off / (ramp * dt),
-                                                   np.zeros_like(off)], axis=1))
+        sim.set_body_velocity("support", carriage_vel - np.outer(off / (ramp * dt), (0.0, 1.0, 0.0)))
 
     view = viewer(sim) if viewer is not None else None
     if view is not None:
@@ -413,9 +413,11 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     done = 0
     ck = None
     if checkpoint is not None:
+        bed_digest = hashlib.sha256(np.ascontiguousarray(bed.centres).tobytes()
+                                    + np.ascontiguousarray(bed.radii).tobytes()).hexdigest()
         key = json.dumps([asdict(config), list(springs), speeds, {k: np.asarray(v).tolist() for k, v in
                           knob_arrays.items()}, {k: np.asarray(v).tolist() for k, v in (soil_overrides or {}).items()},
-                          bed.n_particles, float(dt)], sort_keys=True, default=str)
+                          bed_digest, float(dt)], sort_keys=True, default=str)
         ck = RunCheckpoint(checkpoint, hashlib.sha256(key.encode()).hexdigest())
         resumed = ck.load(sim)
         if resumed is not None:
@@ -425,15 +427,14 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     saved_at = time.perf_counter()
     for end in sorted(events):
         while done < end:
-            k = min(chunk if ck is not None else end - done, end - done)
+            k = min(chunk, end - done) if ck is not None else end - done
             part = sim.run(k, record_every=every, observers=observers,
                            progress=(lambda d, n, base=done: progress(base + d, n_steps)) if progress else None)
             parts.append(part if not parts else {kk: v[1:] for kk, v in part.items()})  # drop the repeated record
             done += k
             if done == ramp:  # the support has reached its offset: it rides with the carriage
                 moving = np.nonzero(stop > ramp)[0]
-                sim.set_body_velocity("support", np.stack([0.0 * speeds_a, speeds_a, 0.0 * speeds_a], axis=1)[moving],
-                                      moving)
+                sim.set_body_velocity("support", carriage_vel[moving], moving)
             if done == end:
                 _stop_carriages(sim, np.nonzero(stop == end)[0])
             if ck is not None and (done == end or time.perf_counter() - saved_at >= checkpoint_every):
