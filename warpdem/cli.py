@@ -16,7 +16,8 @@
 ``reproduce`` runs the paper's study at a reduced (``cpu``, default) or full (``paper``) scale: the ringing test
 for all eight spring configurations with both spring models, the soil bin with the rigid tool and 16 and 32 springs,
 and writes a results folder with config.json (parameters, versions, device, seed), the time series, summary.json,
-PNG plots and report.md beside the paper's Tables 2, 3 and 7. Each rig also has its own command.
+PNG plots and report.md beside the paper's Tables 2, 3 and 7. Each rig also has its own command. The soil-bin runs
+of ``reproduce`` and ``soil-bin`` checkpoint into OUT/checkpoints; the same command run again after a kill resumes.
 """
 
 from __future__ import annotations
@@ -338,14 +339,16 @@ def main(argv: list[str] | None = None) -> int:
             p.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"))
             p.add_argument("--assembly", default="C", choices=("A", "B", "C"))
 
-    r = sub.add_parser("reproduce", help="the paper's study (ringing + soil bin) with a report")
+    r = sub.add_parser("reproduce", help="the paper's study (ringing + soil bin) with a report; after a kill, "
+                       "the same command resumes the soil-bin runs from OUT/checkpoints")
     common(r, "results/reproduce")
     r.add_argument("--springs", type=_springs, default=(0, 16, 32), help="soil-bin configurations, 0 = rigid")
     g = sub.add_parser("ringing", help="ringing test of the eight spring configurations")
     common(g, "results/ringing", scale=False)
     g.add_argument("--springs", type=_springs, default=None)
     g.add_argument("--spring-model", choices=("paper", "linear"), default=None, help="default: both")
-    s = sub.add_parser("soil-bin", help="soil bin: rigid and passive tool")
+    s = sub.add_parser("soil-bin", help="soil bin: rigid and passive tool; after a kill, the same command resumes "
+                       "from OUT/checkpoints")
     common(s, "results/soil_bin")
     s.add_argument("--springs", type=_springs, default=None, help="configurations, 0 = rigid (default 0,16,32)")
     s.add_argument("--spring-model", choices=("paper", "linear"), default=None)
