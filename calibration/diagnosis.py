@@ -145,6 +145,20 @@ class Fit:
     def params_all(self) -> dict[str, float]:
         return self.candidate.values(self.z_all)
 
+    def at_bound(self, tol: float = 0.005) -> list[dict[str, object]]:
+        """The genes whose all-data fit lies within ``tol`` (a fraction of the searched range) of an end of the
+        range: the data ask for a value the search did not allow, so the mechanism may stand in for another one
+        or the range is too narrow. Each: gene, value (SI), low, high, side ("low" or "high"), and in how many
+        leave-one-out folds the fit sits at the same end."""
+        out = []
+        for i, g in enumerate(self.candidate.genes):
+            for side, at in (("low", lambda z: z <= tol), ("high", lambda z: z >= 1.0 - tol)):
+                if at(self.z_all[i]):
+                    out.append({"gene": g.name, "value": self.params_all()[g.name], "low": g.low, "high": g.high,
+                                "unit": g.unit, "side": side, "folds": int(np.sum(at(self.z_fold[:, i]))),
+                                "n_folds": int(self.z_fold.shape[0])})
+        return out
+
 
 @dataclass
 class Diagnosis:
@@ -205,7 +219,8 @@ def _checkpoint_key(rig: object, settings: DiagnosisSettings) -> str:
     """What a checkpoint must match to be resumed: the rig, its settings, the data and the fit settings."""
     text = json.dumps({"rig": rig.rig, "settings": getattr(rig, "settings", dict)(), "configs": rig.configs,
                        "observables": list(rig.observables), "measured": np.asarray(rig.measured).tolist(),
-                       "uncertainty": rig.uncertainty, "fit": asdict(settings)}, sort_keys=True, default=str)
+                       "uncertainty": getattr(rig, "uncertainty", None), "fit": asdict(settings)},
+                      sort_keys=True, default=str)
     return hashlib.sha1(text.encode()).hexdigest()
 
 

@@ -35,6 +35,7 @@ def to_json(d: Diagnosis) -> dict[str, object]:
         "cause": list(d.cause),
         "indistinguishable_from": d.indistinguishable,
         "parameters": named.params_all() if named else {},
+        "parameters_at_bound": named.at_bound() if named else [],
         "baseline_parameters": d.baseline.params_all(),
         "errors_before": errors("baseline"),
         "errors_after": errors("+".join(d.cause)) if d.cause else {},
@@ -195,6 +196,12 @@ def write(d: Diagnosis, out: str | Path, command: str = "") -> Path:
             lines += [f"- *{m.title}*: {m.rationale}"]
         lines += ["", "Fitted parameters (all data): " + ", ".join(f"{k} = {v:.4g}" for k, v in
                                                                   d.named.params_all().items()), ""]
+        for b in js["parameters_at_bound"]:
+            lines += [f"**At the {'upper' if b['side'] == 'high' else 'lower'} end of its range:** {b['gene']} = "
+                      f"{b['value']:.4g} {b['unit']} (searched {b['low']:.4g} to {b['high']:.4g} {b['unit']}; "
+                      f"{b['folds']} of {b['n_folds']} leave-one-out fits there too). The data ask for a value the "
+                      f"search did not allow: read the mechanism as standing in for one that acts the same way, "
+                      f"or widen its range if such a value is physical.", ""]
         lines += [f"Held-out loss (sum over configurations of squared residuals in units of the uncertainty, "
                   f"re-simulated): before {js['errors_before']['heldout_loss']:.3g}, after "
                   f"{js['errors_after']['heldout_loss']:.3g}: gain {js['gain_abs']:.3g} "

@@ -244,6 +244,42 @@ def test_progressive_spring_period_and_mass_override() -> None:
     assert period(k3, m) < 0.8 * period(0.0, m)  # the cubic term matters at this amplitude
 
 
+def test_preloaded_spring_rests_on_its_stop_until_the_load_exceeds_the_preload() -> None:
+    # Reference (statics in closed form): a mass m pressed against a spring by its weight m g, the spring preloaded
+    # in compression by P0 against a stop at its rest length (stop stiffness ks). Below the preload the mass rests
+    # on the stop, pushed into it by (P0 - m g) / (k + ks); above it, the spring gives way by (m g - P0) / k, as a
+    # spring without a stop would from P0 on. Worlds 0-2: P0 = 0, m g / 2, 2 m g, damped to rest (zeta 0.5, 1 s =
+    # 16 periods of the softest side: the residual motion is e^-50 of the start). Tolerance: 1e-4 of m g / k (the
+    # float32 spring parameters: 1e-7 relative). World 3 bounces off the stop undamped: kinetic + gravity + spring
+    # energy (the stop's included) is conserved within 2 % of the kinetic energy it starts with: leapfrog's sampled
+    # energy ripples by about omega dt = 0.017 of it on the stop's side (dt = 5e-5 s); a stop energy left out would
+    # miss about all of it at every bounce.
+    m, k, ks, g = 2.0, 2.0e4, 2.0e5, 9.81
+    b = wd.ModelBuilder(gravity=(-g, 0, 0))
+    carriage = b.add_rigid_body((0, 0, 0), name="carriage")
+    body = b.add_rigid_body((0.1, 0, 0), mass=m, inertia=np.eye(3) * 1e-3, blocked="yzXYZ", name="mass")
+    b.add_spring("s", carriage, (0, 0, 0), body, (0.1, 0, 0), stiffness=k, rest_length=0.1, stop_stiffness=ks)
+    preload = np.array([0.0, 0.5, 2.0, 0.5]) * m * g
+    c = 2 * 0.5 * np.sqrt(k * m)
+    model, state = b.finalize(DEVICE, n_worlds=4, overrides={
+        "spring:s:preload": -preload, "spring:s:damping": [c, c, c, 0.0],
+        "body:mass:velocity": [(0, 0, 0)] * 3 + [(0.3, 0, 0)]})
+    dt = 5e-5
+    sim = wd.Simulation(model, state, dt=dt, track_energy=True)
+
+    def energy(s: wd.Simulation) -> np.ndarray:
+        x = s.state.body_pos.numpy()[body::2, 0]
+        return wd.observers.kinetic_energy(s) + wd.observers.spring_elastic_energy(s) + m * g * x
+
+    out = sim.run(20000, record_every=20, observers={"e": energy})
+    u = sim.state.body_pos.numpy()[body::2, 0] - 0.1
+    expected = [-m * g / k, -(m * g - preload[1]) / k, (preload[2] - m * g) / (k + ks)]
+    np.testing.assert_allclose(u[:3], expected, atol=1e-4 * m * g / k)
+    assert u[2] > 0  # on the stop: pushed into it, not given way
+    e = out["e"][1:, 3]
+    assert np.ptp(e) < 2e-2 * 0.5 * m * 0.3**2
+
+
 def test_pivot_friction_decays_linearly_and_sticks() -> None:
     # Reference: a pendulum hinged about x (rotational stiffness K = m g d for small angles, inertia I_p) with dry
     # friction torque T at the pivot loses 2 T / K of amplitude every half swing (free vibration with Coulomb

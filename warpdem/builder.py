@@ -54,9 +54,10 @@ class _Spring:
     rest_length: float
     preload: float
     progressive: float = 0.0
+    stop_stiffness: float = 0.0
 
 
-SPRING_FIELDS = ("stiffness", "damping", "rest_length", "preload", "progressive")
+SPRING_FIELDS = ("stiffness", "damping", "rest_length", "preload", "progressive", "stop_stiffness")
 """per-spring parameters a world may override."""
 _BODY_FIELDS = ("pos", "quat", "vel", "angvel", "mass", "inertia", "density_material", "group", "blocked", "pivot")
 
@@ -412,6 +413,7 @@ class ModelBuilder:
         rest_length: float | None = None,
         preload: float = 0.0,
         progressive: float = 0.0,
+        stop_stiffness: float = 0.0,
     ) -> int:
         """Spring-dashpot between a point of body a and a point of body b (points in the world [m], now).
 
@@ -419,6 +421,11 @@ class ModelBuilder:
         with u = L - rest_length; stiffness [N/m], progressive [N/m^3] (0: linear; > 0 stiffens with the
         deflection either way, a Duffing spring), damping [N s/m], rest_length [m] (default: the current
         distance), preload [N].
+
+        ``stop_stiffness`` [N/m]: a stop at the rest length, which the spring meets when its preload drives it
+        there (preload > 0, in tension: the spring cannot get shorter than rest_length; preload < 0: longer).
+        Past the stop, F gains stop_stiffness * u: a preloaded stack that rests on its stop until the load
+        exceeds the preload. Without a preload the stop has no side and does nothing.
         """
         for label, b in (("body_a", body_a), ("body_b", body_b)):
             if check_int(label, b) >= self._n_bodies:
@@ -429,6 +436,7 @@ class ModelBuilder:
         check_nonnegative("stiffness", stiffness)
         check_nonnegative("damping", damping)
         check_nonnegative("progressive", progressive)
+        check_nonnegative("stop_stiffness", stop_stiffness)
         length = float(np.linalg.norm(pb - pa)) if rest_length is None else float(rest_length)
         check_nonnegative("rest_length", length)
         if any(s.name == name for s in self.springs):
@@ -436,7 +444,7 @@ class ModelBuilder:
         la = (pa - self.body_array("pos")[body_a]) @ massprops.quat_to_matrix(self.body_array("quat")[body_a])
         lb = (pb - self.body_array("pos")[body_b]) @ massprops.quat_to_matrix(self.body_array("quat")[body_b])
         self.springs.append(_Spring(name, body_a, la, body_b, lb, stiffness, damping, length, float(preload),
-                                    float(progressive)))
+                                    float(progressive), float(stop_stiffness)))
         return len(self.springs) - 1
 
     # ---------------------------------------------------------------- finalize
@@ -451,7 +459,8 @@ class ModelBuilder:
             overrides: per-world parameters, name -> values of length n_worlds:
                 ``material:<name>:<field>`` (fields: young, poisson, density, friction_angle [deg],
                 normal_cohesion, shear_cohesion, eta_roll, eta_twist, alpha_kr, alpha_ktw),
-                ``spring:<name>:<stiffness|damping|rest_length|preload|progressive>``, ``damping:<group>``,
+                ``spring:<name>:<stiffness|damping|rest_length|preload|progressive|stop_stiffness>``,
+                ``damping:<group>``,
                 ``body:<name>:velocity`` and ``body:<name>:angular_velocity`` (shape (n_worlds, 3); for a hinged
                 body, the pivot's velocity), ``body:<name>:mass`` [kg] (mass and inertia tensor scaled together,
                 i.e. added mass distributed like the body's own) and ``body:<name>:pivot_friction`` [N m] (a
@@ -680,6 +689,7 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         spring_rest_length=arr(t["spring_rest_length"].reshape(-1).astype(np.float32), wp.float32),
         spring_preload=arr(t["spring_preload"].reshape(-1).astype(np.float32), wp.float32),
         spring_progressive=arr(t["spring_progressive"].reshape(-1).astype(np.float32), wp.float32),
+        spring_stop_stiffness=arr(t["spring_stop_stiffness"].reshape(-1).astype(np.float32), wp.float32),
         names={
             "body": dict(b.body_names),
             "material": dict(b.material_names),

@@ -328,6 +328,7 @@ def spring_kernel(
     rest_length: wp.array(dtype=float),
     preload: wp.array(dtype=float),
     progressive: wp.array(dtype=float),
+    stop_stiffness: wp.array(dtype=float),
     body_world: wp.array(dtype=int),
     dt: float,
     track_energy: int,
@@ -343,7 +344,7 @@ def spring_kernel(
     energy: wp.array(dtype=wp.float64),
 ):
     """Spring-dashpot: F = preload + k u + k3 u^3 + c dL/dt, u = L - L0, along a->b (tension > 0 pulls a and b
-    together)."""
+    together); past a stop at u = 0 on the side the preload drives (preload u < 0), F gains k_stop u."""
     s = wp.tid()
     a = spring_body_a[s]
     b = spring_body_b[s]
@@ -359,6 +360,8 @@ def spring_kernel(
     rate = wp.dot(wp.vec3f(vb - va), u)
     u_len = float(length) - rest_length[s]
     f = preload[s] + stiffness[s] * u_len + progressive[s] * u_len * u_len * u_len + damping[s] * rate
+    if preload[s] * u_len < 0.0:
+        f = f + stop_stiffness[s] * u_len
     spring_force[s] = f
     fa = f * u
     wp.atomic_add(body_force, a, fa)

@@ -128,6 +128,8 @@ class Model:
     """force at rest length [N], tension positive, float32."""
     spring_progressive: wp.array
     """cubic stiffness [N/m^3]: F = preload + k u + progressive u^3 + c du/dt, float32."""
+    spring_stop_stiffness: wp.array
+    """[N/m]: added to k past the stop at u = 0 on the side the preload drives (preload * u < 0), float32."""
 
     # Host-side descriptions (numpy), for observers, checkpoints and readers
     names: dict[str, dict[str, int]] = field(default_factory=dict)

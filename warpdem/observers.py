@@ -94,7 +94,8 @@ def gravity_potential(sim: object) -> np.ndarray:
 
 
 def spring_elastic_energy(sim: object) -> np.ndarray:
-    """Elastic energy of the springs per world [J], shape (n_worlds,): P u + k u^2 / 2 + k3 u^4 / 4, u = L - L0."""
+    """Elastic energy of the springs per world [J], shape (n_worlds,): P u + k u^2 / 2 + k3 u^4 / 4, u = L - L0,
+    plus k_stop u^2 / 2 past a stop (P u < 0)."""
     m = sim.model
     if m.n_springs == 0:
         return np.zeros(m.n_worlds)
@@ -102,12 +103,15 @@ def spring_elastic_energy(sim: object) -> np.ndarray:
     k = m.spring_stiffness.numpy().astype(np.float64)
     k3 = m.spring_progressive.numpy().astype(np.float64)
     p = m.spring_preload.numpy().astype(np.float64)
-    # u from the force of the last step (dashpot part neglected): f = P + k u + k3 u^3, monotonic in u: Newton
+    ks = m.spring_stop_stiffness.numpy().astype(np.float64)
+    # u from the force of the last step (dashpot part neglected): f = P + k u + k3 u^3 (+ k_stop u past the stop),
+    # monotonic in u: Newton (the piecewise-linear stop converges in one step once u is on its side)
     u = np.where(k > 0, (f - p) / np.where(k > 0, k, 1.0), 0.0)
     for _ in range(50):
-        slope = k + 3.0 * k3 * u**2
-        u = np.where(slope > 0, u - (p + k * u + k3 * u**3 - f) / np.where(slope > 0, slope, 1.0), u)
-    e = p * u + 0.5 * k * u**2 + 0.25 * k3 * u**4
+        stop = np.where(p * u < 0, ks, 0.0)
+        slope = k + stop + 3.0 * k3 * u**2
+        u = np.where(slope > 0, u - (p + (k + stop) * u + k3 * u**3 - f) / np.where(slope > 0, slope, 1.0), u)
+    e = p * u + 0.5 * (k + np.where(p * u < 0, ks, 0.0)) * u**2 + 0.25 * k3 * u**4
     return np.bincount(np.repeat(np.arange(m.n_worlds), m.springs_per_world), weights=e, minlength=m.n_worlds)
 
 

@@ -371,8 +371,8 @@ class Simulation:
             launch(
                 spring_kernel, m.n_springs,
                 inputs=[m.spring_body_a, m.spring_body_b, m.spring_point_a, m.spring_point_b, m.spring_stiffness,
-                        m.spring_damping, m.spring_rest_length, m.spring_preload, m.spring_progressive, m.body_world,
-                        self.dt,
+                        m.spring_damping, m.spring_rest_length, m.spring_preload, m.spring_progressive,
+                        m.spring_stop_stiffness, m.body_world, self.dt,
                         int(self.track_energy), s.body_pos, s.body_quat, s.body_vel, s.body_angvel],
                 outputs=[self.body_force, self.body_torque, self.spring_force, self.energy],
                 device=dev,

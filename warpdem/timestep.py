@@ -24,12 +24,14 @@ def spring_timestep(model: Model) -> float:
     difference limit of a damped oscillator), omega^2 = k / m_red, zeta = c / (2 sqrt(k m_red)), with m_red the reduced
     mass of the two ends. A hinged body's end counts with its effective mass I_p / r^2 at the attachment point (r
     from the pivot, I_p the smallest moment about the pivot); other bodies count with their mass (translation only:
-    a stiff spring on a light lever arm can be stiffer than this suggests)."""
+    a stiff spring on a light lever arm can be stiffer than this suggests). A spring with a stop counts with k plus
+    the stop's stiffness (the stiffer side)."""
     if model.n_springs == 0:
         return math.inf
     a = model.spring_body_a.numpy()
     b = model.spring_body_b.numpy()
     k = model.spring_stiffness.numpy().astype(np.float64)
+    k = k + np.where(model.spring_preload.numpy() != 0, model.spring_stop_stiffness.numpy().astype(np.float64), 0.0)
     c = model.spring_damping.numpy().astype(np.float64)
     mass = model.host["body_mass"]
     free = (model.host["body_flags"] & ALL_DOFS) != ALL_DOFS
