@@ -7,7 +7,8 @@ mass, the spring's preload, the sensor's reading. A rig supports a set of knobs;
 the rig supports all of its knobs.
 
 Built-in mechanisms (rationale in each entry): ``pivot_friction``, ``progressive_spring``, ``series_compliance``,
-``extra_mass``, ``load_inertia``, ``pose_change``, ``sensor_offset``, ``sensor_drift``, ``speed_dependence``.
+``extra_mass``, ``load_inertia``, ``pose_change``, ``sensor_offset``, ``sensor_drift``, ``stack_preload``,
+``speed_dependence``.
 Register your own::
 
     from calibration.mechanisms import Mechanism, register
@@ -141,6 +142,15 @@ register(Mechanism(
     rigs=("soil-bin",),
     needs_series=True,
     signature="a trend in time under the signal"))
+register(Mechanism(
+    "stack_preload", "Preloaded spring stack on a stop",
+    "A plate-spring stack is assembled compressed between its seats: the tool rests on a stop at its drawing pose "
+    "until the load exceeds the preload, then deflects by the excess only. The stiff configurations barely leave "
+    "the stop (and barely vibrate); every soft one reads its deflection less the preload's compression.",
+    genes=(Gene("stack_preload", 0.0, 5e-3, unit="m"),),
+    knobs=lambda p: {"stack_preload": p["stack_preload"]},
+    rigs=("soil-bin",),
+    signature="mean displacements low by a constant, the stiffest configurations at zero"))
 register(Mechanism(
     "speed_dependence", "Speed-dependent soil resistance",
     "Soil resistance grows with the tool's speed (rate-dependent strength, soil acceleration): a resistance "

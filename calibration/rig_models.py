@@ -276,7 +276,8 @@ class SoilBinRigModel:
     fitted gene (``fixed`` may set a baseline knob for every case, e.g. ``dashpot``). Table 2's support offsets (the
     paper's final model) are off by default: the paper set them per configuration from the measured rotation of the
     shank, so they are a fit of the displacement this diagnosis criticises (``support_offset=True`` restores them).
-    Knobs: pivot_friction, extra_mass, progressive, series_stiffness, soil_viscosity (DEM: ``scenes.soil_bin.KNOBS``)
+    Knobs: pivot_friction, extra_mass, progressive, series_stiffness, soil_viscosity, stack_preload (DEM:
+    ``scenes.soil_bin.KNOBS``)
     and sensor_offset [m] (added to the displacement reading). Rigid runs (one per measured speed) are simulated
     once; passive runs are cached by their physical parameters, so a sensor-only change costs no simulation.
 
@@ -298,7 +299,7 @@ class SoilBinRigModel:
 
     rig = "soil-bin"
     knobs = frozenset({"pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
-                       "sensor_offset"})
+                       "stack_preload", "sensor_offset"})
     units = {"reduction": "%", "displacement_mean": "m", "displacement_trend": "m/s", "draught_mean": "N",
              "rigid_draught_mean": "N"}
     genes: tuple[Gene, ...] = ()

@@ -51,14 +51,20 @@ SCALES = {
     "paper": {"bin": (1.0, 2.0, 0.5), "bed_depth": 0.25, "radius": 0.007, "travel": 1.6, "steady_travel": 0.5},
 }
 SPRING_MODELS = ("linear", "paper")
-KNOBS = ("stiffness", "dashpot", "pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity")
+KNOBS = ("stiffness", "dashpot", "pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
+         "stack_preload")
 """per-world settings and extensions of the passive rig with linear springs (``run_soil_bin(knobs=...)``), SI:
 stiffness [N/m] (default DIN 2093 of the configuration), dashpot [N s/m] (default: Table 2's measured damping
 ratio for the hinged tool alone), pivot_friction [N m] (Coulomb torque at the hinge), extra_mass [kg] (added to the
 tool, distributed like its own), progressive [N/m^3] (cubic term of the stack, F = k u + k3 u^3), series_stiffness
 [N/m] (frame and shank in series: k ks / (k + ks); inf = rigid), soil_viscosity [N s/m] (a rate-dependent soil
-resistance b v against travel at the share's tip; it adds to the draught). The rigid tool takes soil_viscosity
-only (its motion is prescribed: the resistance only adds to the draught)."""
+resistance b v against travel at the share's tip; it adds to the draught), stack_preload [m] (the stack assembled
+compressed by this much at the drawing pose, against a stop: the tool rests on the stop until the spring's load
+exceeds k x stack_preload, then deflects by the excess / k; the stop is STOP_RATIO times the spring's rate). The rigid
+tool takes soil_viscosity only (its motion is prescribed: the resistance only adds to the draught)."""
+STOP_RATIO = 100.0
+"""stiffness of the preloaded stack's stop relative to the stack's rate: the tool presses into it by at most 1 % of
+the preload's compression (a metal stop is stiffer still; this keeps the spring's time step far above the soil's)."""
 SUPPORT_RAMP = 0.1
 """time [s] over which the paper's spring model moves its support into Table 2's offset at the start of a run
 (set at once, an offset of millimetres would overlap the 3.4 g spring spheres by that much and blow them apart)."""
@@ -236,8 +242,10 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
         lever = float(abs(s[2] - tool.pivot[2]))
         if config.spring_model == "linear":
             length = 0.1
-            # one carriage per world position is impossible (geometry is shared), so the anchor sits at the mean
-            # offset and each world's rest length absorbs its own offset: rest = length + (offset - mean offset)
+            # the anchor sits the offset (+ = against travel) behind the spring's unloaded place, so the spring
+            # starts stretched by the offset and pulls the tool back by it. One anchor position per world is
+            # impossible (geometry is shared): the anchor sits at the mean offset and each world's rest length
+            # makes up the rest, rest = length - (offset - mean offset), a stretch of exactly its own offset
             mean_off = float(np.mean(offsets))
             anchor = s - (0.0, length + mean_off, 0.0)
             carriage = b.add_rigid_body(anchor, name="carriage", velocity=v0)
@@ -256,10 +264,14 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
                 "body:carriage:velocity": [(0.0, sp, 0.0) for sp in speeds],
                 "spring:spring:stiffness": k_eff,
                 "spring:spring:damping": dashpot,
-                "spring:spring:rest_length": length + (np.array(offsets) - mean_off),
+                "spring:spring:rest_length": length - (np.array(offsets) - mean_off),
             })
             if "progressive" in knobs:
                 overrides["spring:spring:progressive"] = knobs["progressive"]
+            if "stack_preload" in knobs:
+                # compression (< 0) pushing the tool forward onto a stop at the drawing pose
+                overrides["spring:spring:preload"] = -k_eff * knobs["stack_preload"]
+                overrides["spring:spring:stop_stiffness"] = STOP_RATIO * k_eff
             if "pivot_friction" in knobs:
                 overrides["body:sweep_lower:pivot_friction"] = knobs["pivot_friction"]
             if "extra_mass" in knobs:

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from conftest import DEVICE
 
+import warpdem as wd
 from scenes import ringing
 from scenes import soil_bin as sb
 from warpdem import analysis
@@ -200,3 +201,44 @@ def test_spring_sphere_support_offsets_set_the_lean_of_the_tool(ci_bed) -> None:
     for row in run.steady:
         offset = 1e-3 * paper.ringing_row(row["springs"])["support_offset_mm"]
         assert abs(row["displacement_mean"] - offset) < 1.5e-3, (row["springs"], row["displacement_mean"], offset)
+
+
+def test_linear_spring_support_offsets_are_each_worlds_own(ci_bed) -> None:
+    # Reference: with the linear spring model, Table 2's support offset (+ = against travel) stretches a world's
+    # spring by exactly that offset at the start (tension, pulling the tool back by it), whatever the other worlds'
+    # offsets: the worlds share one anchor at the mean offset and each rest length makes up the difference. The first
+    # step's spring force over the rate is that stretch (the dashpot is idle: carriage and tool start at one speed).
+    # Tolerance: float32 lengths (1e-7 m on 0.1 m). Until session 7 the difference went in with the wrong sign, so a
+    # mixed simulation gave each of two worlds the other's offset.
+    from scenes import paper
+
+    springs = [4, 16, 32]
+    cfg = sb.SoilBinConfig(scale="ci", assembly="A", springs=tuple(springs))
+    tool = sb.place_tool(ci_bed, cfg.working_depth)
+    model, state, _ = sb._build(cfg, ci_bed, tool, springs, [0.6] * 3, DEVICE)
+    sim = wd.Simulation(model, state, dt=1e-6, force_dt=True)
+    sim.advance(1)
+    name = model.names["spring"]["spring"]
+    ns = model.n_springs // model.n_worlds
+    stretch = sim.spring_force.numpy()[name::ns] / model.spring_stiffness.numpy()[name::ns]
+    offsets = [1e-3 * paper.ringing_row(n)["support_offset_mm"] for n in springs]
+    np.testing.assert_allclose(stretch, offsets, atol=2e-7)
+
+
+def test_a_preloaded_stack_holds_the_tool_on_its_stop(ci_bed) -> None:
+    # Reference (statics): a stack preloaded by k s0 holds the tool on its stop while the spring's load S stays
+    # below k s0, pressed into the stop by (k s0 - S) / (k (1 + STOP_RATIO)), between 0 and s0 / (1 + STOP_RATIO).
+    # With s0 = 50 mm (k s0 = 4.7 kN for 32 springs, far above the soil's load on the spring at ci scale, some
+    # hundreds of N) the tool never leaves its stop: every steady sample reads between -2 s0 / (1 + STOP_RATIO)
+    # (an elastic stop overshoots by up to its static compression when the load jumps) and 0, and the mean between
+    # -s0 / (1 + STOP_RATIO) and 0. The same world without a preload leans back by millimetres.
+    s0 = 0.05
+    cfg = sb.SoilBinConfig(scale="ci", assembly="A", springs=(32,), travel=0.1, steady_travel=0.04,
+                           support_offset=False)
+    run = sb.run_soil_bin(cfg, [32, 32], bed=ci_bed, device=DEVICE, knobs={"stack_preload": [0.0, s0]})
+    steady = run.travel[:, 1] >= 0.04
+    held = run.series["displacement"][steady, 1]
+    on_stop = s0 / (1.0 + sb.STOP_RATIO)
+    assert -2 * on_stop <= held.min() and held.max() <= 0.0, (held.min(), held.max())
+    assert -on_stop <= run.steady[1]["displacement_mean"] <= 0.0
+    assert run.steady[0]["displacement_mean"] > 1e-3
