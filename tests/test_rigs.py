@@ -229,14 +229,16 @@ def test_a_preloaded_stack_holds_the_tool_on_its_stop(ci_bed) -> None:
     # Reference (statics): a stack preloaded by k s0 holds the tool on its stop while the spring's load S stays
     # below k s0, pressed into the stop by (k s0 - S) / (k (1 + STOP_RATIO)), between 0 and s0 / (1 + STOP_RATIO).
     # With s0 = 50 mm (k s0 = 4.7 kN for 32 springs, far above the soil's load on the spring at ci scale, some
-    # hundreds of N) the tool never leaves its stop: every steady sample reads between -2 s0 / (1 + STOP_RATIO)
-    # (an elastic stop overshoots by up to its static compression when the load jumps) and 0, and the mean between
+    # hundreds of N) the tool never leaves its stop: every sample while the carriage moves at its steady speed reads
+    # between -2 s0 / (1 + STOP_RATIO) (an elastic stop overshoots by up to its static compression when the load
+    # jumps; the carriage's abrupt stop at the end throws the tool into it by as much: measured on CUDA) and 0, and
+    # the mean between
     # -s0 / (1 + STOP_RATIO) and 0. The same world without a preload leans back by millimetres.
     s0 = 0.05
     cfg = sb.SoilBinConfig(scale="ci", assembly="A", springs=(32,), travel=0.1, steady_travel=0.04,
                            support_offset=False)
     run = sb.run_soil_bin(cfg, [32, 32], bed=ci_bed, device=DEVICE, knobs={"stack_preload": [0.0, s0]})
-    steady = run.travel[:, 1] >= 0.04
+    steady = (run.travel[:, 1] >= 0.04) & (run.travel[:, 1] < 0.1)  # not the carriage's stop, which jolts the tool
     held = run.series["displacement"][steady, 1]
     on_stop = s0 / (1.0 + sb.STOP_RATIO)
     assert -2 * on_stop <= held.min() and held.max() <= 0.0, (held.min(), held.max())
