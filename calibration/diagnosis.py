@@ -150,11 +150,11 @@ class Fit:
         range: the data ask for a value the search did not allow, so the mechanism may stand in for another one
         or the range is too narrow. Each: gene, value (SI), low, high, side ("low" or "high"), and in how many
         leave-one-out folds the fit sits at the same end."""
-        out = []
+        out, values = [], self.params_all()
         for i, g in enumerate(self.candidate.genes):
             for side, at in (("low", lambda z: z <= tol), ("high", lambda z: z >= 1.0 - tol)):
                 if at(self.z_all[i]):
-                    out.append({"gene": g.name, "value": self.params_all()[g.name], "low": g.low, "high": g.high,
+                    out.append({"gene": g.name, "value": values[g.name], "low": g.low, "high": g.high,
                                 "unit": g.unit, "side": side, "folds": int(np.sum(at(self.z_fold[:, i]))),
                                 "n_folds": int(self.z_fold.shape[0])})
         return out

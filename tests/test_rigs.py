@@ -218,9 +218,8 @@ def test_linear_spring_support_offsets_are_each_worlds_own(ci_bed) -> None:
     model, state, _ = sb._build(cfg, ci_bed, tool, springs, [0.6] * 3, DEVICE)
     sim = wd.Simulation(model, state, dt=1e-6, force_dt=True)
     sim.advance(1)
-    name = model.names["spring"]["spring"]
-    ns = model.n_springs // model.n_worlds
-    stretch = sim.spring_force.numpy()[name::ns] / model.spring_stiffness.numpy()[name::ns]
+    rate = model.spring_stiffness.numpy()[model.names["spring"]["spring"]::model.springs_per_world]
+    stretch = wd.observers.spring_force("spring")(sim) / rate
     offsets = [1e-3 * paper.ringing_row(n)["support_offset_mm"] for n in springs]
     np.testing.assert_allclose(stretch, offsets, atol=2e-7)
 
@@ -232,8 +231,7 @@ def test_a_preloaded_stack_holds_the_tool_on_its_stop(ci_bed) -> None:
     # hundreds of N) the tool never leaves its stop: every sample while the carriage moves at its steady speed reads
     # between -2 s0 / (1 + STOP_RATIO) (an elastic stop overshoots by up to its static compression when the load
     # jumps; the carriage's abrupt stop at the end throws the tool into it by as much: measured on CUDA) and 0, and
-    # the mean between
-    # -s0 / (1 + STOP_RATIO) and 0. The same world without a preload leans back by millimetres.
+    # the mean between -s0 / (1 + STOP_RATIO) and 0. The same world without a preload leans back by millimetres.
     s0 = 0.05
     cfg = sb.SoilBinConfig(scale="ci", assembly="A", springs=(32,), travel=0.1, steady_travel=0.04,
                            support_offset=False)
