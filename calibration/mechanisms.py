@@ -8,7 +8,7 @@ the rig supports all of its knobs.
 
 Built-in mechanisms (rationale in each entry): ``pivot_friction``, ``progressive_spring``, ``series_compliance``,
 ``extra_mass``, ``load_inertia``, ``pose_change``, ``sensor_offset``, ``sensor_drift``, ``stack_preload``,
-``speed_dependence``.
+``speed_dependence``, ``rigid_reference_speed``.
 Register your own::
 
     from calibration.mechanisms import Mechanism, register
@@ -159,3 +159,13 @@ register(Mechanism(
     knobs=lambda p: {"soil_viscosity": p["soil_viscosity"]},
     rigs=("soil-bin",),
     signature="draught residuals growing with the speed of the run"))
+register(Mechanism(
+    "rigid_reference_speed", "Rigid reference at another speed",
+    "A reduction compares a passive run with a rigid run. Taken against one rigid run at one speed (as the paper's "
+    "Table 7, 0.68 m/s) while each passive run went at its own speed, every reduction carries the soil's speed "
+    "dependence: a configuration run slower than the rigid reference shows a reduction that is partly the speed's, "
+    "a faster one an increase.",
+    genes=(Gene("rigid_speed", 0.4, 0.8, unit="m/s"),),
+    knobs=lambda p: {"rigid_speed": p["rigid_speed"]},
+    rigs=("soil-bin",),
+    signature="reduction residuals falling with the configuration's speed, zero at the reference's speed"))

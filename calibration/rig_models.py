@@ -20,6 +20,7 @@ A rig model (see :class:`RingingRigModel`) states
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -56,6 +57,9 @@ about 10 % (20 % from the second half of a decay alone)."""
 
 
 KNOB_OFF = {"series_stiffness": math.inf, "load_mass_fraction": 1.0}
+RIGID_SWEEP = (0.45, 0.55, 0.65, 0.75)
+"""carriage speeds [m/s] of the rigid runs through which the soil-bin rig model fits the rigid draught's line against
+speed (for the rigid_speed knob), besides the measured speeds."""
 """the value of a knob that leaves a rig as it is, where it is not 0 (a case without the knob gets it)."""
 
 
@@ -277,8 +281,11 @@ class SoilBinRigModel:
     paper's final model) are off by default: the paper set them per configuration from the measured rotation of the
     shank, so they are a fit of the displacement this diagnosis criticises (``support_offset=True`` restores them).
     Knobs: pivot_friction, extra_mass, progressive, series_stiffness, soil_viscosity, stack_preload (DEM:
-    ``scenes.soil_bin.KNOBS``)
-    and sensor_offset [m] (added to the displacement reading). Rigid runs (one per measured speed) are simulated
+    ``scenes.soil_bin.KNOBS``),
+    sensor_offset [m] (added to the displacement reading) and rigid_speed [m/s] (every reduction taken against a
+    rigid run at this one speed instead of the configuration's own: the rigid draught at the configuration's speed
+    moved along the rigid draught's line against speed, fitted through rigid runs at :data:`RIGID_SWEEP` and the
+    measured speeds; the rigid runs are simulated once). Rigid runs (one per measured speed) are simulated
     once; passive runs are cached by their physical parameters, so a sensor-only change costs no simulation.
 
     Series: with a force (draught) series for every configuration and no ``draught_mean`` column, their steady
@@ -294,12 +301,14 @@ class SoilBinRigModel:
     ``support_offset``: the ``scenes.soil_bin.SoilBinConfig`` of the simulations; ``soil``: soil contact parameters
     replacing the GA set's in every run (``friction_angle`` [deg], ``normal_cohesion``, ``shear_cohesion`` [Pa],
     ``eta_roll``, ``eta_twist`` [-]; e.g. a set calibrated at the simulation's scale); ``bed``: a deposited bed to use
-    (else made or read from ``cache_dir``); ``max_worlds``: passive worlds per simulation.
+    (else made or read from ``cache_dir``); ``max_worlds``: passive worlds per simulation; ``simulator``: what
+    runs the soil bin instead of the DEM, ``simulator(config, springs, speeds, knobs, soil_overrides) ->
+    scenes.soil_bin.SoilBinRun`` (``run_soil_bin``'s arguments and result; for tests with an independent model).
     """
 
     rig = "soil-bin"
     knobs = frozenset({"pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
-                       "stack_preload", "sensor_offset"})
+                       "stack_preload", "sensor_offset", "rigid_speed"})
     units = {"reduction": "%", "displacement_mean": "m", "displacement_trend": "m/s", "draught_mean": "N",
              "rigid_draught_mean": "N"}
     genes: tuple[Gene, ...] = ()
@@ -312,13 +321,13 @@ class SoilBinRigModel:
                  observables: tuple[str, ...] | None = None,
                  uncertainty: dict[str, float] | None = None, max_worlds: int = 64, bed: object | None = None,
                  cache_dir: str | None = None, measured_steady_travel: float | None = None,
-                 runs_from: SoilBinRigModel | None = None) -> None:
+                 runs_from: SoilBinRigModel | None = None, simulator: Callable[..., object] | None = None) -> None:
         from scenes import paper
         from scenes import soil_bin as sb
 
         self.device = device
         self.fixed = dict(fixed or {})
-        allowed = set(sb.KNOBS) - {"stiffness"}
+        allowed = set(sb.KNOBS) - {"stiffness"} | {"rigid_speed"}
         unknown = set(self.fixed) - allowed
         if unknown:
             raise ValueError(f"fixed: unknown knobs {sorted(unknown)}; the soil-bin rig has {sorted(allowed)}")
@@ -392,12 +401,15 @@ class SoilBinRigModel:
         self.cache_dir = cache_dir
         self.max_worlds = int(max_worlds)
         self._rigid: dict[float, dict[str, float]] = {}
+        self._rigid_line: tuple[float, float] | None = None
+        self.simulator = simulator
         self._passive: dict[tuple, dict[str, object]] = {}
         self._sim_sigma: np.ndarray | None = None
         if runs_from is not None:  # the same scene's simulated runs, e.g. for a second data set
             if runs_from.settings() != self.settings():
                 raise ValueError("runs_from: the other rig model simulates another scene (settings differ)")
             self._bed, self._rigid, self._passive = runs_from._bed, runs_from._rigid, runs_from._passive
+            self.simulator = runs_from.simulator
 
     @property
     def n_configs(self) -> int:
@@ -441,14 +453,17 @@ class SoilBinRigModel:
         """The simulation's standard errors and the rigid runs, which a resumed diagnosis must reuse (a new
         realisation would not match the fitted points)."""
         return {"sim_sigma": None if self._sim_sigma is None else self._sim_sigma.tolist(),
-                "rigid": [[v, r["mean"], r["sem"]] for v, r in self._rigid.items()]}
+                "rigid": [[v, r["mean"], r["sem"]] for v, r in self._rigid.items()],
+                "rigid_line": None if self._rigid_line is None else list(self._rigid_line)}
 
     def restore(self, state: dict[str, object]) -> None:
         """Take back :meth:`state`."""
         if state.get("sim_sigma") is not None:
             self._sim_sigma = np.array(state["sim_sigma"], dtype=np.float64)
         for v, mean, sem in state.get("rigid", []):
-            self._rigid[float(v)] = {"mean": float(mean), "sem": float(sem)}
+            self._rigid[round(float(v), 6)] = {"mean": float(mean), "sem": float(sem)}  # soil_bin.speed_key
+        if state.get("rigid_line") is not None:
+            self._rigid_line = (float(state["rigid_line"][0]), float(state["rigid_line"][1]))
 
     def covariates(self) -> dict[str, np.ndarray]:
         """Per configuration: spring count, stiffness [N/m], speed [m/s], measured displacement [m] (if any); the
@@ -469,25 +484,53 @@ class SoilBinRigModel:
         """The key of a passive run: configuration and the knobs that change the DEM (not the sensor's)."""
         p = {**self.fixed, **case.params}
         return (case.config,) + tuple(sorted((k, float(v)) for k, v in p.items()
-                                             if k not in ("sensor_offset", "sensor_drift")))
+                                             if k not in ("sensor_offset", "sensor_drift", "rigid_speed")))
 
     def _soil(self, n: int) -> dict[str, object] | None:
         return {k: [v] * n for k, v in self.soil.items()} or None
 
+    def _run(self, springs: list[int], speeds: list[float], knobs: dict[str, list[float]] | None,
+             progress: object | None) -> object:
+        """One simulation of the soil bin (the DEM, or ``simulator``): a ``scenes.soil_bin.SoilBinRun``."""
+        from scenes import soil_bin as sb
+
+        soil = self._soil(len(springs))
+        if self.simulator is not None:
+            return self.simulator(self.config, springs, speeds, knobs, soil)
+        return sb.run_soil_bin(self.config, springs, bed=self.bed(), device=self.device, speeds=speeds, knobs=knobs,
+                               progress=progress, soil_overrides=soil)
+
     def _run_rigid(self, speeds: list[float], progress: object | None) -> None:
         from scenes import soil_bin as sb
 
-        todo = sorted({v for v in speeds if v not in self._rigid})
+        todo = sorted({sb.speed_key(v) for v in speeds} - set(self._rigid))
         if not todo:
             return
-        run = sb.run_soil_bin(self.config, [0] * len(todo), bed=self.bed(), device=self.device, speeds=todo,
-                              progress=progress, soil_overrides=self._soil(len(todo)))
+        run = self._run([0] * len(todo), todo, None, progress)
         for v, row in zip(todo, run.steady, strict=True):
             self._rigid[v] = {"mean": row["draught_mean"], "sem": row["draught_sem"]}
 
-    def _run_passive(self, keys: list[tuple], keep_series: bool, progress: object | None) -> None:
+    def rigid_reference(self, speed: float, rigid_speed: float | None = None) -> tuple[float, float]:
+        """The rigid draught [N] and its standard error [N] that a passive run at ``speed`` [m/s] is compared with:
+        the rigid run at ``speed`` (Table 3's pairing), or with ``rigid_speed`` (the rigid_speed knob) that run
+        moved along the rigid draught's line against speed to ``rigid_speed`` (the line's slope is fitted once,
+        through rigid runs at :data:`RIGID_SWEEP` and every measured speed). Simulates what is missing."""
         from scenes import soil_bin as sb
+        from scenes import speed_sweep
 
+        self._run_rigid([speed], None)
+        rig = self._rigid[sb.speed_key(speed)]
+        if rigid_speed is None or sb.speed_key(rigid_speed) == sb.speed_key(speed):
+            return rig["mean"], rig["sem"]
+        if self._rigid_line is None:
+            self._run_rigid(list(RIGID_SWEEP) + [c["speed"] for c in self.configs], None)
+            v = np.array(sorted(self._rigid))
+            line = speed_sweep.fit_line(v, np.array([self._rigid[x]["mean"] for x in v]),
+                                        np.array([self._rigid[x]["sem"] for x in v]))
+            self._rigid_line = (line.intercept, line.slope)
+        return rig["mean"] + self._rigid_line[1] * (rigid_speed - speed), rig["sem"]
+
+    def _run_passive(self, keys: list[tuple], keep_series: bool, progress: object | None) -> None:
         todo = [k for k in dict.fromkeys(keys) if k not in self._passive
                 or (keep_series and "series" not in self._passive[k])]
         for start in range(0, len(todo), self.max_worlds):
@@ -499,9 +542,7 @@ class SoilBinRigModel:
                 if name == "dashpot" and not all(name in p for p in params):
                     raise ValueError("dashpot must be given for every case or none")
                 knobs[name] = [p.get(name, KNOB_OFF.get(name, 0.0)) for p in params]
-            run = sb.run_soil_bin(self.config, [c["springs"] for c in cfgs], bed=self.bed(), device=self.device,
-                                  speeds=[c["speed"] for c in cfgs], knobs=knobs, progress=progress,
-                                  soil_overrides=self._soil(len(cfgs)))
+            run = self._run([c["springs"] for c in cfgs], [c["speed"] for c in cfgs], knobs, progress)
             for w, (key, row) in enumerate(zip(chunk, run.steady, strict=True)):
                 entry: dict[str, object] = {k: row[k] for k in ("draught_mean", "draught_sem", "displacement_mean",
                                                                 "displacement_sem", "displacement_trend",
@@ -514,6 +555,8 @@ class SoilBinRigModel:
     def simulate(self, cases: list[Case], keep_series: bool = False, progress: object | None = None,
                  _sem: bool = False) -> SimOutput:
         """The observables of every case (n_cases, n_obs) (with ``_sem``: their simulation standard errors)."""
+        from scenes import soil_bin as sb
+
         self._run_rigid([self.configs[c.config]["speed"] for c in cases], progress)
         keys = [self._physical(c) for c in cases]
         self._run_passive(keys, keep_series, progress)
@@ -523,20 +566,23 @@ class SoilBinRigModel:
         for i, (case, key) in enumerate(zip(cases, keys, strict=True)):
             p = {**self.fixed, **case.params}
             speed = self.configs[case.config]["speed"]
-            rig, run = self._rigid[speed], self._passive[key]
-            drag = p.get("soil_viscosity", 0.0) * speed  # the rigid tool moves at the carriage speed exactly
-            rigid, passive = rig["mean"] + drag, float(run["draught_mean"])
+            run = self._passive[key]
+            rigid_speed = p.get("rigid_speed")
+            rigid, rigid_sem = self.rigid_reference(speed, rigid_speed)
+            # the rigid tool moves at its carriage speed exactly
+            drag = p.get("soil_viscosity", 0.0) * (speed if rigid_speed is None else rigid_speed)
+            rigid, passive = rigid + drag, float(run["draught_mean"])
+            reduction, reduction_sem = sb.reduction(passive, float(run["draught_sem"]), rigid, rigid_sem)
             # the sensor: offset + drift x time since the record's start (the measured record's time base)
             offset, drift = p.get("sensor_offset", 0.0), p.get("sensor_drift", 0.0)
             t_mean = float(run["steady_time_mean"]) if self._drift_time is None else self._drift_time[case.config]
             if _sem:
-                obs = {"reduction": 100.0 * math.hypot(float(run["draught_sem"]), passive / rigid * rig["sem"])
-                       / rigid,
+                obs = {"reduction": reduction_sem,
                        "displacement_mean": float(run["displacement_sem"]),
                        "displacement_trend": float(run["displacement_trend_sem"]),
-                       "draught_mean": float(run["draught_sem"]), "rigid_draught_mean": rig["sem"]}
+                       "draught_mean": float(run["draught_sem"]), "rigid_draught_mean": rigid_sem}
             else:
-                obs = {"reduction": 100.0 * (rigid - passive) / rigid,
+                obs = {"reduction": reduction,
                        "displacement_mean": float(run["displacement_mean"]) + offset + drift * t_mean,
                        "displacement_trend": float(run["displacement_trend"]) + drift,
                        "draught_mean": passive, "rigid_draught_mean": rigid}

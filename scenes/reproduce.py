@@ -18,7 +18,7 @@ import numpy as np
 
 from warpdem import analysis
 
-from . import paper, ringing
+from . import paper, ringing, speed_sweep
 from . import soil_bin as sb
 
 
@@ -156,24 +156,46 @@ def report(out: Path, config: dict, ring: dict[str, ringing.RingingResult], stud
         lines += [f"## Soil bin, assembly {a} ({study['bed'].n_particles} particles, porosity "
                   f"{study['bed'].porosity:.3f}, initial coordination {study['bed'].coordination:.2f}; paper: "
                   f"{ {'A': 4.88, 'B': 9.63, 'C': 9.55}[a]})", "",
-                  "| springs | speed [m/s] | draught [N] | std [N] | reduction [%] | displacement [mm] | "
-                  "lab draught [N] | lab red. [%] | lab disp. [mm] | paper DEM draught [N] | paper DEM red. [%] |",
-                  "|---" * 11 + "|"]
+                  "| springs | speed [m/s] | draught ± SE [N] | std [N] | rigid reference ± SE [N] | "
+                  "reduction ± SE [%] | displacement [mm] | lab draught [N] | lab red. [%] | lab disp. [mm] | "
+                  f"paper DEM {a} 1 m bin [N] | red. [%] | "
+                  "paper DEM C final 2 m bin [N] | red. [%] |",
+                  "|---" * 14 + "|"]
+
+        def pm(v: float | None, e: float | None, digits: int = 4) -> str:
+            return "–" if v is None or not math.isfinite(v) else f"{_fmt(v, digits)} ± {_fmt(e, 2)}"
+
         for r in study["table"]:
-            n = r["springs"]
+            n, v = r["springs"], r["speed"]
             i7 = np.nonzero(t7["springs"] == n)[0][0]
+            paper_dem = [_fmt(t7[f"{c}_mean_n"][i7], 4) for c in (col, "c_final")]
+            paper_red = [_fmt(t7[f"{c}_red_pct"][i7], 2) for c in (col, "c_final")]
             if n:
                 i3 = np.nonzero(t3["springs"] == n)[0][0]
                 lab = (t3["passive_draught_mean_n"][i3], t3["reduction_pct"][i3], t3["displacement_mean_mm"][i3])
             else:
-                lab = (float(np.mean(t3["rigid_draught_mean_n"])), math.nan, math.nan)
+                # Table 3's rigid runs at this speed (each passive run was paired with a rigid run of its own)
+                same = np.abs(t3["speed_mean_m_s"] - v) < 5e-3
+                lab = (float(np.mean(t3["rigid_draught_mean_n"][same])) if same.any() else math.nan, math.nan,
+                       math.nan)
+                if abs(v - speed_sweep.TABLE7_RIGID_SPEED) > 5e-3:
+                    paper_dem = paper_red = ["–", "–"]
+            ref = "–" if not n else (f"{pm(r['rigid_reference_draught'], r['rigid_reference_sem'])} "
+                                     f"({_fmt(r['rigid_reference_speed'])} m/s)"
+                                     if r["rigid_reference_draught"] is not None else "none at this speed")
             lines.append("| " + " | ".join([
-                "rigid" if n == 0 else str(n), _fmt(r["speed"]), _fmt(r["draught_mean"], 4), _fmt(r["draught_std"]),
-                _fmt(r["reduction_pct"], 2), _fmt(1e3 * r["displacement_mean"]) if n else "–",
-                _fmt(lab[0], 4), _fmt(lab[1], 2), _fmt(lab[2]),
-                _fmt(t7[f"{col}_mean_n"][i7], 4), _fmt(t7[f"{col}_red_pct"][i7], 2)]) + " |")
-        lines += ["", f"Steady state after {study['steady_travel']} m of travel. Lab rigid draught: mean of Table "
-                  "3's rigid runs.", ""]
+                "rigid" if n == 0 else str(n), _fmt(v), pm(r["draught_mean"], r["draught_sem"]),
+                _fmt(r["draught_std"]), ref, pm(r["reduction_pct"], r["reduction_sem"], 2) if n else "–",
+                _fmt(1e3 * r["displacement_mean"]) if n else "–", _fmt(lab[0], 4), _fmt(lab[1], 2), _fmt(lab[2]),
+                paper_dem[0], paper_red[0], paper_dem[1], paper_red[1]]) + " |")
+        lines += ["", f"Steady state after {study['steady_travel']} m of travel; SE: standard error of a steady "
+                  "mean from the record's autocorrelation; a reduction's SE propagates both means' (taken as "
+                  "independent). Every reduction is against warpdem's rigid run at the configuration's own speed, "
+                  "as the laboratory paired its runs (Table 3); lab rigid draught: Table 3's rigid runs at that "
+                  "speed. The paper's DEM (Table 7) took every reduction against one rigid run at 0.68 m/s; its "
+                  f"columns are assembly {a} in the 1 m bin and the paper's final model (assembly C, 2 m bin, "
+                  "corrected geometry). `warpdem speed-sweep` measures the rigid draught against speed and "
+                  "re-pairs Table 7 at equal speeds.", ""]
         lines += [f"![{p}]({p})" for p in plots]
     text = "\n".join(lines) + "\n"
     (out / "report.md").write_text(text)
@@ -226,6 +248,6 @@ def reproduce(out: str | Path, *, scale: str = "cpu", device: str | None = None,
                           "deposition_wall_s": study["bed"].wall_s}
         summary["soil_bin_runs"] = {k: {"dt": r.dt, "steps": r.steps, "wall_s": r.wall_s, "spheres": r.n_spheres}
                                     for k, r in study["runs"].items()}
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
+    (out / "summary.json").write_text(json.dumps(sb.json_safe(summary), indent=2, default=float))
     report(out, config, ring, study, plots, wall)
     return summary

@@ -112,10 +112,19 @@ class SoilBinConfig:
         return SCALES[self.scale]
 
     def speeds(self) -> list[float]:
+        """carriage speed [m/s] of each configuration of ``springs`` (len(springs),)."""
         if self.speed is not None:
             return [float(v) for v in self.speed]
         t7 = paper.table("soil_bin_dem")
         return [float(t7["speed_mean_m_s"][t7["springs"] == n][0]) for n in self.springs]
+
+    def rigid_speeds(self) -> list[float]:
+        """The rigid runs a study makes [m/s], ascending: one at every distinct speed of its configurations (the
+        rigid row's own and each passive configuration's), so that every reduction pairs equal speeds (Table 3's
+        pairing). Empty without a rigid configuration (0) in ``springs``."""
+        if 0 not in self.springs:
+            return []
+        return sorted({speed_key(v) for v in self.speeds()})
 
     def soil_material(self) -> wd.Material:
         """The soil contact material: the paper's E, nu, rho and the GA set's friction, cohesion, eta."""
@@ -129,6 +138,55 @@ class SoilBinConfig:
                            normal_cohesion=float(sets["normal_cohesion_pa"][k]),
                            shear_cohesion=float(sets["shear_cohesion_pa"][k]), eta_roll=eta, eta_twist=eta,
                            moment_law=True)
+
+
+def speed_key(speed: float) -> float:
+    """A speed [m/s] as the key that pairs a passive run with its rigid reference (rounded to 1 um/s, so that equal
+    speeds written differently, 0.62 and 0.6200000001, pair)."""
+    return round(float(speed), 6)
+
+
+def reduction(passive: float, passive_sem: float, rigid: float, rigid_sem: float) -> tuple[float, float]:
+    """Draught reduction of a passive run against a rigid run, 100 (rigid - passive) / rigid [%], and its standard
+    error [percentage points] from the two means' standard errors [N] taken as independent:
+    100 sqrt(sem_p^2 + (passive / rigid)^2 sem_r^2) / rigid (first-order propagation)."""
+    red = 100.0 * (rigid - passive) / rigid
+    sem = 100.0 * math.hypot(passive_sem, passive / rigid * rigid_sem) / rigid
+    return red, sem
+
+
+def pair_reductions(rows: list[dict[str, object]]) -> list[dict[str, object]]:
+    """Every passive row (``springs`` > 0) gets the reduction against the rigid row (``springs`` 0) at its own speed
+    (:func:`speed_key`): ``rigid_reference_speed`` [m/s], ``rigid_reference_draught`` and ``_sem`` [N],
+    ``reduction_pct`` [%] and ``reduction_sem`` [percentage points]; None where no rigid run has its speed. Rigid
+    rows get None in these fields. Rows need ``speed``, ``draught_mean`` and ``draught_sem``; changed in place and
+    returned."""
+    rigid = {speed_key(r["speed"]): r for r in rows if r["springs"] == 0}
+    for r in rows:
+        ref = rigid.get(speed_key(r["speed"])) if r["springs"] else None
+        r["rigid_reference_speed"] = None if ref is None else float(ref["speed"])
+        r["rigid_reference_draught"] = None if ref is None else float(ref["draught_mean"])
+        r["rigid_reference_sem"] = None if ref is None else float(ref["draught_sem"])
+        if ref is None:
+            r["reduction_pct"] = r["reduction_sem"] = None
+        else:
+            r["reduction_pct"], r["reduction_sem"] = reduction(float(r["draught_mean"]), float(r["draught_sem"]),
+                                                               float(ref["draught_mean"]), float(ref["draught_sem"]))
+    return rows
+
+
+def json_safe(value: object) -> object:
+    """``value`` with every NaN or infinite float (also numpy's, in dicts, lists and tuples) replaced by None, and
+    numpy scalars by Python's: what ``json.dumps`` writes as standard JSON (null, not NaN)."""
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_safe(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 def bed_for(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,
@@ -484,7 +542,10 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
 def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,
               progress: object | None = None, viewer: object | None = None,
               checkpoint_dir: str | Path | None = None) -> dict[str, object]:
-    """The bed, the rigid run (if 0 in springs) and the passive runs (one simulation, one world each).
+    """The bed, the rigid runs (if 0 in springs) and the passive runs (one simulation each, one world per speed or
+    configuration). With 0 in ``springs`` the rigid tool runs at every distinct speed of the configurations
+    (:meth:`SoilBinConfig.rigid_speeds`, as worlds of one simulation) and every passive row's reduction is against
+    the rigid run at its own speed (:func:`pair_reductions`); the table has one rigid row per speed.
     ``viewer`` (see :func:`run_soil_bin`) streams the passive run (or the rigid one if there is none).
     ``checkpoint_dir``: each run checkpoints into a subfolder (``rigid``, ``passive``) and resumes from it after a
     kill; a finished run's subfolder is removed."""
@@ -493,17 +554,17 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
     bed = bed_for(config, device=device, cache_dir=cache_dir)
     runs = {}
     passive = [n for n in config.springs if n != 0]
-    groups = [(name, springs) for name, springs in (("rigid", [0] if 0 in config.springs else []),
-                                                    ("passive", passive)) if springs]
+    rigid_speeds = config.rigid_speeds()
+    groups = [(name, springs, speeds) for name, springs, speeds in (
+        ("rigid", [0] * len(rigid_speeds), rigid_speeds),
+        ("passive", passive, [v for n, v in zip(config.springs, config.speeds(), strict=True) if n != 0]))
+        if springs]
     streamed = groups[-1][0]  # the passive run, else the rigid one
-    for name, springs in groups:
+    for name, springs, speeds in groups:
         folder = Path(checkpoint_dir) / name if checkpoint_dir is not None else None
-        runs[name] = run_soil_bin(config, springs, bed=bed, device=device, progress=progress,
+        runs[name] = run_soil_bin(config, springs, bed=bed, device=device, progress=progress, speeds=speeds,
                                   viewer=viewer if name == streamed else None, checkpoint=folder)
         if folder is not None:
             shutil.rmtree(folder, ignore_errors=True)
-    rows = [r for run in runs.values() for r in run.steady]
-    rigid_mean = next((r["draught_mean"] for r in rows if r["springs"] == 0), math.nan)
-    for r in rows:
-        r["reduction_pct"] = 100.0 * (rigid_mean - r["draught_mean"]) / rigid_mean if r["springs"] else math.nan
+    rows = pair_reductions([r for run in runs.values() for r in run.steady])
     return {"bed": bed, "runs": runs, "table": rows}

@@ -3,6 +3,7 @@
     warpdem reproduce [--scale ci|cpu|paper] [--device cpu|cuda] [--out DIR] [--assembly A|B|C] [--springs 0,16,32]
     warpdem ringing   [--spring-model paper|linear] [--springs 4,8,...] [--device] [--out DIR]
     warpdem soil-bin  [--scale] [--assembly] [--springs] [--spring-model] [--viewer] [--viewer-save FILE.rrd]
+    warpdem speed-sweep [--scale] [--assembly] [--speeds 0.45,0.5,...] [--device] [--out DIR]
     warpdem shear-box [--scale] [--assembly] [--device] [--out DIR]
     warpdem demo      [--device] [--particles N] [--out DIR]
     warpdem calibrate ringing --springs 16 [--spring-model paper|linear] [--fitness paper|max] [--refine N]
@@ -216,12 +217,43 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
     _write_config(out, "soil-bin", device, config=asdict(cfg), preset=sb.SCALES[args.scale])
     study = sb.run_study(cfg, device=device, cache_dir=out / "beds", progress=lambda d, n: _bar("soil bin", d, n),
                          viewer=viewer, checkpoint_dir=out / "checkpoints")
-    (out / "summary.json").write_text(json.dumps(study["table"], indent=2, default=float))
+    (out / "summary.json").write_text(json.dumps(sb.json_safe(study["table"]), indent=2))
     for r in study["table"]:
         name = "rigid" if r["springs"] == 0 else f"{r['springs']} springs"
-        print(f"{name:>10}: draught {r['draught_mean']:.1f} +- {r['draught_std']:.1f} N, "
-              f"displacement {1e3 * r['displacement_mean']:.2f} mm")
+        line = (f"{name:>10} at {r['speed']:.2f} m/s: draught {r['draught_mean']:.1f} N (SE {r['draught_sem']:.1f}, "
+                f"std {r['draught_std']:.1f})")
+        if r["springs"]:
+            line += f", displacement {1e3 * r['displacement_mean']:.2f} mm"
+            if r["reduction_pct"] is not None:
+                line += (f", reduction {r['reduction_pct']:+.1f} % (SE {r['reduction_sem']:.1f}) against the rigid "
+                         f"run at {r['rigid_reference_speed']:.2f} m/s")
+        print(line)
     return 0
+
+
+def run_speed_sweep_cmd(args: argparse.Namespace) -> int:
+    from scenes import soil_bin as sb
+    from scenes import speed_sweep
+
+    device = _setup(args)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    cfg = sb.SoilBinConfig(scale=args.scale, assembly=args.assembly, springs=(0,), seed=args.seed)
+    _write_config(out, "speed-sweep", device, speeds=args.speeds, scale=args.scale, assembly=args.assembly,
+                  seed=args.seed, preset=sb.SCALES[args.scale])
+    res = speed_sweep.main(out, cfg, args.speeds, device=device, progress=lambda d, n: _bar("rigid sweep", d, n))
+    for r in res["rows"]:
+        print(f"rigid at {r['speed']:.2f} m/s: draught {r['draught_mean']:.1f} N (SE {r['draught_sem']:.1f})")
+    line = res["line"]
+    print(f"line: {line.intercept:.1f} + {line.slope:.1f} v N; report in {out / 'report.md'}")
+    return 0
+
+
+def _speeds(text: str) -> tuple[float, ...]:
+    try:
+        return tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--speeds must be comma-separated speeds [m/s], got {text!r}") from None
 
 
 def run_shear_box_cmd(args: argparse.Namespace) -> int:
@@ -356,6 +388,11 @@ def main(argv: list[str] | None = None) -> int:
     s.add_argument("--viewer-save", default=None, help="write a Rerun recording (.rrd) instead of / as well")
     s.add_argument("--speed-range", default="0.2,0.7", help="particle speed colour range [m/s] (Fig. 15: 0.2,0.7)")
     s.add_argument("--hide-outside-range", action="store_true", help="show only particles inside the speed range")
+    v = sub.add_parser("speed-sweep", help="rigid draught against speed (one world per speed) and the paper's "
+                       "Table 7 reductions re-paired with a rigid run at each configuration's speed")
+    common(v, "results/speed_sweep")
+    v.add_argument("--speeds", type=_speeds, default=(0.45, 0.50, 0.55, 0.60, 0.65, 0.70, 0.75),
+                   help="carriage speeds [m/s] (default 0.45,0.50,...,0.75)")
     x = sub.add_parser("shear-box", help="direct shear box: Mohr-Coulomb cohesion and friction angle")
     common(x, "results/shear_box")
     d = sub.add_parser("demo", help="deposit a small cohesive bed and cut it with a blade")
@@ -411,7 +448,8 @@ def main(argv: list[str] | None = None) -> int:
     q.add_argument("--no-resume", action="store_true", help="start afresh even if --out holds a checkpoint")
     args = parser.parse_args(argv)
     commands = {"diagnose": run_diagnose_cmd, "demo": run_demo, "reproduce": run_reproduce, "ringing": run_ringing_cmd,
-                "soil-bin": run_soil_bin_cmd, "shear-box": run_shear_box_cmd, "calibrate": run_calibrate_cmd}
+                "soil-bin": run_soil_bin_cmd,
+                "speed-sweep": run_speed_sweep_cmd, "shear-box": run_shear_box_cmd, "calibrate": run_calibrate_cmd}
     return commands[args.command](args)
 
 
