@@ -93,6 +93,10 @@ class SoilBinConfig:
     """recording rate [Hz] (the FFT low-pass is at 100 Hz)."""
     seed: int = 0
     dt: float | None = None
+    cohesion_on_new_contacts: bool = False
+    """False: cohesion on the contacts of the first step only (the bed's, Yade's setCohesionNow); True: also on
+    every contact made during the run (Yade's setCohesionOnNewContacts, the shear box's default). The paper does
+    not say which."""
 
     def __post_init__(self) -> None:
         if self.scale not in SCALES:
@@ -440,7 +444,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     travel = config.travel or p["travel"]
     lo = np.array([-bed.bin_size[0], -0.5, -0.5])
     hi = np.array([bed.bin_size[0], bed.bin_size[1] + travel + 1.0, 2.0])
-    sim = wd.Simulation(model, state, dt=dt, always_use_moment_law=True, bounds=(lo, hi))
+    sim = wd.Simulation(model, state, dt=dt, always_use_moment_law=True, bounds=(lo, hi),
+                        cohesion_on_new_contacts=config.cohesion_on_new_contacts)
     sim.set_cohesion_now()
     speeds_a = np.asarray(speeds)
     sensor = wd.observers.body_point("sweep_lower", tool.sensor_point)
