@@ -103,25 +103,20 @@ Tool rotation angle about x: theta = atan2(M[2,1], M[1,1]) with M = R(q) R(q0)^T
 What the runs showed (full set; table: ringing_twin_table.py -> ringing_twin_yade_table.md)
 --------------------------------------------------------------------------------------------
 * Checks passed in every run: max member displacement over step 1 ~8e-11 m; 3 cohesive interactions after step 1
-  (s0-s1, s1-s2, s2-support), never broken (the bonds see at most ~0.2 N of tension against 8 N adhesion); clump
-  centre = spec com to 1.4e-17 m; the tool hangs on the ball (6 tube contacts, COM moves 65-260 um while settling
-  and < 0.23 mm while ringing); the load sphere stays on the blade (normal force never below 173 N, |Fs|/Fn <= 0.45
-  against tan 40 deg = 0.84: no sliding). Reruns give bit-identical files.
-* The load sphere sits on a shared edge of two coplanar blade facets: load_centre x = 0 is on the lower mesh's
-  x = 0 edge line, so Ig2_Facet_Sphere creates two contacts with the same full overlap (n_contacts tool-load = 2):
-  the load-blade normal and shear stiffness are doubled (Yade's facet behaviour; the spec offsets the pivot tube
-  to avoid this, but not the load).
+  (s0-s1, s1-s2, s2-support), never broken; clump centre = spec com to 1.4e-17 m; the tool hangs on the ball (6 tube
+  contacts, COM moves < 0.19 mm while ringing); the load sphere stays on its plate (one contact, normal force never
+  below 190 N, |Fs|/Fn <= 0.08 against tan 40 deg = 0.84: no sliding); the shank never leaves the spring column.
+  Reruns give bit-identical files.
+* (A first version of the spec put the load sphere on the blade at x = 0, a shared edge of two coplanar facets:
+  Ig2_Facet_Sphere then makes two contacts with the same overlap, warpdem one, and the engines differed. The spec
+  now carries a one-triangle load plate.)
 * Damping comes from pivot friction, not local damping: with the spring spheres' local damping set to 0 the
-  stated/16 record is unchanged (zeta 0.1217 both); with the pivot ball's friction set to 0 zeta falls to 0.008 and
-  f moves from 5.57 to 4.91 Hz (diagnostic runs, not stored). The spring spheres (3.4 g) are quasi-static, so
-  Cundall damping of their tiny unbalanced force removes almost no energy; the tube slipping on the 5 deg ball
-  (Coulomb friction) does, and the sticking pivot adds stiffness.
-* The hit opens the column for the stiffest springs: with 4 springs (all readings) and load_20kg with 8 and 24
-  springs the shank leaves sphere 0 for up to 8.5 % of the records (preload 44-71 N after settling), so those
-  records are not linear ringing.
-* The records hold ~20 Hz (load sphere bouncing on the blade) and ~50 Hz components on top of the 5-7 Hz mode;
-  small in sensor_y (~5 %), large in tool_angvel_x and load_z.
-* Run time: ~60,000 steps/s (one core), ~6 s per run (362,270 steps), 197 s for the full set.
+  records are unchanged; with the pivot ball's friction set to 0 zeta falls below 0.01 (docs/fidelity.md). The
+  spring spheres (3.4 g) are quasi-static, so Cundall damping of their tiny unbalanced force removes almost no
+  energy; the tube slipping on the 5 deg ball (Coulomb friction) does, and the sticking pivot adds stiffness.
+* The records hold small ~20 Hz (the load sphere on its contact) and ~50 Hz components on top of the 5-7 Hz mode;
+  ringing_twin_table.py also analyses them after a 30 Hz low-pass.
+* Run time: 60,000-90,000 steps/s (one core), ~5-6 s per run (362,270 steps), ~200 s for the full set.
 
 Keys (SI units). Every key of the spec npz is copied unchanged (same names; see scenes/ringing_twin.py), plus:
   yade_version, mode ('full' | 'reduced' | 'custom'), run_readings (r,) str, run_configs (c,) int (spec indices),
