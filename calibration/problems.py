@@ -40,6 +40,7 @@ RINGING_GENES = {
     "linear": (Gene("stiffness", 1e4, 1e7, log=True, unit="N/m"), Gene("damping_ratio", 0.005, 0.5, log=True,
                                                                      unit="-")),
 }
+RINGING_GENES["twin"] = RINGING_GENES["paper"]
 """ringing genes per spring model: the paper's (spring spheres' Young's modulus and local damping, section 2.2.1)
 and their equivalents for the linear spring-dashpot (its stiffness, and its dashpot as a damping ratio of the rig)."""
 
@@ -107,7 +108,7 @@ class RingingProblem:
     def _config(self, values: np.ndarray, dt: float | None) -> RingingConfig:
         n = len(values)
         cols = {g.name: tuple(float(v) for v in values[:, k]) for k, g in enumerate(self.gene_list)}
-        if self.spring_model == "paper":
+        if self.spring_model in ("paper", "twin"):
             kw = {"spring_young": cols["young"], "local_damping": cols["local_damping"]}
         else:
             kw = {"stiffness": cols["stiffness"], "damping_ratio": cols["damping_ratio"]}
@@ -118,6 +119,8 @@ class RingingProblem:
     def dt(self) -> float:
         """Time step [s]: half the critical step of the stiffest rig the gene ranges allow (every gene at its
         upper bound: the largest Young's modulus, stiffness and damping)."""
+        if self._dt is None and self.spring_model == "twin":  # the twin runs at the paper's step
+            self._dt = float(paper.RINGING_DT)
         if self._dt is None:
             top = np.array([[g.high for g in self.gene_list]])
             rig = build_ringing(self._config(top, None))

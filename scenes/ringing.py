@@ -33,7 +33,7 @@ from warpdem.mass import quats_to_matrices
 from . import paper
 from .sweep import SweepTool, add_sweep, build_sweep
 
-SPRING_MODELS = ("paper", "linear")
+SPRING_MODELS = ("paper", "linear", "twin")
 PER_WORLD = ("spring_young", "local_damping", "stiffness", "damping_ratio", "dashpot", "pivot_friction", "extra_mass",
              "progressive", "series_stiffness", "free_pose", "load_mass_fraction")
 """RingingConfig fields holding one value per world."""
@@ -114,10 +114,18 @@ class RingingConfig:
                 raise ValueError(f"{name} needs one value per world ({len(self.springs)}), got {len(values)}")
             check_per_world(name, values)
             setattr(self, name, values)
-        if self.spring_model == "paper":
+        if self.spring_model in ("paper", "twin"):
             for name in LINEAR_ONLY:
                 if getattr(self, name) is not None:
                     raise ValueError(f"{name} applies to spring_model 'linear' only")
+        if self.spring_model == "twin":
+            for name in ("pivot_friction", "extra_mass", "load_mass_fraction"):
+                if getattr(self, name) is not None:
+                    raise ValueError(f"{name} is not a setting of spring_model 'twin' (its pivot is a ball with "
+                                     "friction, its load a sphere)")
+            if self.load_force != paper.LOAD_FORCE:
+                raise ValueError(f"spring_model 'twin' carries Table 1's load sphere; load_force must be "
+                                 f"{paper.LOAD_FORCE}, got {self.load_force!r}")
 
     def per_world(self, name: str, column: str | float) -> np.ndarray:
         """The per-world values of field ``name``; where it is None, Table 2's ``column`` (a name) or a constant."""
@@ -346,6 +354,8 @@ def run_ringing(config: RingingConfig | None = None, *, device: str | None = Non
     import time
 
     cfg = config or RingingConfig()
+    if cfg.spring_model == "twin":
+        return _run_twin(cfg, device, progress)
     rig = build_ringing(cfg, tool)
     model, state = rig.builder.finalize(device, n_worlds=len(cfg.springs), overrides=rig.overrides)
     dt = cfg.dt or 0.5 * wd.critical_timestep(model)
@@ -407,3 +417,23 @@ def run_ringing(config: RingingConfig | None = None, *, device: str | None = Non
     spring = static + rig.info["spring_stretch_m"] if cfg.spring_model == "linear" else static
     return RingingResult(tuple(cfg.springs), cfg.spring_model, t, disp, freq, zeta, static, spring, dt, wall,
                          asdict(cfg), analytic)
+
+
+def _run_twin(cfg: RingingConfig, device: str | None, progress: object | None) -> RingingResult:
+    """spring_model "twin": the paper's rig as its text builds it (``scenes.ringing_twin``, "stated" reading),
+    with the spring spheres' genes of ``cfg`` (default Table 2's); its own settling (0.3 s), hit and time step
+    (4.969e-6 s); ``cfg.ring_time`` of ringing. f and zeta by ``ringing_twin.frequency_damping`` (a 30 Hz low-pass
+    first)."""
+    from . import ringing_twin
+
+    spec = ringing_twin.twin_spec()
+    index = [paper.SPRING_COUNTS.index(n) for n in cfg.springs]
+    w = ringing_twin.run_twin(spec, "stated", index, spring_young=cfg.per_world("spring_young", "dem_spring_young_pa"),
+                              local_damping=cfg.per_world("local_damping", "dem_local_damping"), device=device,
+                              ring_time=cfg.ring_time,
+                              progress=(lambda ph, d, n: progress(d, n, ph)) if progress else None)
+    disp = w["sensor_y"] - w["sensor_y"][0]
+    fz = np.array([ringing_twin.frequency_damping(w["time"], w["sensor_y"][:, k]) for k in range(len(index))])
+    static = np.asarray(w["settle_sensor_y"], dtype=np.float64)
+    return RingingResult(tuple(cfg.springs), "twin", w["time"], disp, fz[:, 0], fz[:, 1], static, static,
+                         float(np.asarray(spec["dt"])), float(w["wall_s"]), asdict(cfg))

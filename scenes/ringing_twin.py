@@ -190,9 +190,11 @@ def _spec_value(spec: dict[str, np.ndarray], key: str) -> float:
     return float(np.asarray(spec[key]))
 
 
-def build_twin(spec: dict[str, np.ndarray], reading: str, configs: list[int] | None = None):
+def build_twin(spec: dict[str, np.ndarray], reading: str, configs: list[int] | None = None,
+               spring_young: np.ndarray | None = None):
     """warpdem's model of the twin for one reading: one world per configuration index of ``configs`` (default
-    all of the spec's). Returns (builder, overrides, info)."""
+    all of the spec's; an index may repeat). ``spring_young``: the spring spheres' Young's modulus per world [Pa]
+    (n_worlds,) instead of the spec's (Table 2's). Returns (builder, overrides, info)."""
     import warpdem as wd
 
     if reading not in READINGS:
@@ -209,7 +211,8 @@ def build_twin(spec: dict[str, np.ndarray], reading: str, configs: list[int] | N
                                         friction_angle=_spec_value(spec, "pivot_ball_friction_angle"),
                                         cohesive=False))
     eta = _spec_value(spec, "spring_eta_roll")
-    young = np.asarray(spec["spring_young_table2"], dtype=float)[configs]
+    young = np.asarray(spec["spring_young_table2"], dtype=float)[configs] if spring_young is None else \
+        np.broadcast_to(np.asarray(spring_young, dtype=float), (len(configs),)).copy()
     b.add_material("spring", wd.Material(young=float(young[0]), poisson=_spec_value(spec, "spring_poisson"),
                                          density=_spec_value(spec, "spring_density"),
                                          friction_angle=_spec_value(spec, "spring_friction_angle"),
@@ -239,17 +242,20 @@ def build_twin(spec: dict[str, np.ndarray], reading: str, configs: list[int] | N
 
 
 def run_twin(spec: dict[str, np.ndarray], reading: str, configs: list[int] | None = None, *,
+             spring_young: np.ndarray | None = None, local_damping: np.ndarray | None = None,
              device: str | None = None, ring_time: float | None = None, progress: object | None = None
              ) -> dict[str, np.ndarray]:
-    """Settle, hit and ring the twin in warpdem, as the Yade script does (module docstring): one world per
-    configuration. Returns time since the hit [s] (k,), the sensor point's y [m] (k, n), the settled state
-    (sensor displacement y, z [m] (n,), load sphere centre [m] (n, 3)) and the wall time [s]."""
+    """Settle, hit and ring the twin in warpdem, as the Yade script does (module docstring): one world per entry
+    of ``configs`` (spec indices, default all; the hit is the configuration's). ``spring_young`` [Pa] and
+    ``local_damping`` [-] (n_worlds,): the spring spheres' genes per world instead of Table 2's (a GA population).
+    Returns time since the hit [s] (k,), the sensor point's y [m] (k, n), the settled state (sensor displacement
+    y, z [m] (n,), load sphere centre [m] (n, 3)) and the wall time [s]."""
     import time
 
     import warpdem as wd
 
     t0 = time.perf_counter()
-    b, overrides, info = build_twin(spec, reading, configs)
+    b, overrides, info = build_twin(spec, reading, configs, spring_young)
     configs = info["configs"]
     model, state = b.finalize(device, n_worlds=len(configs), overrides=overrides)
     dt = _spec_value(spec, "dt")
@@ -262,7 +268,8 @@ def run_twin(spec: dict[str, np.ndarray], reading: str, configs: list[int] | Non
         sim.set_local_damping(g, _spec_value(spec, "settle_damping"))
     n_settle = int(round(_spec_value(spec, "settle_time") / dt))
     sim.run(n_settle, progress=(lambda d, n: progress("settle", d, n_settle)) if progress else None)
-    damp = np.asarray(spec["local_damping_table2"], dtype=float)[configs]
+    damp = np.asarray(spec["local_damping_table2"], dtype=float)[configs] if local_damping is None else \
+        np.broadcast_to(np.asarray(local_damping, dtype=float), (len(configs),)).copy()
     for g in dynamic:
         sim.set_local_damping(g, damp if (g == "springs" or info["reading"]["damping"] == "all") else 0.0)
     settled = sensor(sim) - s0

@@ -378,7 +378,9 @@ def main(argv: list[str] | None = None) -> int:
     g = sub.add_parser("ringing", help="ringing test of the eight spring configurations")
     common(g, "results/ringing", scale=False)
     g.add_argument("--springs", type=_springs, default=None)
-    g.add_argument("--spring-model", choices=("paper", "linear"), default=None, help="default: both")
+    g.add_argument("--spring-model", choices=("paper", "linear", "twin"), default=None,
+                   help="paper: spring spheres on warpdem's hinged rig; linear: DIN 2093 springs; twin: the paper's "
+                   "rig as its text builds it (a ball pivot, the load sphere; equals Yade's); default: all three")
     s = sub.add_parser("soil-bin", help="soil bin: rigid and passive tool; after a kill, the same command resumes "
                        "from OUT/checkpoints")
     common(s, "results/soil_bin")
@@ -415,7 +417,8 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--refine", type=int, default=0, help="batched pattern-search iterations after the GA")
     c.add_argument("--gene", type=_gene_range, action="append", help="replace a gene range: NAME=LOW:HIGH (SI)")
     c.add_argument("--springs", type=int, default=16, help="ringing: spring configuration")
-    c.add_argument("--spring-model", choices=("paper", "linear"), default="paper", help="ringing: spring model")
+    c.add_argument("--spring-model", choices=("paper", "linear", "twin"), default="paper",
+                   help="ringing: spring model")
     c.add_argument("--fitness", choices=("paper", "max"), default="paper",
                    help="ringing: eq. (7) 1/(REf REd), or 1/max(REf, REd)")
     c.add_argument("--scale", default="ci", choices=("ci", "cpu", "paper"), help="draught: soil-bin scale")
