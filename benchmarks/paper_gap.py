@@ -8,7 +8,11 @@ Variants (each a change of the baseline, everything else equal):
 - baseline: cohesion on the bed's initial contacts only (Yade's setCohesionNow), as ``warpdem soil-bin``;
 - no_cohesion: normal and shear cohesion 0 (brackets the bonds' share of the draught);
 - cohesion_on_new: cohesion also on every contact made during the run (Yade's setCohesionOnNewContacts; the shear
-  box's rule).
+  box's rule);
+- radius_10mm, radius_14mm, radius_20mm: member spheres of 10, 14 or 20 mm instead of the scale's 7 mm (a bed of
+  their own, deposited with the same seed into OUT/beds; the paper takes its sizes from Tamas and Bernon 2021
+  without printing them);
+- radius_14mm_cohesion_on_new: both changes together.
 The per-world variants run as the worlds of one simulation; a variant that changes a simulation-wide option runs
 alone. Writes OUT/paper_gap.json (steady means with standard errors, run times) and prints a table.
 """
@@ -28,6 +32,10 @@ VARIANTS = {
     "baseline": ({}, {}),
     "no_cohesion": ({}, {"normal_cohesion": 0.0, "shear_cohesion": 0.0}),
     "cohesion_on_new": ({"cohesion_on_new_contacts": True}, {}),
+    "radius_10mm": ({"member_radius": 0.010}, {}),
+    "radius_14mm": ({"member_radius": 0.014}, {}),
+    "radius_20mm": ({"member_radius": 0.020}, {}),
+    "radius_14mm_cohesion_on_new": ({"member_radius": 0.014, "cohesion_on_new_contacts": True}, {}),
 }
 """name -> (SoilBinConfig changes, per-world soil overrides)."""
 
@@ -57,16 +65,19 @@ def main() -> None:
     rows = {}
     for key, members in groups.items():
         cfg = replace(base, **json.loads(key))
+        run_bed = bed if cfg.member_radius is None else sb.bed_for(cfg, device=a.device, cache_dir=out / "beds")
         fields = sorted({f for v in members for f in VARIANTS[v][1]})
         overrides = {f: [VARIANTS[v][1].get(f, getattr(mat, f)) for v in members] for f in fields} or None
         t0 = time.perf_counter()
-        run = sb.run_soil_bin(cfg, [0] * len(members), bed=bed, device=a.device, speeds=[a.speed] * len(members),
-                              soil_overrides=overrides)
+        run = sb.run_soil_bin(cfg, [0] * len(members), bed=run_bed, device=a.device,
+                              speeds=[a.speed] * len(members), soil_overrides=overrides)
         for v, r in zip(members, run.steady, strict=True):
             rows[v] = {"draught_mean": r["draught_mean"], "draught_sem": r["draught_sem"],
                        "draught_std": r["draught_std"], "coordination_start": r["coordination_start"],
                        "coordination_end": r["coordination_end"], "wall_s": time.perf_counter() - t0,
-                       "worlds_in_simulation": len(members), "steps": run.steps, "dt": run.dt}
+                       "worlds_in_simulation": len(members), "steps": run.steps, "dt": run.dt,
+                       "bed_particles": run_bed.n_particles, "bed_spheres": int(len(run_bed.radii)),
+                       "bed_porosity": run_bed.porosity, "member_radius": run_bed.spec.radius}
     summary = {"scale": a.scale, "device": a.device, "speed": a.speed, "bed": a.bed,
                "bed_particles": bed.n_particles, "bed_porosity": bed.porosity, "variants": rows}
     (out / "paper_gap.json").write_text(json.dumps(summary, indent=2))

@@ -93,6 +93,8 @@ class SoilBinConfig:
     """recording rate [Hz] (the FFT low-pass is at 100 Hz)."""
     seed: int = 0
     dt: float | None = None
+    member_radius: float | None = None
+    """radius of the assembly's member spheres [m] (default: the scale's; the paper does not print its sizes)."""
     cohesion_on_new_contacts: bool = False
     """False: cohesion on the contacts of the first step only (the bed's, Yade's setCohesionNow); True: also on
     every contact made during the run (Yade's setCohesionOnNewContacts, the shear box's default). The paper does
@@ -108,6 +110,8 @@ class SoilBinConfig:
                 raise ValueError(f"springs must be 0 (rigid) or among {paper.SPRING_COUNTS}, got {n!r}")
         if self.speed is not None and len(self.speed) != len(self.springs):
             raise ValueError(f"speed needs one value per spring configuration ({len(self.springs)}), got {self.speed}")
+        if self.member_radius is not None and not 0 < self.member_radius < 0.05:
+            raise ValueError(f"member_radius must be in (0, 0.05) m, got {self.member_radius!r}")
         if not 0 < self.working_depth < SCALES[self.scale]["bed_depth"]:
             raise ValueError(f"working_depth must be in (0, bed depth), got {self.working_depth!r}")
 
@@ -197,7 +201,7 @@ def bed_for(config: SoilBinConfig, *, device: str | None = None, cache_dir: str 
             progress: object | None = None) -> Bed:
     """The deposited bed for a config (scale, assembly, seed), read from ``cache_dir`` if it was made before."""
     p = config.preset
-    spec = AssemblySpec(kind=config.assembly, radius=p["radius"])
+    spec = AssemblySpec(kind=config.assembly, radius=config.member_radius or p["radius"])
     key = hashlib.sha1(json.dumps([asdict(spec), p["bin"], p["bed_depth"], config.seed]).encode()).hexdigest()[:12]
     path = Path(cache_dir) / f"bed_{config.scale}_{config.assembly}_{key}.npz" if cache_dir else None
     if path is not None and path.exists():
