@@ -12,7 +12,9 @@ Variants (each a change of the baseline, everything else equal):
 - radius_10mm, radius_14mm, radius_20mm: member spheres of 10, 14 or 20 mm instead of the scale's 7 mm (a bed of
   their own, deposited with the same seed into OUT/beds; the paper takes its sizes from Tamas and Bernon 2021
   without printing them);
-- radius_14mm_cohesion_on_new: both changes together.
+- radius_14mm_cohesion_on_new: both changes together;
+- settled: the bed settles 1.0 s with the run's soil set (no bonds, damping 0.4) before the bonds and the tool
+  (``SoilBinConfig.settle_time``); settled_cohesion_on_new: and cohesion on every new contact.
 The per-world variants run as the worlds of one simulation; a variant that changes a simulation-wide option runs
 alone. Writes OUT/paper_gap.json (steady means with standard errors, run times) and prints a table.
 """
@@ -35,6 +37,8 @@ VARIANTS = {
     "radius_10mm": ({"member_radius": 0.010}, {}),
     "radius_14mm": ({"member_radius": 0.014}, {}),
     "radius_20mm": ({"member_radius": 0.020}, {}),
+    "settled": ({"settle_time": 1.0}, {}),
+    "settled_cohesion_on_new": ({"settle_time": 1.0, "cohesion_on_new_contacts": True}, {}),
     "radius_14mm_cohesion_on_new": ({"member_radius": 0.014, "cohesion_on_new_contacts": True}, {}),
 }
 """name -> (SoilBinConfig changes, per-world soil overrides)."""

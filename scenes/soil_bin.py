@@ -68,6 +68,8 @@ the preload's compression (a metal stop is stiffer still; this keeps the spring'
 SUPPORT_RAMP = 0.1
 """time [s] over which the paper's spring model moves its support into Table 2's offset at the start of a run
 (set at once, an offset of millimetres would overlap the 3.4 g spring spheres by that much and blow them apart)."""
+SETTLE_DAMPING = 0.4
+"""local damping [-] of the soil while it settles before a run (``SoilBinConfig.settle_time``; the deposition's)."""
 DRAG_ANCHOR = 100.0
 """distance ahead of the tip [m] of the static anchor of the soil-viscosity dashpot: its line stays along travel."""
 
@@ -93,6 +95,12 @@ class SoilBinConfig:
     """recording rate [Hz] (the FFT low-pass is at 100 Hz)."""
     seed: int = 0
     dt: float | None = None
+    settle_time: float = 0.0
+    """[s] before the tool moves, the bed settles this long under gravity with the run's soil material, without
+    bonds and with local damping SETTLE_DAMPING on the soil (tool, carriages and support at rest); the bonds are
+    then set on the contacts of that moment and the run's clock starts at 0. With 0 (default) the bonds go on the
+    deposited bed's contacts at once. The bed is deposited with friction 30 deg and damping 0.4: a weaker soil set
+    started from it without settling is not at rest (docs/fidelity.md)."""
     member_radius: float | None = None
     """radius of the assembly's member spheres [m] (default: the scale's; the paper does not print its sizes)."""
     cohesion_on_new_contacts: bool = False
@@ -110,6 +118,8 @@ class SoilBinConfig:
                 raise ValueError(f"springs must be 0 (rigid) or among {paper.SPRING_COUNTS}, got {n!r}")
         if self.speed is not None and len(self.speed) != len(self.springs):
             raise ValueError(f"speed needs one value per spring configuration ({len(self.springs)}), got {self.speed}")
+        if not (math.isfinite(self.settle_time) and self.settle_time >= 0):
+            raise ValueError(f"settle_time must be finite and >= 0 s, got {self.settle_time!r}")
         if self.member_radius is not None and not 0 < self.member_radius < 0.05:
             raise ValueError(f"member_radius must be in (0, 0.05) m, got {self.member_radius!r}")
         if not 0 < self.working_depth < SCALES[self.scale]["bed_depth"]:
@@ -371,6 +381,23 @@ def _stop_carriages(sim: wd.Simulation, worlds: np.ndarray) -> None:
             sim.set_body_velocity(name, (0.0, 0.0, 0.0), worlds)
 
 
+def _settle(sim: wd.Simulation, duration: float, carriage_vel: np.ndarray) -> None:
+    """Let the bed settle for ``duration`` [s] with the driven bodies at rest and damping SETTLE_DAMPING on the soil,
+    then give the driven bodies their carriage velocities [m/s] (n_worlds, 3) back and start the clock at 0."""
+    m = sim.model
+    worlds = np.arange(m.n_worlds)
+    _stop_carriages(sim, worlds)
+    soil = m.names["group"]["soil"]
+    saved = m.group_damping.numpy().reshape(m.n_worlds, m.n_groups)[:, soil].copy()
+    sim.set_local_damping("soil", SETTLE_DAMPING)
+    sim.run(int(round(duration / sim.dt)))
+    sim.set_local_damping("soil", saved)
+    for name in ("sweep_lower", "carriage", "support"):
+        if name in m.names["body"]:
+            sim.set_body_velocity(name, carriage_vel)
+    sim.state.time, sim.state.step = 0.0, 0
+
+
 class RunCheckpoint:
     """Checkpoints of one soil-bin run in a folder: the engine's state (``sim_<step>.npz``, which includes the
     stopped carriages), the records so far (``records_<step>.npz``) and ``latest.json`` naming the last complete
@@ -450,8 +477,11 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     hi = np.array([bed.bin_size[0], bed.bin_size[1] + travel + 1.0, 2.0])
     sim = wd.Simulation(model, state, dt=dt, always_use_moment_law=True, bounds=(lo, hi),
                         cohesion_on_new_contacts=config.cohesion_on_new_contacts)
-    sim.set_cohesion_now()
     speeds_a = np.asarray(speeds)
+    carriage_vel = np.stack([np.zeros_like(speeds_a), speeds_a, np.zeros_like(speeds_a)], axis=1)
+    if config.settle_time > 0:
+        _settle(sim, config.settle_time, carriage_vel)
+    sim.set_cohesion_now()
     sensor = wd.observers.body_point("sweep_lower", tool.sensor_point)
     s0 = sensor(sim)[:, 1].copy()
     contact = wd.observers.mesh_wrench("sweep_lower")
@@ -477,7 +507,6 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     n_steps = int(stop.max())
     # the spring spheres' support moves into its offset (+ = against travel) over SUPPORT_RAMP, then rides along
     events, ramp = set(stop.tolist()), -1
-    carriage_vel = np.stack([np.zeros_like(speeds_a), speeds_a, np.zeros_like(speeds_a)], axis=1)
     if config.spring_model == "paper" and not rigid and any(info["support_offset_m"]):
         ramp = int(np.ceil(SUPPORT_RAMP / dt / every) * every)
         events.add(ramp)
