@@ -1,4 +1,4 @@
-"""The study of the paper at a chosen scale: ringing (both spring models) and soil bin, with a report.
+"""The study of the paper at a chosen scale: ringing (every spring model) and soil bin, with a report.
 
 Writes into one folder: config.json (every parameter, versions, device, seed), ringing_<model>.npz, soil_bin.npz,
 summary.json, PNG plots (like the paper's Figs. 6, 16, 17, 18, 19) and report.md setting the results beside
@@ -41,7 +41,7 @@ def _plt():
 
 
 def plot_ringing(results: dict[str, ringing.RingingResult], path: Path) -> None:
-    """Fig. 6-like: sensor displacement after the hit, one panel per configuration, both spring models."""
+    """Fig. 6-like: sensor displacement after the hit, one panel per configuration, every spring model."""
     plt = _plt()
     springs = next(iter(results.values())).springs
     fig, axes = plt.subplots(2, 4, figsize=(14, 6), sharex=True)

@@ -15,7 +15,8 @@
                       (MEASURED: a summary CSV, a folder with summary.csv/series, paper:ringing or paper:soil-bin)
 
 ``reproduce`` runs the paper's study at a reduced (``cpu``, default) or full (``paper``) scale: the ringing test
-for all eight spring configurations with both spring models, the soil bin with the rigid tool and 16 and 32 springs,
+for all eight spring configurations with the three spring models (paper, linear, twin), the soil bin with the rigid
+tool at every configuration's speed and 16 and 32 springs (each reduction against the rigid run at its own speed),
 and writes a results folder with config.json (parameters, versions, device, seed), the time series, summary.json,
 PNG plots and report.md beside the paper's Tables 2, 3 and 7. Each rig also has its own command. The soil-bin runs
 of ``reproduce`` and ``soil-bin`` checkpoint into OUT/checkpoints; the same command run again after a kill resumes.
