@@ -2,29 +2,30 @@
 
 ``diagnose(rig_model)`` does four things:
 
-1. **Fit every candidate** (the baseline; the baseline plus each applicable mechanism of
-   ``calibration.mechanisms``; later pairs) by weighted least squares on the relative residuals
-   r = (sim - measured) / sigma (sigma: the rig model's 1-sigma uncertainty of each measured value, from its
-   stated relative or absolute uncertainty per observable), in the genes' unit coordinates
-   (log-scaled genes in decades): a grid over the whole ranges, then Levenberg-Marquardt rounds with forward
-   differences. Every point is one DEM run of every configuration; all candidates' points of a round are the
-   worlds of one batched simulation. The simulations serve every fold: a fold's fit is the best simulated point
-   for its training configurations (the steps of each fold are simulated, so a fit is never extrapolated).
-2. **Compare on held-out data**: leave-one-configuration-out. For configuration j the candidate is fitted without
-   j and predicts j; its held-out loss is l_j = sum_k r_jk^2. A candidate beats the baseline when its held-out loss
-   falls by at least ``min_gain`` (reported with the standard error of the per-configuration gains), its
-   likelihood-ratio test against the baseline (in-sample chi^2 fall ~ chi^2(added genes), the uncertainties being
-   stated) is significant after Holm's correction over all candidates (alpha), and its AICc (in-sample
-   chi^2 + 2p + 2p(p+1)/(n-p-1)) is lower by more than 2. The held-out criterion guards against a mechanism that
-   only fits noise; the likelihood ratio against a gain that noise could give.
-3. **Name the cause**: the significant candidate of least held-out loss (with any other significant candidate
-   whose held-out loss is within sqrt(2 n) of it, the spread of a chi^2 with n data points, named as
-   indistinguishable); if the best single candidate still leaves a
-   residual inconsistent with noise (chi^2 of its held-out residuals, p < ``noise_p``), pairs of the best single
-   candidates are fitted and a pair is named when it is significant against the baseline and against each of its
-   members: likelihood ratio, and a held-out loss at most (1 - ``min_gain``) of the member's. Without a
-   significant candidate: "no significant discrepancy" if the baseline's held-out residuals are consistent with
-   the stated uncertainties, else "unexplained residual" with its pattern (rank correlations with the covariates).
+1. **Fit the baseline**: the rig as described, with its first-order unknowns (``rig.genes``: e.g. a dashpot, a
+   factor on the inertia, a factor on the spring rates) fitted by weighted least squares on the residuals
+   r = (sim - measured) / sigma (sigma: the rig model's 1-sigma uncertainty of each measured value), in the genes'
+   unit coordinates (log-scaled genes in decades): a grid over the whole ranges, then Levenberg-Marquardt rounds
+   with forward differences. Every point is one DEM run of every configuration; all candidates' points of a round
+   are the worlds of one batched simulation. The simulations serve every fold: a fold's fit is the best simulated
+   point for its training configurations (the steps of each fold are simulated, so a fit is never extrapolated).
+   A simulated record whose extraction fails is scored by what the failure says (``residuals``), not as a fixed
+   large error.
+2. **Compare on held-out data**: the baseline plus each applicable mechanism of ``calibration.mechanisms`` (started
+   from the baseline's fit, its own genes gridded), leave-one-configuration-out. For configuration j the candidate
+   is fitted without j and predicts j; its held-out loss is l_j = sum_k r_jk^2. A candidate beats the baseline when
+   its held-out loss falls by at least ``min_gain`` (reported with the standard error of the per-configuration
+   gains), its likelihood-ratio test against the baseline (in-sample chi^2 fall ~ chi^2(added genes), the
+   uncertainties being stated) is significant after Holm's correction over all candidates (alpha), and its AICc
+   (in-sample chi^2 + 2p + 2p(p+1)/(n-p-1)) is lower by more than 2.
+3. **Name the causes, stepwise**: the significant candidate of least held-out loss is named (with any other
+   significant one whose held-out loss is within sqrt(2 n) of it, the spread of a chi^2 with n data points, as
+   indistinguishable); it becomes the baseline and the remaining mechanisms are tried on top of it, until none is
+   significant or the residual is consistent with noise (chi^2 of the held-out residuals, p >= ``noise_p``). So a
+   mechanism that helps only on top of another one is found. Without any significant candidate: "no significant
+   discrepancy" if the baseline's held-out residuals are consistent with the stated uncertainties, else
+   "unexplained residual" with its pattern (rank correlations with the covariates); a named cause that leaves a
+   residual larger than noise is reported so (``Diagnosis.residual_left``).
 4. **Extend and measure**: the named extension is applied to the DEM rig and every configuration re-simulated,
    with the fold parameters, for the held-out errors before and after (and with the all-data fit, for plots).
 """
@@ -89,8 +90,6 @@ class DiagnosisSettings:
     """least relative fall of the held-out loss for a cause to be named."""
     noise_p: float = 0.01
     """a residual whose chi^2 p-value falls below this is 'larger than noise'."""
-    pair_pool: int = 3
-    """pairs are formed from this many best single candidates."""
     mechanisms: tuple[str, ...] | None = None
     """the candidate mechanisms (default: every registered one the rig supports)."""
     batch_worlds: int = 0
@@ -187,6 +186,16 @@ class Diagnosis:
     """the measured records per configuration (time [s], signal), when the rig compared records."""
     n_simulations: int = 0
     wall_s: float = 0.0
+    steps: list[dict[str, object]] = field(default_factory=list)
+    """the stepwise search: per step, the mechanism named, held-out losses before and after, gain, p."""
+    residual_left: bool = False
+    """the final model's held-out residuals are larger than the stated noise (p < noise_p)."""
+    adjustments: list[str] = field(default_factory=list)
+    """what the baseline's fitted first-order unknowns say about the rig, in words."""
+    failures: list[str] = field(default_factory=list)
+    """simulated records whose extraction failed (model, configuration, why)."""
+    measured_failures: list[str] = field(default_factory=list)
+    """measured records whose extraction failed (configuration, why): those values are left out."""
 
     @property
     def baseline(self) -> Fit:
@@ -197,11 +206,17 @@ class Diagnosis:
         return self.fits["+".join(self.cause)] if self.cause else None
 
 
-def residuals(pred: np.ndarray, measured: np.ndarray, sigma: np.ndarray) -> np.ndarray:
-    """Residuals in units of the uncertainty, (..., n_configs, n_obs); a failed prediction (NaN) counts as a 100 %
-    error (at least 10 sigma), a missing measurement as 0."""
+def residuals(pred: np.ndarray, measured: np.ndarray, sigma: np.ndarray, bound: np.ndarray | None = None
+              ) -> np.ndarray:
+    """Residuals in units of the uncertainty, (..., n_configs, n_obs). A failed extraction from a simulation (NaN)
+    is scored by what the failure says: where the rig gives a ``bound`` (n_obs,) for the observable (e.g. a
+    simulated record with no free vibration has a damping ratio of at least about 0.5), the residual of that
+    one-sided value, (bound - measured) / sigma when the measurement lies below it, else 0; where not, the
+    observable is unknown for that simulation (0). A missing measurement counts 0."""
     r = (pred - measured) / sigma
-    r = np.where(np.isnan(pred), np.maximum(np.abs(measured) / sigma, 10.0), r)
+    b = np.full(measured.shape[-1], np.nan) if bound is None else np.asarray(bound, dtype=np.float64)
+    fail = np.where(np.isfinite(b), np.maximum(b - measured, 0.0) / sigma, 0.0)
+    r = np.where(np.isnan(pred), fail, r)
     return np.where(np.isnan(measured), 0.0, r)
 
 
@@ -233,6 +248,7 @@ class _Fitter:
                  checkpoint: str | Path | None = None) -> None:
         self.rig, self.settings, self.log = rig, settings, log
         self.cache: dict[tuple[str, tuple[float, ...]], np.ndarray] = {}
+        self.seen: dict[str, list[tuple[str, tuple[float, ...]]]] = {}
         self.n_sims = 0
         self.checkpoint = Path(checkpoint) if checkpoint else None
         self.key = _checkpoint_key(rig, settings)
@@ -248,6 +264,7 @@ class _Fitter:
             self.n_sims = int(data["n_sims"])
             log(f"  resumed from {self.checkpoint}: {len(self.cache)} simulated parameter sets")
         self.sigma = rig.sigma  # fixed before any fit (a rig may simulate its own noise level here)
+        self.bound = rig.failure_bound() if hasattr(rig, "failure_bound") else None
 
     def save(self) -> None:
         if self.checkpoint is None:
@@ -262,6 +279,8 @@ class _Fitter:
         return cand.name, tuple(np.round(z, 10).tolist())
 
     def evaluate(self, requests: list[tuple[Candidate, np.ndarray]], what: str) -> None:
+        for cand, z in requests:
+            self.seen.setdefault(cand.name, []).append(self._key(cand, z))
         todo, seen = [], set()
         for cand, z in requests:
             key = self._key(cand, z)
@@ -286,13 +305,15 @@ class _Fitter:
             self.save()
 
     def points(self, cand: Candidate) -> tuple[np.ndarray, np.ndarray]:
-        """Every evaluated point of a candidate (m, d) and its predictions (m, n_cfg, n_obs)."""
-        keys = [k for k in self.cache if k[0] == cand.name]
+        """The candidate's points requested so far (m, d), in the order of their requests, and their predictions
+        (m, n_cfg, n_obs). Only requested points count, never what a checkpoint holds beyond them: a resumed fit
+        sees, at every stage, exactly what the uninterrupted one saw."""
+        keys = list(dict.fromkeys(self.seen.get(cand.name, [])))
         return np.array([k[1] for k in keys]).reshape(len(keys), -1), np.array([self.cache[k] for k in keys])
 
     def losses(self, pred: np.ndarray) -> np.ndarray:
         """Per point and configuration: sum_k r^2, (m, n_cfg)."""
-        return np.sum(residuals(pred, self.rig.measured, self.sigma) ** 2, axis=-1)
+        return np.sum(residuals(pred, self.rig.measured, self.sigma, self.bound) ** 2, axis=-1)
 
     def best(self, cand: Candidate) -> tuple[np.ndarray, np.ndarray]:
         """Index of the best point for all data and for each fold: (all,), (n_cfg,)."""
@@ -303,17 +324,24 @@ class _Fitter:
         i_fold = np.argmin(total[:, None] - loss, axis=0)
         return np.array([i_all]), i_fold
 
-    def fit(self, cands: list[Candidate], label: str) -> dict[str, Fit]:
+    def fit(self, cands: list[Candidate], label: str, seeds: dict[str, np.ndarray] | None = None
+            ) -> dict[str, Fit]:
         """A grid over the genes' whole ranges, then Levenberg-Marquardt rounds: after each round, the forward
         differences about every candidate's all-data best point are simulated and the damped Gauss-Newton steps of
-        every fold (and of all data) from that point are the next round's points."""
+        every fold (and of all data) from that point are the next round's points. ``seeds``: per candidate, unit
+        coordinates (n_genes,) with NaN for the genes to grid; the others start at their seed (a model extended
+        by one mechanism starts from the fitted model it extends)."""
         s = self.settings
+        seeds = seeds or {}
         proposals: dict[str, list[np.ndarray]] = {c.name: [] for c in cands}
         for r in range(s.rounds):
             if r == 0:
-                requests = [(c, z) for c in cands
-                            for z in _grid(np.array([[0.0] * len(c.genes), [1.0] * len(c.genes)]),
-                                           s.first_grid.get(len(c.genes), 3))]
+                requests = []
+                for c in cands:
+                    z0 = seeds.get(c.name, np.full(len(c.genes), np.nan))
+                    free = np.isnan(z0)
+                    box = np.array([np.where(free, 0.0, z0), np.where(free, 1.0, z0)])
+                    requests += [(c, z) for z in _grid(box, s.first_grid.get(int(free.sum()), 3))]
             else:
                 requests = [(c, z) for c in cands for z in proposals[c.name]]
             self.evaluate(requests, f"{label}, round {r + 1}/{s.rounds}")
@@ -348,11 +376,11 @@ class _Fitter:
         keys = [self._key(cand, z) for z in self._stencil(x0)]
         p0 = self.cache[self._key(cand, x0)]
         n_cfg = self.rig.n_configs
-        r0 = residuals(p0, self.rig.measured, self.sigma)  # (n_cfg, n_obs)
+        r0 = residuals(p0, self.rig.measured, self.sigma, self.bound)  # (n_cfg, n_obs)
         cols = []
         for i, k in enumerate(keys):
             dz = np.array(k[1])[i] - x0[i]
-            cols.append((residuals(self.cache[k], self.rig.measured, self.sigma) - r0) / dz)
+            cols.append((residuals(self.cache[k], self.rig.measured, self.sigma, self.bound) - r0) / dz)
         jac = np.stack(cols, axis=-1)  # (n_cfg, n_obs, d)
         valid = np.isfinite(p0) & np.all(np.isfinite(np.stack([self.cache[k] for k in keys])), axis=0)
         out = []
@@ -375,8 +403,8 @@ class _Fitter:
         n_cfg = self.rig.n_configs
         pred_all = pred[i_all[0]]
         held = np.array([pred[i_fold[j], j] for j in range(n_cfg)])
-        r_held = residuals(held, self.rig.measured, self.sigma)
-        r_in = residuals(pred_all, self.rig.measured, self.sigma)
+        r_held = residuals(held, self.rig.measured, self.sigma, self.bound)
+        r_in = residuals(pred_all, self.rig.measured, self.sigma, self.bound)
         n_points = int(np.sum(~np.isnan(self.rig.measured)))
         fit = Fit(cand, pts[i_all[0]], pts[i_fold], pred_all, held, np.sum(r_held**2, axis=1),
                   float(np.sum(r_in**2)), n_points)
@@ -427,9 +455,10 @@ def _noise_p(fit: Fit) -> float:
     return float(stats.chi2.sf(fit.heldout_loss.sum(), fit.n_points))
 
 
-def _pattern(cov: dict[str, np.ndarray], rig: object, fit: Fit) -> list[str]:
+def _pattern(cov: dict[str, np.ndarray], rig: object, fit: Fit, bound: np.ndarray | None = None) -> list[str]:
     """The residual pattern: per observable, its mean and its strongest rank correlation with a covariate."""
-    r = (fit.pred_heldout - rig.measured) / rig.sigma
+    r = residuals(fit.pred_heldout, rig.measured, rig.sigma, bound)
+    r = np.where(np.isnan(rig.measured), np.nan, r)
     out = []
     for k, name in enumerate(rig.observables):
         rk = r[:, k]
@@ -448,10 +477,11 @@ def _pattern(cov: dict[str, np.ndarray], rig: object, fit: Fit) -> list[str]:
     return out
 
 
-def candidates_for(rig: object, settings: DiagnosisSettings) -> list[Candidate]:
-    """The baseline and one candidate per applicable mechanism."""
+def mechanisms_for(rig: object, settings: DiagnosisSettings) -> list[mech.Mechanism]:
+    """The registered mechanisms (or ``settings.mechanisms``) that apply to the rig: it has their knobs (and their
+    series, where they need them)."""
     names = settings.mechanisms or tuple(mech.REGISTRY)
-    out = [Candidate("baseline", (), tuple(rig.genes))]
+    out = []
     for n in names:
         m = mech.get(n)
         if rig.rig not in m.rigs and not settings.mechanisms:
@@ -459,11 +489,34 @@ def candidates_for(rig: object, settings: DiagnosisSettings) -> list[Candidate]:
         if not m.knob_names() <= rig.knobs:
             if settings.mechanisms:
                 raise ValueError(f"mechanism {n!r} needs knobs {sorted(m.knob_names() - rig.knobs)} that the "
-                                 f"{rig.rig} rig does not have")
+                                 f"{rig.rig} rig does not have (or that its fitted baseline already covers)")
             continue
         if m.needs_series and not getattr(rig, "has_series", False):
             continue
-        out.append(Candidate(n, (m,), tuple(rig.genes) + m.genes))
+        out.append(m)
+    return out
+
+
+def candidates_for(rig: object, settings: DiagnosisSettings) -> list[Candidate]:
+    """The baseline and one candidate per applicable mechanism."""
+    base = Candidate("baseline", (), tuple(rig.genes))
+    return [base] + [extend(base, m) for m in mechanisms_for(rig, settings)]
+
+
+def extend(cand: Candidate, m: mech.Mechanism) -> Candidate:
+    """A candidate with one more mechanism (its genes appended)."""
+    ms = cand.mechanisms + (m,)
+    return Candidate("+".join(x.name for x in ms), ms, cand.genes + m.genes)
+
+
+def _step(fitter: _Fitter, current: Fit, remaining: list[mech.Mechanism], s: DiagnosisSettings, label: str
+          ) -> list[Fit]:
+    """Every remaining mechanism added to ``current`` (each started from current's fit), compared with it."""
+    cands = [extend(current.candidate, m) for m in remaining]
+    seeds = {c.name: np.r_[current.z_all, np.full(len(c.genes) - len(current.z_all), np.nan)] for c in cands}
+    fits = fitter.fit(cands, label, seeds)
+    out = [fits[c.name] for c in cands]
+    _compare(out, current, s)
     return out
 
 
@@ -471,72 +524,83 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
              log: Callable[[str], None] = lambda s: None, checkpoint: str | Path | None = None) -> Diagnosis:
     """Fit, compare, name and verify (module docstring) for a rig model (``calibration.rig_models``).
 
+    Stepwise: the baseline (with the first-order unknowns of the rig, e.g. an inertia factor, fitted) is compared
+    with itself plus each mechanism; the one named becomes the new baseline and the remaining mechanisms are tried
+    on top of it, until none is significant or what is left is consistent with noise.
+
     ``checkpoint``: a JSON file that keeps every simulated point (written after every batched simulation, see
     ``DiagnosisSettings.batch_worlds``); a diagnosis started again with the same file, rig, data and settings
     resumes where it stopped and comes to the same result."""
     s = settings or DiagnosisSettings()
     t0 = time.perf_counter()
     fitter = _Fitter(rig, s, log, checkpoint)
-    cands = candidates_for(rig, s)
+    remaining = mechanisms_for(rig, s)
     log(f"diagnosis of the {rig.rig} rig: {rig.n_configs} configurations, observables {', '.join(rig.observables)}; "
-        f"candidates: {', '.join(c.name for c in cands)}")
-    fits = fitter.fit(cands, "single mechanisms")
-    base = fits["baseline"]
-    singles = [f for n, f in fits.items() if n != "baseline"]
-    _compare(singles, base, s)
-    singles.sort(key=lambda f: f.heldout_loss.sum())
-    best = singles[0] if singles else base
-    noise_best = _noise_p(best)
-    # pairs, when the best single one leaves more than noise
-    pair_fits: list[Fit] = []
-    if len(singles) >= 2 and noise_best < s.noise_p:
-        pool = singles[:s.pair_pool]
-        pairs = []
-        for a, b in itertools.combinations(pool, 2):
-            ms = a.candidate.mechanisms + b.candidate.mechanisms
-            pairs.append(Candidate("+".join(m.name for m in ms), ms,
-                                   tuple(rig.genes) + tuple(g for m in ms for g in m.genes)))
-        fits.update(fitter.fit(pairs, "pairs of mechanisms"))
-        pair_fits = [fits[p.name] for p in pairs]
-        _compare(pair_fits, base, s)
-    ranking = sorted([n for n in fits if n != "baseline"], key=lambda n: fits[n].heldout_loss.sum())
-    verdict, cause, indist = "", (), []
-    sig_singles = [f for f in singles if f.significant]
-    sig_pairs = []
-    for p in pair_fits:
-        members = [fits[m.name] for m in p.candidate.mechanisms]
-        if p.significant and all(_lr_p(p, m) < s.alpha
-                                 and p.heldout_loss.sum() <= (1.0 - s.min_gain) * m.heldout_loss.sum()
-                                 for m in members):
-            sig_pairs.append(p)
-    sig_pairs.sort(key=lambda f: f.heldout_loss.sum())
-    if sig_pairs:
-        top = sig_pairs[0]
-        verdict, cause = "cause", tuple(m.name for m in top.candidate.mechanisms)
-    elif sig_singles:
-        top = sig_singles[0]
-        verdict, cause = "cause", (top.name,)
-        # within the noise of a chi^2 with one dof per data point: sqrt(2 n)
-        indist = [f.name for f in sig_singles[1:]
-                  if f.heldout_loss.sum() - top.heldout_loss.sum() < math.sqrt(2.0 * top.n_points)]
+        f"baseline genes: {', '.join(g.name for g in rig.genes) or 'none'}; mechanisms: "
+        f"{', '.join(m.name for m in remaining)}")
+    base = fitter.fit([Candidate("baseline", (), tuple(rig.genes))], "baseline")["baseline"]
+    fits = {"baseline": base}
+    current, steps, indist, singles = base, [], [], []
     noise_base = _noise_p(base)
-    if not verdict:
+    while remaining:
+        tried = _step(fitter, current, remaining, s, f"step {len(steps) + 1}")
+        fits.update({f.name: f for f in tried})
+        if not steps:
+            singles = sorted(tried, key=lambda f: f.heldout_loss.sum())
+        sig = sorted([f for f in tried if f.significant], key=lambda f: f.heldout_loss.sum())
+        if not sig:
+            break
+        top = sig[0]
+        if not steps:  # within the noise of a chi^2 with one dof per data point: sqrt(2 n)
+            indist = [f.candidate.mechanisms[-1].name for f in sig[1:]
+                      if f.heldout_loss.sum() - top.heldout_loss.sum() < math.sqrt(2.0 * top.n_points)]
+        steps.append({"step": len(steps) + 1, "named": top.candidate.mechanisms[-1].name, "model": top.name,
+                      "heldout_loss_before": float(current.heldout_loss.sum()),
+                      "heldout_loss_after": float(top.heldout_loss.sum()), "gain": top.gain, "gain_se": top.gain_se,
+                      "p_lr_holm": top.p_holm, "noise_p_after": _noise_p(top)})
+        log(f"  step {len(steps)}: {top.candidate.mechanisms[-1].name} (held-out loss "
+            f"{current.heldout_loss.sum():.3g} -> {top.heldout_loss.sum():.3g})")
+        remaining = [m for m in remaining if m.name != top.candidate.mechanisms[-1].name]
+        current = top
+        if _noise_p(top) >= s.noise_p:
+            break
+    ranking = sorted([n for n in fits if n != "baseline"], key=lambda n: fits[n].heldout_loss.sum())
+    cause = tuple(m.name for m in current.candidate.mechanisms)
+    noise_final = _noise_p(current)
+    if cause:
+        verdict = "cause"
+    else:
         verdict = "no significant discrepancy" if noise_base >= s.noise_p else "unexplained residual"
+    noise_best = _noise_p(singles[0]) if singles else noise_base
     diag = Diagnosis(rig.rig, tuple(rig.observables), list(rig.configs), rig.measured, rig.sigma,
                      rig.describe_uncertainty(), dict(rig.units), rig.covariates(), fits, ranking, verdict, cause,
-                     indist, [], noise_base, noise_best)
+                     indist, [], noise_base, noise_final if cause else noise_best)
+    diag.steps = steps
+    diag.residual_left = bool(noise_final < s.noise_p)
+    if hasattr(rig, "describe_fit"):
+        diag.adjustments = rig.describe_fit(base.params_all())
+    diag.measured_failures = list(getattr(rig, "measured_failures", []))
     diag.measured_series = getattr(rig, "measured_series", None)
     diag.verification = verify(rig, diag, log)
     simulated = diag.verification["baseline"]["static_deflection"]
     if np.all(np.isfinite(simulated)):  # the covariate as the fitted baseline simulates it, not the nominal one
         diag.covariates["static_deflection"] = np.asarray(simulated, dtype=np.float64)
-    if verdict == "unexplained residual":
-        diag.pattern = _pattern(diag.covariates, rig, base)
+    if diag.residual_left:
+        diag.pattern = _pattern(diag.covariates, rig, current, fitter.bound)
+    for name in ["baseline"] + (["+".join(cause)] if cause else []):
+        for j, why in enumerate(diag.verification[name].get("failed", [])):
+            if why:
+                diag.failures.append(f"{name}, {_describe(rig, j)}: {why}")
     diag.n_simulations = fitter.n_sims + int(diag.verification.get("n_simulations", 0))
     diag.wall_s = time.perf_counter() - t0
-    log(f"verdict: {verdict}{': ' + ' + '.join(cause) if cause else ''} ({diag.n_simulations} simulations, "
-        f"{diag.wall_s:.0f} s)")
+    log(f"verdict: {verdict}{': ' + ' + '.join(cause) if cause else ''}"
+        f"{' (a residual larger than noise remains)' if cause and diag.residual_left else ''} "
+        f"({diag.n_simulations} simulations, {diag.wall_s:.0f} s)")
     return diag
+
+
+def _describe(rig: object, j: int) -> str:
+    return rig.describe_config(j) if hasattr(rig, "describe_config") else f"configuration {j}"
 
 
 def _nanmean(x: np.ndarray) -> np.ndarray:
@@ -568,7 +632,7 @@ def verify(rig: object, diag: Diagnosis, log: Callable[[str], None] = lambda s: 
         sel = [i for i, k in enumerate(index) if k[0] == name and k[1] == "heldout"]
         sel_all = [i for i, k in enumerate(index) if k[0] == name and k[1] == "all"]
         held = out.values[sel]
-        r = residuals(held, diag.measured, diag.sigma)
+        r = residuals(held, diag.measured, diag.sigma, rig.failure_bound() if hasattr(rig, "failure_bound") else None)
         err = held - diag.measured
         rel = err / np.abs(diag.measured)
         res[name] = {
@@ -579,6 +643,7 @@ def verify(rig: object, diag: Diagnosis, log: Callable[[str], None] = lambda s: 
             "heldout_mae": _nanmean(np.abs(err)),
             "series": [out.series[i] for i in sel_all] if out.series else None,
             "static_deflection": out.covariates.get("static_deflection", np.full(len(cases), np.nan))[sel_all],
+            "failed": [out.failed[i] for i in sel] if out.failed else [],
         }
     if diag.cause:
         b, e = res["baseline"], res[names[1]]

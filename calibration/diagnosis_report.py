@@ -42,6 +42,10 @@ def to_json(d: Diagnosis) -> dict[str, object]:
         "gain_abs": v.get("gain_abs"),
         "gain_rel": v.get("gain_rel"),
         "residual_pattern": d.pattern,
+        "residual_left": d.residual_left,
+        "steps": d.steps,
+        "baseline_adjustments": d.adjustments,
+        "failed_extractions": {"simulated": d.failures, "measured": d.measured_failures},
         "noise_p_baseline": _f(d.noise_p_baseline),
         "noise_p_best": _f(d.noise_p_best),
         "observables": list(d.observables),
@@ -186,6 +190,20 @@ def write(d: Diagnosis, out: str | Path, command: str = "") -> Path:
         lines += [f"Command: `{command}`", ""]
     verdict = d.verdict + (f": **{' + '.join(d.cause)}**" if d.cause else "")
     lines += [f"**Verdict: {verdict}.**", ""]
+    if d.cause and d.residual_left:
+        lines += ["What the named model leaves is still larger than the stated noise (an unexplained residual "
+                  "remains; its pattern is below).", ""]
+    if d.adjustments:
+        lines += ["The baseline had to adjust the rig as described: " + "; ".join(d.adjustments) + ".", ""]
+    if len(d.steps) > 1 or (d.steps and d.residual_left):
+        lines += ["Stepwise search (each step: the remaining mechanisms on top of the model named so far):", ""]
+        lines += [f"{st['step']}. {st['named']}: held-out loss {st['heldout_loss_before']:.3g} -> "
+                  f"{st['heldout_loss_after']:.3g} (p, likelihood ratio, Holm {st['p_lr_holm']:.2g}; residual vs "
+                  f"noise p {st['noise_p_after']:.2g})" for st in d.steps] + [""]
+    for what, items in (("Measured records whose extraction failed (left out)", d.measured_failures),
+                        ("Simulated records whose extraction failed (scored by what the failure says)", d.failures)):
+        if items:
+            lines += [f"{what}:", ""] + [f"- {x}" for x in items] + [""]
     if d.indistinguishable:
         lines += [f"Indistinguishable on these data: {', '.join(d.indistinguishable)}.", ""]
     if d.cause:
@@ -207,7 +225,8 @@ def write(d: Diagnosis, out: str | Path, command: str = "") -> Path:
                   f"{js['errors_after']['heldout_loss']:.3g}: gain {js['gain_abs']:.3g} "
                   f"({100 * js['gain_rel']:.1f} %).", ""]
     if d.pattern:
-        lines += ["Residual pattern of the baseline (held out):", ""] + [f"- {p}" for p in d.pattern] + [""]
+        which = "named model" if d.cause else "baseline"
+        lines += [f"Residual pattern of the {which} (held out):", ""] + [f"- {p}" for p in d.pattern] + [""]
     lines += [f"Baseline held-out residuals vs the stated uncertainties: chi^2 p = {d.noise_p_baseline:.3g}; best "
               f"candidate: p = {d.noise_p_best:.3g}.", ""]
     lines += ["## Held-out errors (over configurations, re-simulated)", ""]

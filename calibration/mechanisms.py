@@ -91,14 +91,14 @@ register(Mechanism(
     "Stacked disc springs (DIN 2093) stiffen with deflection when discs go flat or touch the guide; F = k u + "
     "k3 u^3 about the free length makes the tangent stiffness grow with the static deflection, most for the "
     "softest stacks, and the frequency grow with amplitude.",
-    genes=(Gene("progressive", 1e8, 1e14, log=True, unit="N/m^3"),),
+    genes=(Gene("progressive", 1e4, 1e14, log=True, unit="N/m^3"),),
     knobs=lambda p: {"progressive": p["progressive"]},
     signature="soft configurations stiffer than their nominal rate; frequency falling along a decay"))
 register(Mechanism(
     "series_compliance", "Compliance in series with the springs",
     "Shank, clamps and frame are not rigid: a stiffness ks in series gives the stack k ks/(k+ks), which lowers the "
     "stiff configurations most and compresses the range of frequencies a spring count can give.",
-    genes=(Gene("series_stiffness", 1e4, 1e8, log=True, unit="N/m"),),
+    genes=(Gene("series_stiffness", 1e3, 1e8, log=True, unit="N/m"),),
     knobs=lambda p: {"series_stiffness": p["series_stiffness"]},
     signature="stiff configurations softer than nominal; frequency ratio below sqrt of the stiffness ratio"))
 register(Mechanism(

@@ -24,6 +24,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import stats
 
 from warpdem import analysis
 
@@ -47,20 +48,148 @@ class SimOutput:
     """simulated covariates per case, e.g. the static deflection [m] (n_cases,)."""
     series: list[tuple[np.ndarray, np.ndarray]] | None = None
     """(time [s], signal [m]) per case, when asked for."""
-
-
-RINGING_UNCERTAINTY = {"frequency": 0.01, "damping": 0.10, "frequency_late": 0.02, "damping_late": 0.20}
-"""default relative 1-sigma uncertainties of the ringing observables: a strain-gauge or displacement record at
-2400 Hz gives the frequency of a 2-10 Hz decay to well below 1 %, but the spring stacks of one nominal rate scatter
-by a few % (stiffness, hence ~1 % in frequency); log decrements from a few cycles of a hand-hammered decay repeat to
-about 10 % (20 % from the second half of a decay alone)."""
+    failed: list[str] | None = None
+    """per case, why the extraction failed ("" where it did not), when the rig says."""
 
 
 KNOB_OFF = {"series_stiffness": math.inf, "load_mass_fraction": 1.0}
+"""the value of a knob that leaves a rig as it is, where it is not 0 (a case without the knob gets it)."""
 RIGID_SWEEP = (0.45, 0.55, 0.65, 0.75)
 """carriage speeds [m/s] of the rigid runs through which the soil-bin rig model fits the rigid draught's line against
 speed (for the rigid_speed knob), besides the measured speeds."""
-"""the value of a knob that leaves a rig as it is, where it is not 0 (a case without the knob gets it)."""
+
+
+RINGING_UNCERTAINTY = {"frequency": 0.01, "damping": 0.10, "frequency_late": 0.02, "damping_late": 0.20,
+                       "damping_exponent": 0.15, "frequency_exponent": 0.01}
+"""default 1-sigma uncertainties of the ringing observables. Relative: a strain-gauge or displacement record at
+2400 Hz gives the frequency of a 2-10 Hz decay to well below 1 %, but the spring stacks of one nominal rate scatter
+by a few % (stiffness, hence ~1 % in frequency); log decrements from a few cycles of a hand-hammered decay repeat to
+about 10 % (20 % from the second half of a decay alone). Absolute, for the within-record signatures (their values
+sit near 0): ``damping_exponent`` 0.15 and ``frequency_exponent`` 0.01, floors under each record's own standard
+error of the fit (:func:`decay_signatures`), which is added in quadrature."""
+RINGING_ABSOLUTE = frozenset({"damping_exponent", "frequency_exponent"})
+"""ringing observables whose stated uncertainty is absolute."""
+FAILED_DAMPING = 0.5
+"""a simulated record with fewer than two peaks of a free vibration (stuck or overdamped) has a damping ratio of at
+least about this: its damping residual is scored against it (one-sided), its other observables count as unknown."""
+
+
+def envelope_fit(times: np.ndarray, amps: np.ndarray) -> tuple[float, float, float, float]:
+    """The decay law of successive peak amplitudes: dA/dt = -lam A0^-p A^(1+p), i.e.
+    A(t) = A0 (1 + p lam t)^(-1/p) (p = -1: linear decay, dry friction; 0: exponential, viscous; +1: 1/t,
+    quadratic drag). Least squares on ln A. Returns (p, standard error of p, lam [1/s], A0)."""
+    from scipy.optimize import least_squares
+
+    t = np.asarray(times, float) - float(times[0])
+    la = np.log(np.asarray(amps, float))
+
+    def g(x: np.ndarray) -> np.ndarray:  # log1p(x) / x, 1 at x = 0
+        small = np.abs(x) < 1e-8
+        return np.where(small, 1.0 - 0.5 * x, np.log1p(np.where(small, 0.0, np.maximum(x, -1 + 1e-12)))
+                        / np.where(small, 1.0, x))
+
+    def res(q: np.ndarray) -> np.ndarray:
+        ln_a0, ln_lam, p = q
+        x = p * np.exp(ln_lam) * t
+        return ln_a0 - np.exp(ln_lam) * t * g(x) - la
+
+    lam0 = max((la[0] - la[-1]) / max(t[-1], 1e-9), 1e-6)
+    best = None
+    for p0 in (-0.8, 0.0, 0.8):
+        try:
+            r = least_squares(res, [la[0], math.log(lam0), p0], bounds=([-np.inf, -20, -3], [np.inf, 10, 3]))
+        except ValueError:
+            continue
+        if best is None or r.cost < best.cost:
+            best = r
+    if best is None or t.size < 4:
+        return math.nan, math.nan, math.nan, math.nan
+    dof = t.size - 3
+    s2 = 2 * best.cost / dof
+    try:
+        cov = np.linalg.inv(best.jac.T @ best.jac) * s2
+        se = float(math.sqrt(max(cov[2, 2], 0.0)))
+    except np.linalg.LinAlgError:
+        se = math.inf
+    return float(best.x[2]), se, float(math.exp(best.x[1])), float(math.exp(best.x[0]))
+
+
+def decay_signatures(fit: object) -> dict[str, float]:
+    """Within-record signatures of a decay from its successive maxima (a ``warpdem.analysis.RingDown``):
+
+    - ``damping_exponent`` p of the envelope law (:func:`envelope_fit`): how the damping per cycle changes with
+      amplitude, d ln(decrement) / d ln(amplitude): -1 dry friction, 0 viscous, +1 quadratic drag;
+    - ``frequency_exponent``: d ln(f) / d ln(amplitude) within the decay, from the periods between successive
+      maxima against their mean amplitude (> 0: a hardening spring; 0: linear);
+
+    each with its standard error (``*_se``). NaN with fewer than 4 maxima."""
+    out = {"damping_exponent": math.nan, "damping_exponent_se": math.nan, "frequency_exponent": math.nan,
+           "frequency_exponent_se": math.nan}
+    t, a = np.asarray(fit.peak_times, float), np.asarray(fit.peak_amplitudes, float)
+    ok = a > 0
+    t, a = t[ok], a[ok]
+    if t.size < 4:
+        return out
+    p, se, _, _ = envelope_fit(t, a)
+    out["damping_exponent"], out["damping_exponent_se"] = p, se
+    period, amp = np.diff(t), np.sqrt(a[:-1] * a[1:])
+    x, y = np.log(amp), np.log(period)
+    if np.ptp(x) > 0:
+        res = stats.linregress(x, y)
+        out["frequency_exponent"] = float(-res.slope)
+        out["frequency_exponent_se"] = float(res.stderr) if x.size > 2 else math.inf
+    return out
+
+
+def first_swing(t: np.ndarray, x: np.ndarray, fit: object) -> float:
+    """The first swing of a decay about its offset [units of x], signed: the largest deviation in the period before
+    the first maximum the fit used (a minimum before it is the first swing when the hit went the other way)."""
+    t0 = float(fit.peak_times[0])
+    sel = (t >= t0 - fit.period_s) & (t <= t0 + 1e-9)
+    d = np.asarray(x, float)[sel] - fit.offset
+    return float(d[np.argmax(np.abs(d))])
+
+
+def hit_velocity(amplitude: float, frequency: float, damping: float) -> float:
+    """The initial velocity [units of x / s] that gives a linear oscillator at rest its first swing ``amplitude``:
+    x = v0 / w_d e^(-zeta w_n t) sin(w_d t) peaks at w_d t1 = atan(sqrt(1 - zeta^2) / zeta)."""
+    z = min(max(damping, 0.0), 0.95) if math.isfinite(damping) else 0.0
+    wn = 2 * math.pi * frequency / math.sqrt(1 - z * z)
+    if z == 0:
+        return amplitude * wn
+    s = math.sqrt(1 - z * z)
+    return amplitude * wn * math.exp(z / s * math.atan2(s, z))
+
+
+def ringdown_observables(t: np.ndarray, x: np.ndarray, late: bool) -> dict[str, float]:
+    """Frequency [Hz] and damping ratio of a decay by eqs. (3)-(5) (``warpdem.analysis.ringdown``); with ``late``,
+    also of its second half (from a quarter period before its middle peak on): the amplitude dependence that
+    separates viscous damping (constant) from dry friction (rising) and a progressive spring (frequency falling),
+    the signatures of :func:`decay_signatures` and ``first_swing`` (signed, :func:`first_swing`).
+    NaN where a fit fails (an overdamped or stuck decay), with the reason in ``failed`` (else "")."""
+    out: dict[str, object] = {"frequency": math.nan, "damping": math.nan, "failed": ""}
+    if late:
+        out.update(frequency_late=math.nan, damping_late=math.nan, first_swing=math.nan,
+                   **{k: math.nan for k in ("damping_exponent", "damping_exponent_se", "frequency_exponent",
+                                            "frequency_exponent_se")})
+    try:
+        fit = analysis.ringdown(t, x)
+    except ValueError as e:
+        out["failed"] = str(e).split("\n")[0]
+        return out
+    out["frequency"], out["damping"] = fit.frequency_hz, fit.damping_ratio
+    if late:
+        out.update(decay_signatures(fit))
+        out["first_swing"] = first_swing(t, x, fit)
+        if fit.peak_times.size >= 5:
+            start = fit.peak_times[fit.peak_times.size // 2] - 0.25 * fit.period_s
+            sel = t >= start
+            try:
+                f2 = analysis.ringdown(t[sel], x[sel], offset=fit.offset)
+                out["frequency_late"], out["damping_late"] = f2.frequency_hz, f2.damping_ratio
+            except ValueError:
+                pass
+    return out
 
 
 def _stated(defaults: dict[str, float], given: dict[str, float] | None) -> dict[str, float]:
@@ -69,69 +198,70 @@ def _stated(defaults: dict[str, float], given: dict[str, float] | None) -> dict[
     for k, v in (given or {}).items():
         if k not in out:
             raise ValueError(f"uncertainty: unknown observable {k!r}; known {sorted(out)}")
-        if not v > 0:
-            raise ValueError(f"uncertainty {k!r} must be positive, got {v!r}")
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise ValueError(f"uncertainty {k!r} must be a finite positive number, got {v!r}")
         out[k] = float(v)
     return out
 
 
-def ringdown_observables(t: np.ndarray, x: np.ndarray, late: bool) -> dict[str, float]:
-    """Frequency [Hz] and damping ratio of a decay by eqs. (3)-(5) (``warpdem.analysis.ringdown``); with ``late``,
-    also of its second half (from a quarter period before its middle peak on): the amplitude dependence that
-    separates viscous damping (constant) from dry friction (rising) and a progressive spring (frequency falling).
-    NaN where a fit fails (an overdamped or stuck decay)."""
-    out = {"frequency": math.nan, "damping": math.nan}
-    if late:
-        out.update(frequency_late=math.nan, damping_late=math.nan)
-    try:
-        fit = analysis.ringdown(t, x)
-    except ValueError:
-        return out
-    out["frequency"], out["damping"] = fit.frequency_hz, fit.damping_ratio
-    if late and fit.peak_times.size >= 5:
-        start = fit.peak_times[fit.peak_times.size // 2] - 0.25 * fit.period_s
-        sel = t >= start
-        try:
-            f2 = analysis.ringdown(t[sel], x[sel], offset=fit.offset)
-            out["frequency_late"], out["damping_late"] = f2.frequency_hz, f2.damping_ratio
-        except ValueError:
-            pass
-    return out
+BASELINE_GENES = {
+    "dashpot": Gene("dashpot", 10.0, 3e4, log=True, unit="N s/m"),
+    "inertia_factor": Gene("inertia_factor", 0.25, 4.0, log=True, unit="-"),
+    "stiffness_scale": Gene("stiffness_scale", 0.5, 2.0, log=True, unit="-"),
+}
+"""the ringing baseline's first-order unknowns (fitted when the rig description marks them uncertain): the dashpot
+along the springs at the spring lever (one for all configurations), a factor on the rig's inertia about the pivot,
+a factor on every spring rate."""
+UNCERTAIN_GENE = {"damping": "dashpot", "inertia": "inertia_factor", "stiffness": "stiffness_scale"}
+FIRST_ORDER_MECHANISMS = {"inertia": ("extra_mass", "load_inertia")}
+"""mechanisms that only change what a fitted first-order unknown already covers (skipped when it is fitted)."""
 
 
 class RingingRigModel:
     """The ringing rig (``scenes.ringing``, linear spring model) against measured ringing data.
 
-    Configurations come from the summary's rows (``springs``, optional ``stiffness`` [N/m]: default DIN 2093 of
-    Table 2) or, without a summary, from the series' headers. With a displacement or force series for every
-    configuration, the observables are extracted from the series (frequency, damping and both over the second
-    half of the decay); otherwise they are the summary's ``frequency`` and ``damping``.
+    Configurations come from the summary's rows (``springs``, optional ``stiffness`` [N/m]: default the
+    description's rate or DIN 2093 of Table 2) or, without a summary, from the series' headers. With a
+    displacement or force series for every configuration, the observables are extracted from the series
+    (frequency, damping, both over the second half of the decay, and the within-record signatures
+    ``damping_exponent`` and ``frequency_exponent``, :func:`decay_signatures`), and each configuration is simulated
+    at its record's first swing (amplitude and sign; ``description.hit``); otherwise they are the summary's
+    ``frequency`` and ``damping``.
 
-    Baseline parameters: the dashpot c [N s/m] acting along the spring, one value for all configurations (fitted
-    unless given in ``fixed``). Knobs: pivot_friction [N m], extra_mass [kg], progressive [N/m^3],
-    series_stiffness [N/m], free_pose (0/1), load_mass_fraction [-], sensor_offset [m], sensor_drift [m/s] (on the
-    displacement record).
+    ``description`` (:mod:`calibration.rig_description`; default: the paper's rig) says what the rig is; warpdem's
+    rig is set up to behave like it (:func:`calibration.rig_description.equivalent`) and its readings are given in
+    the description's units (spring rates and dashpot at the spring lever, the sensor's displacement). Baseline
+    genes: those of :data:`BASELINE_GENES` that the description marks uncertain (``dashpot`` unless ``fixed``).
+    Knobs: pivot_friction [N m], extra_mass [kg], progressive [N/m^3], series_stiffness [N/m], free_pose (0/1),
+    load_mass_fraction [-], sensor_offset [m], sensor_drift [m/s] (on the displacement record); progressive and
+    series_stiffness act at the spring lever, like the rates.
     """
 
     rig = "ringing"
-    knobs = frozenset({"pivot_friction", "extra_mass", "progressive", "series_stiffness", "free_pose",
-                       "load_mass_fraction", "sensor_offset", "sensor_drift"})
-
-    units = {"frequency": "Hz", "damping": "-", "frequency_late": "Hz", "damping_late": "-"}
+    units = {"frequency": "Hz", "damping": "-", "frequency_late": "Hz", "damping_late": "-", "damping_exponent": "-",
+             "frequency_exponent": "-"}
 
     def __init__(self, measured: Measured, *, device: str | None = None, fixed: dict[str, float] | None = None,
                  ring_time: float | None = None, settle_time: float = 0.25, hit_amplitude: float = 0.5,
                  load_force: float | None = None, uncertainty: dict[str, float] | None = None,
-                 max_worlds: int = 2000) -> None:
+                 max_worlds: int = 2000, description: object | None = None) -> None:
         from scenes import paper
+
+        from . import rig_description as rd
 
         self.device = device
         self.fixed = dict(fixed or {})
         unknown = set(self.fixed) - {"dashpot"}
         if unknown:
             raise ValueError(f"fixed: unknown baseline parameters {sorted(unknown)}; the ringing rig has 'dashpot'")
+        if description is None:
+            description = rd.RingingRigDescription(load_force=float(load_force or paper.LOAD_FORCE))
+        elif load_force is not None:
+            raise ValueError("give load_force in the rig description, not beside it")
+        self.description = description
+        self.reference = rd.paper_rig()
         self.settle_time, self.hit_amplitude = float(settle_time), float(hit_amplitude)
-        self.load_force = float(load_force or paper.LOAD_FORCE)
+        self.load_force = float(description.load_force)
         self.max_worlds = int(max_worlds)
         s = measured.summary
         if "springs" in s:
@@ -145,17 +275,29 @@ class RingingRigModel:
         for n in springs:
             if n not in paper.SPRING_COUNTS:
                 raise ValueError(f"springs must be among {paper.SPRING_COUNTS}, got {n}")
-        stiffness = s.get("stiffness", np.array([paper.ringing_row(n)["stiffness_n_per_m"] for n in springs]))
+        rates = description.spring_rates
+        default = [rates.get(n, paper.ringing_row(n)["stiffness_n_per_m"]) for n in springs]
+        stiffness = s.get("stiffness", np.array(default, dtype=float))
         self.configs = [{"springs": n, "stiffness": float(k)} for n, k in zip(springs, stiffness, strict=True)]
         series = {int(x.config["springs"]): x for x in measured.series}
         self.has_series = bool(series) and all(n in series for n in springs)
+        unc = _stated(RINGING_UNCERTAINTY, uncertainty)
+        self.measured_failures: list[str] = []
+        self.swing = np.full(len(springs), np.nan)
         if self.has_series:
-            self.observables = ("frequency", "damping", "frequency_late", "damping_late")
-            rows = []
-            for n in springs:
+            self.observables = ("frequency", "damping", "frequency_late", "damping_late", "damping_exponent",
+                                "frequency_exponent")
+            rows, se = [], []
+            for j, n in enumerate(springs):
                 x = series[n]
-                rows.append([ringdown_observables(x.time, x.values, True)[k] for k in self.observables])
-            self.measured = np.array(rows)
+                obs = ringdown_observables(x.time, x.values, True)
+                if obs["failed"]:
+                    self.measured_failures.append(f"{n} springs: {obs['failed']}")
+                rows.append([obs[k] for k in self.observables])
+                se.append([obs.get(k + "_se", 0.0) for k in self.observables])
+                self.swing[j] = obs["first_swing"]
+            self.measured = np.array(rows, dtype=float)
+            self.measured_se = np.nan_to_num(np.array(se, dtype=float), nan=0.0, posinf=0.0)
             self.measured_series = [(series[n].time, series[n].values) for n in springs]
             duration = max(float(series[n].time[-1] - series[n].time[0]) for n in springs)
             self.ring_time = float(ring_time or duration)
@@ -166,33 +308,94 @@ class RingingRigModel:
                 raise ValueError(f"measured ringing data need series or summary columns {missing}")
             self.observables = ("frequency", "damping")
             self.measured = np.column_stack([s["frequency"], s["damping"]])
+            self.measured_se = np.zeros_like(self.measured)
             self.measured_series = None
             self.ring_time = float(ring_time or 2.0)
             self.sample_rate = paper.SAMPLE_RATE
-        unc = _stated(RINGING_UNCERTAINTY, uncertainty)
         self.uncertainty = {k: unc[k] for k in self.observables}
-        """relative 1-sigma uncertainty per observable."""
-        self.sigma = np.abs(self.measured) * np.array([unc[k] for k in self.observables])
-        self.genes = tuple(g for g in (Gene("dashpot", 10.0, 3e4, log=True, unit="N s/m"),)
-                           if g.name not in self.fixed)
+        """1-sigma uncertainty per observable: relative, absolute for RINGING_ABSOLUTE."""
+        stated = np.array([[unc[k] if k in RINGING_ABSOLUTE else abs(m) * unc[k]
+                            for k, m in zip(self.observables, row, strict=True)] for row in self.measured])
+        self.sigma = np.sqrt(stated**2 + self.measured_se**2)
+        wanted = [UNCERTAIN_GENE[u] for u in rd.UNCERTAIN if u in description.uncertain or u == "damping"]
+        genes = dict(BASELINE_GENES)
+        if description.tool_inertia or description.spring_lever or description.spring_rates:
+            genes["dashpot"] = self._dashpot_gene()
+        self.genes = tuple(genes[g] for g in wanted if g not in self.fixed)
+        self.knobs = frozenset({"pivot_friction", "progressive", "series_stiffness", "free_pose", "sensor_offset",
+                                "sensor_drift"}
+                               | ({"extra_mass"} if "inertia" not in description.uncertain else set())
+                               | ({"load_mass_fraction"} if description.load_mass_rides
+                                  and "inertia" not in description.uncertain else set()))
+        self.hit = self._hits()
         self._geometry: dict[str, float] | None = None
 
     @property
     def n_configs(self) -> int:
         return len(self.configs)
 
+    def _hits(self) -> np.ndarray | None:
+        """The sensor's initial velocity per configuration in warpdem's rig [m/s] (None: ``hit_amplitude``)."""
+        eq = self._equivalent(1.0)
+        hit = self.description.hit
+        if not isinstance(hit, str):
+            return np.full(self.n_configs, float(hit) / eq.reading_factor)
+        if not self.has_series:
+            return None
+        out = np.zeros(self.n_configs)
+        for j in range(self.n_configs):
+            f, z, a = self.measured[j, 0], self.measured[j, 1], self.swing[j]
+            if not (np.isfinite(f) and np.isfinite(a)) or a == 0:
+                return None  # a record without a decay: fall back to hit_amplitude for all
+            out[j] = hit_velocity(a, f, z) / eq.reading_factor
+        return out
+
+    def _dashpot_gene(self) -> Gene:
+        """The dashpot's range for a described rig: damping ratios 0.002 (stiffest configuration) to 0.5 (softest)
+        with the stated inertia, at the spring lever [N s/m]."""
+        eq = self._equivalent(1.0)
+        k_rot = np.array([c["stiffness"] for c in self.configs]) * eq.rate_factor * self.reference.lever**2
+        a2 = eq.rate_factor * self.reference.lever**2
+        lo = 2 * 0.002 * math.sqrt(k_rot.min() * eq.inertia) / a2
+        hi = 2 * 0.5 * math.sqrt(k_rot.max() * eq.inertia) / a2
+        return Gene("dashpot", float(f"{lo:.2g}"), float(f"{hi:.2g}"), log=True, unit="N s/m")
+
+    def _equivalent(self, inertia_factor: float) -> object:
+        from .rig_description import equivalent
+
+        return equivalent(self.description, inertia_factor, self.reference)
+
     def describe_config(self, j: int) -> str:
         c = self.configs[j]
         return f"{c['springs']} springs (k = {c['stiffness']:.3g} N/m)"
 
     def describe_uncertainty(self) -> dict[str, str]:
-        return {k: f"{100 * u:.3g} %" for k, u in self.uncertainty.items()}
+        return {k: (f"{u:.3g} (absolute, with each record's fit error)" if k in RINGING_ABSOLUTE
+                    else f"{100 * u:.3g} %") for k, u in self.uncertainty.items()}
+
+    def describe_fit(self, params: dict[str, float]) -> list[str]:
+        """The first-order adjustments of a fitted baseline, in words."""
+        out = []
+        if "inertia_factor" in params:
+            eq = self._equivalent(params["inertia_factor"])
+            out.append(f"your rig's effective inertia about the pivot is {params['inertia_factor']:.3g}x the stated "
+                       f"one ({eq.inertia:.4g} kg m^2)")
+        if "stiffness_scale" in params:
+            out.append(f"its springs act with {params['stiffness_scale']:.3g}x the stated rates")
+        if "stiffness_scale" in params and "inertia_factor" in params:
+            ratio = params["stiffness_scale"] / params["inertia_factor"]
+            out.append(f"ringing records fix the rates relative to the inertia, {ratio:.3g}x the stated ratio; only "
+                       "their ratio is determined (a measured static deflection would separate them)")
+        if "dashpot" in params:
+            out.append(f"a dashpot of {params['dashpot']:.4g} N s/m along the springs")
+        return out
 
     def settings(self) -> dict[str, object]:
         """What the simulations depend on besides the cases (a diagnosis checkpoint must match it)."""
         return {"fixed": self.fixed, "ring_time": self.ring_time, "settle_time": self.settle_time,
                 "hit_amplitude": self.hit_amplitude, "load_force": self.load_force, "sample_rate": self.sample_rate,
-                "max_worlds": self.max_worlds, "device": str(self.device)}
+                "max_worlds": self.max_worlds, "device": str(self.device),
+                "description": self.description.to_dict(), "hit": None if self.hit is None else self.hit.tolist()}
 
     def state(self) -> dict[str, object]:
         """Results a resumed diagnosis must not simulate again (none: every ringing result is the fitter's)."""
@@ -202,7 +405,7 @@ class RingingRigModel:
         """Take back :meth:`state`."""
 
     def _spring_force(self) -> float:
-        """The spring's static force under the load at the CAD pose [N] (tension positive)."""
+        """The spring's static force under the load at the pose of warpdem's rig [N] (tension positive)."""
         if self._geometry is None:
             from scenes.ringing import gravity_moment
             from scenes.sweep import build_sweep
@@ -210,15 +413,22 @@ class RingingRigModel:
             tool = build_sweep()
             lever = float(abs(tool.sensor_point[2] - tool.pivot[2]))
             load_point = np.asarray(tool.tip, dtype=np.float64)
-            self._geometry = {"force": gravity_moment(tool, self.load_force / 9.81, load_point) / lever}
+            eq = self._equivalent(1.0)
+            if eq.load_offset is not None:
+                forward = math.copysign(1.0, load_point[1] - tool.pivot[1])
+                load_point = tool.pivot + np.array([0.0, forward * eq.load_offset[0], -eq.load_offset[1]])
+            m_tool = gravity_moment(tool, 0.0, load_point)
+            moment = eq.tool_mass_scale * m_tool + gravity_moment(tool, eq.load_force / 9.81, load_point) - m_tool
+            self._geometry = {"force": moment / lever}
         return self._geometry["force"]
 
     def covariates(self) -> dict[str, np.ndarray]:
-        """Per configuration: spring count, nominal stiffness [N/m] and nominal static deflection |F| / k [m] (the
-        diagnosis replaces it with the one its fitted baseline simulates)."""
+        """Per configuration: spring count, stated stiffness [N/m] and nominal static deflection of the springs [m]
+        (the diagnosis replaces it with the one its fitted baseline simulates)."""
         k = np.array([c["stiffness"] for c in self.configs])
+        eq = self._equivalent(1.0)
         return {"springs": np.array([c["springs"] for c in self.configs], dtype=float), "stiffness": k,
-                "static_deflection": np.abs(self._spring_force()) / k}
+                "static_deflection": np.abs(self._spring_force()) / (k * eq.rate_factor) * math.sqrt(eq.rate_factor)}
 
     def simulate(self, cases: list[Case], keep_series: bool = False, progress: object | None = None) -> SimOutput:
         """Run every case as a world of batched ringing simulations (at most ``max_worlds`` per simulation)."""
@@ -226,32 +436,55 @@ class RingingRigModel:
 
         values = np.full((len(cases), len(self.observables)), np.nan)
         static = np.full(len(cases), np.nan)
+        failed = [""] * len(cases)
         series: list[tuple[np.ndarray, np.ndarray]] = []
         for start in range(0, len(cases), self.max_worlds):
             chunk = cases[start:start + self.max_worlds]
             params = [{**self.fixed, **c.params} for c in chunk]
+            eqs = [self._equivalent(p.get("inertia_factor", 1.0)) for p in params]
+            rate = eqs[0].rate_factor
             fields: dict[str, object] = {}
-            for knob in ("pivot_friction", "extra_mass", "progressive", "series_stiffness", "free_pose",
-                         "load_mass_fraction"):
+            if any(e.tool_mass_scale != 1.0 for e in eqs):
+                fields["tool_mass_scale"] = tuple(e.tool_mass_scale for e in eqs)
+            if not self.description.load_mass_rides:
+                fields["load_mass_fraction"] = (0.0,) * len(chunk)
+            elif any("load_mass_fraction" in p for p in params) or any(e.load_mass_fraction != 1.0 for e in eqs):
+                fields["load_mass_fraction"] = tuple(e.load_mass_fraction * float(p.get("load_mass_fraction", 1.0))
+                                                     for e, p in zip(eqs, params, strict=True))
+            scale = {"series_stiffness": rate, "progressive": rate * rate}
+            for knob in ("pivot_friction", "extra_mass", "progressive", "series_stiffness", "free_pose"):
                 if any(knob in p for p in params):
-                    fields[knob] = tuple(float(p.get(knob, KNOB_OFF.get(knob, 0.0))) for p in params)
+                    fields[knob] = tuple(float(p.get(knob, KNOB_OFF.get(knob, 0.0))) * scale.get(knob, 1.0)
+                                         for p in params)
+            if self.hit is not None:
+                fields["hit_velocity"] = tuple(float(self.hit[c.config]) for c in chunk)
             cfg = RingingConfig(
                 springs=tuple(self.configs[c.config]["springs"] for c in chunk), spring_model="linear",
-                load_force=self.load_force, stiffness=tuple(self.configs[c.config]["stiffness"] for c in chunk),
-                dashpot=tuple(float(p["dashpot"]) for p in params), settle_time=self.settle_time,
+                load_force=eqs[0].load_force,
+                stiffness=tuple(self.configs[c.config]["stiffness"] * p.get("stiffness_scale", 1.0) * rate
+                                for c, p in zip(chunk, params, strict=True)), load_offset=eqs[0].load_offset,
+                dashpot=tuple(float(p["dashpot"]) * rate for p in params), settle_time=self.settle_time,
                 ring_time=self.ring_time, hit_amplitude=self.hit_amplitude, sample_rate=self.sample_rate, **fields)
             done, size = start, len(chunk)
             res = run_ringing(cfg, device=self.device,
                               progress=(lambda d, n, what, s0=done, m=size: progress(s0 + m * d / n, len(cases), what))
                               if progress else None)
+            reading = eqs[0].reading_factor
             for w, p in enumerate(params):
-                x = res.displacement[:, w] + p.get("sensor_offset", 0.0) + p.get("sensor_drift", 0.0) * res.time
+                x = (res.displacement[:, w] * reading + p.get("sensor_offset", 0.0)
+                     + p.get("sensor_drift", 0.0) * res.time)
                 obs = ringdown_observables(res.time, x, self.has_series)
                 values[start + w] = [obs[k] for k in self.observables]
-                static[start + w] = abs(res.spring_deflection[w])
+                failed[start + w] = obs["failed"]
+                static[start + w] = abs(res.spring_deflection[w]) * math.sqrt(rate)
                 if keep_series:
                     series.append((res.time.copy(), x.copy()))
-        return SimOutput(values, {"static_deflection": static}, series if keep_series else None)
+        return SimOutput(values, {"static_deflection": static}, series if keep_series else None, failed)
+
+    def failure_bound(self) -> np.ndarray:
+        """Per observable, the value a failed simulated extraction is scored against (one-sided: the simulation is
+        at least this), NaN where a failure tells nothing about the observable (it counts as unknown)."""
+        return np.array([FAILED_DAMPING if k == "damping" else math.nan for k in self.observables])
 
 
 SOIL_BIN_UNCERTAINTY = {"reduction": 2.0, "displacement_mean": 2e-4, "displacement_trend": 1e-4,

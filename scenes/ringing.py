@@ -35,7 +35,7 @@ from .sweep import SweepTool, add_sweep, build_sweep
 
 SPRING_MODELS = ("paper", "linear", "twin")
 PER_WORLD = ("spring_young", "local_damping", "stiffness", "damping_ratio", "dashpot", "pivot_friction", "extra_mass",
-             "progressive", "series_stiffness", "free_pose", "load_mass_fraction")
+             "progressive", "series_stiffness", "free_pose", "load_mass_fraction", "tool_mass_scale", "hit_velocity")
 """RingingConfig fields holding one value per world."""
 LINEAR_ONLY = ("dashpot", "progressive", "series_stiffness", "free_pose")
 PIN_STIFFNESS = 1e8
@@ -81,9 +81,19 @@ class RingingConfig:
     then acts with k ks / (k + ks) (the frame taken massless; the dashpot acts across both; with a progressive
     stack, on the linear part only)."""
     load_mass_fraction: tuple[float, ...] | None = None
-    """fraction of the load's mass (F/g) that rides with the tool, in (0, 1] (default 1: a dead weight); the rest
+    """fraction of the load's mass (F/g) that rides with the tool, in [0, 1] (default 1: a dead weight); the rest
     of the load force acts without mass (a cable, lever or spring balance applying it), so the tool swings with
-    less inertia under the same moment."""
+    less inertia under the same moment. 0 (no load body at all) must hold for every world or for none."""
+    tool_mass_scale: tuple[float, ...] | None = None
+    """factor on the tool's mass and inertia tensor (> 0; default 1): a rig whose tool is lighter or heavier than
+    the sweep, its mass distributed like the sweep's."""
+    load_offset: tuple[float, float] | None = None
+    """where the load acts, from the pivot [m]: (forward along the blade tip's side, below); default the blade
+    tip. The load's gravity stiffness is F x below, its moment F x forward, its riding mass's inertia
+    m (forward^2 + below^2)."""
+    hit_velocity: tuple[float, ...] | None = None
+    """the sensor point's velocity along y given by the hit [m/s], per world, either sign (default: from
+    ``hit_amplitude``); a swing of first amplitude A at angular frequency w needs about A w."""
     free_pose: tuple[float, ...] | None = None
     """model "linear": 1 = the spring is unloaded at the CAD pose and the tool settles under the load into its
     deflected pose (lever arms and the spring's line change with it); 0 = preloaded so that the CAD pose is the
@@ -94,7 +104,7 @@ class RingingConfig:
     """sensor swing of the hit as a fraction of the static spring deflection (< 1 keeps spring spheres touching)."""
     sample_rate: float = paper.SAMPLE_RATE
     dt: float | None = None
-    """time step [s]; default 0.5 x the critical step."""
+    """time step [s]; default 0.5 x the critical step, at most half the sampling interval."""
 
     def __post_init__(self) -> None:
         if self.spring_model not in SPRING_MODELS:
@@ -105,6 +115,11 @@ class RingingConfig:
         for name in ("load_force", "settle_time", "ring_time", "hit_amplitude", "sample_rate"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
+        if self.load_offset is not None:
+            off = tuple(float(v) for v in self.load_offset)
+            if len(off) != 2 or not all(math.isfinite(v) for v in off):
+                raise ValueError(f"load_offset must be (forward, below) [m], got {self.load_offset!r}")
+            self.load_offset = off
         for name in PER_WORLD:
             values = getattr(self, name)
             if values is None:
@@ -119,7 +134,7 @@ class RingingConfig:
                 if getattr(self, name) is not None:
                     raise ValueError(f"{name} applies to spring_model 'linear' only")
         if self.spring_model == "twin":
-            for name in ("pivot_friction", "extra_mass", "load_mass_fraction"):
+            for name in ("pivot_friction", "extra_mass", "load_mass_fraction", "tool_mass_scale"):
                 if getattr(self, name) is not None:
                     raise ValueError(f"{name} is not a setting of spring_model 'twin' (its pivot is a ball with "
                                      "friction, its load a sphere)")
@@ -140,11 +155,17 @@ class RingingConfig:
 
 def check_per_world(name: str, values: tuple[float, ...]) -> None:
     """Check per-world values of a rig setting (ringing and soil bin): series_stiffness > 0 (inf: rigid),
-    load_mass_fraction in (0, 1], stiffness finite and > 0, anything else finite and >= 0."""
+    load_mass_fraction in [0, 1] (0 in every world or none), stiffness and tool_mass_scale finite and > 0,
+    hit_velocity finite and non-zero, anything else finite and >= 0."""
     if name == "series_stiffness":
         ok, rule = all(v > 0 and not math.isnan(v) for v in values), "positive (inf: rigid)"
     elif name == "load_mass_fraction":
-        ok, rule = all(0 < v <= 1 for v in values), "in (0, 1]"
+        ok, rule = all(0 <= v <= 1 for v in values) and (all(v > 0 for v in values) or not any(values)), \
+            "in [0, 1], 0 for every world or for none"
+    elif name == "tool_mass_scale":
+        ok, rule = all(math.isfinite(v) and v > 0 for v in values), "finite and positive"
+    elif name == "hit_velocity":
+        ok, rule = all(math.isfinite(v) and v != 0 for v in values), "finite and non-zero"
     elif name == "stiffness":
         ok, rule = all(math.isfinite(v) and v > 0 for v in values), "finite and positive"
     else:
@@ -178,15 +199,19 @@ class RingingRig:
     info: dict[str, object] = field(default_factory=dict)
 
 
-def rig_inertia(tool: SweepTool, load_mass: float, load_point: np.ndarray) -> float:
-    """Moment of inertia of tool + load (a point mass) about the pivot axis x [kg m^2]."""
+def rig_inertia(tool: SweepTool, load_mass: float, load_point: np.ndarray, tool_mass_scale: float = 1.0) -> float:
+    """Moment of inertia of tool (its mass and inertia times ``tool_mass_scale``) + load (a point mass) about the
+    pivot axis x [kg m^2]."""
     r = load_point - tool.pivot
-    return float(tool.inertia_about(tool.pivot)[0, 0] + load_mass * (r[1] ** 2 + r[2] ** 2))
+    return float(tool_mass_scale * tool.inertia_about(tool.pivot)[0, 0] + load_mass * (r[1] ** 2 + r[2] ** 2))
 
 
-def gravity_stiffness(tool: SweepTool, load_mass: float, load_point: np.ndarray, g: float = 9.81) -> float:
-    """Rotational stiffness of gravity about the pivot [N m/rad]: -m g z for the tool and the hanging load."""
-    return float(-tool.mass * g * (tool.com[2] - tool.pivot[2]) - load_mass * g * (load_point[2] - tool.pivot[2]))
+def gravity_stiffness(tool: SweepTool, load_mass: float, load_point: np.ndarray, g: float = 9.81,
+                      tool_mass_scale: float = 1.0) -> float:
+    """Rotational stiffness of gravity about the pivot [N m/rad]: -m g z for the tool and the hanging load (a
+    constant vertical load force acts like the weight of load_mass = F / g)."""
+    return float(-tool_mass_scale * tool.mass * g * (tool.com[2] - tool.pivot[2])
+                 - load_mass * g * (load_point[2] - tool.pivot[2]))
 
 
 def gravity_moment(tool: SweepTool, load_mass: float, load_point: np.ndarray, g: float = 9.81) -> float:
@@ -197,7 +222,7 @@ def gravity_moment(tool: SweepTool, load_mass: float, load_point: np.ndarray, g:
 
 
 def analytic_frequency(rig: RingingRig, stiffness: float, damping: float,
-                       load_mass_fraction: float = 1.0) -> tuple[float, float]:
+                       load_mass_fraction: float = 1.0, tool_mass_scale: float = 1.0) -> tuple[float, float]:
     """Damped frequency [Hz] and damping ratio of the linear-spring rig (small oscillations about equilibrium).
 
     I theta'' + c a^2 theta' + (k a^2 + K_g) theta = 0 with I the inertia of tool and the load's riding mass
@@ -206,8 +231,9 @@ def analytic_frequency(rig: RingingRig, stiffness: float, damping: float,
     a weight). Neglected: the preload's geometric stiffness (F0 * 0.02 m < 0.2 % of k a^2) and the pin's compliance.
     """
     m_load = rig.config.load_force / 9.81
-    inertia = rig_inertia(rig.tool, load_mass_fraction * m_load, rig.load_point)
-    k_rot = stiffness * rig.lever**2 + gravity_stiffness(rig.tool, m_load, rig.load_point)
+    inertia = rig_inertia(rig.tool, load_mass_fraction * m_load, rig.load_point, tool_mass_scale)
+    k_rot = stiffness * rig.lever**2 + gravity_stiffness(rig.tool, m_load, rig.load_point,
+                                                         tool_mass_scale=tool_mass_scale)
     wn = math.sqrt(k_rot / inertia)
     zeta = damping * rig.lever**2 / (2.0 * math.sqrt(k_rot * inertia))
     if zeta >= 1.0:
@@ -227,16 +253,26 @@ def build_ringing(config: RingingConfig | None = None, tool: SweepTool | None = 
     add_sweep(b, tool, "tool", mount="hinged", group="tool")
     m_load = cfg.load_force / 9.81
     load_point = np.asarray(tool.tip, dtype=np.float64)
+    if cfg.load_offset is not None:
+        forward = math.copysign(1.0, load_point[1] - tool.pivot[1])
+        load_point = tool.pivot + np.array([0.0, forward * cfg.load_offset[0], -cfg.load_offset[1]])
     r_load = paper.LOAD_RADIUS
-    b.add_rigid_body(load_point, mass=m_load, inertia=np.eye(3) * 0.4 * m_load * r_load**2, blocked="xXYZ",
-                     group="load", name="load")
-    b.add_spring("pin", b.body_names["sweep_lower"], load_point, b.body_names["load"], load_point,
-                 stiffness=PIN_STIFFNESS, damping=2.0 * PIN_DAMPING_RATIO * math.sqrt(PIN_STIFFNESS * m_load),
-                 rest_length=0.0)
+    massless = cfg.load_mass_fraction is not None and not any(cfg.load_mass_fraction)
+    if not massless:
+        b.add_rigid_body(load_point, mass=m_load, inertia=np.eye(3) * 0.4 * m_load * r_load**2, blocked="xXYZ",
+                         group="load", name="load")
+        b.add_spring("pin", b.body_names["sweep_lower"], load_point, b.body_names["load"], load_point,
+                     stiffness=PIN_STIFFNESS, damping=2.0 * PIN_DAMPING_RATIO * math.sqrt(PIN_STIFFNESS * m_load),
+                     rest_length=0.0)
     s = np.asarray(tool.sensor_point, dtype=np.float64)
     lever = float(abs(s[2] - tool.pivot[2]))
     overrides: dict[str, object] = {}
-    if cfg.load_mass_fraction is not None:
+    if massless:  # the whole load force without mass, on the tool itself
+        below = load_point - (0.0, 0.0, LOAD_ANCHOR)
+        anchor = b.add_rigid_body(below, name="load_anchor")
+        b.add_spring("load_force", anchor, below, b.body_names["sweep_lower"], load_point, stiffness=0.0)
+        overrides["spring:load_force:preload"] = np.full(len(cfg.springs), cfg.load_force)
+    elif cfg.load_mass_fraction is not None:
         # part of the load as mass on the pin, the rest a massless constant force (zero-rate spring, preloaded)
         frac = cfg.per_world("load_mass_fraction", 1.0)
         below = load_point - (0.0, 0.0, LOAD_ANCHOR)
@@ -248,8 +284,9 @@ def build_ringing(config: RingingConfig | None = None, tool: SweepTool | None = 
     if cfg.pivot_friction is not None:
         overrides["body:sweep_lower:pivot_friction"] = cfg.per_world("pivot_friction", 0.0)
     extra = cfg.per_world("extra_mass", 0.0)
-    if cfg.extra_mass is not None:
-        overrides["body:sweep_lower:mass"] = tool.mass + extra
+    scale = cfg.per_world("tool_mass_scale", 1.0)
+    if cfg.extra_mass is not None or cfg.tool_mass_scale is not None:
+        overrides["body:sweep_lower:mass"] = scale * tool.mass + extra
     info: dict[str, object] = {"load_mass_kg": m_load, "rows": rows}
     if cfg.spring_model == "paper":
         sp = paper.SPRING_SPHERE
@@ -264,11 +301,15 @@ def build_ringing(config: RingingConfig | None = None, tool: SweepTool | None = 
         overrides["damping:springs"] = cfg.per_world("local_damping", "dem_local_damping")
     else:
         length = 0.1
+        # the spring acts straight below the pivot at the sensor's height: its preload then has no lever along y
+        # and its line does not turn with a small swing (at the sensor point itself, 18 mm behind the pivot, the
+        # ~100 N preload would add ~-2 N m/rad)
+        s = np.array([s[0], tool.pivot[1], s[2]])
         carriage = b.add_rigid_body(s - (0.0, length, 0.0), name="carriage")
         # the spring's force at the CAD pose (tension positive): the static equilibrium under the load and the
         # tool's weight (with any extra mass), or nothing for a free pose
         m_tool = gravity_moment(tool, 0.0, load_point)
-        force = ((1.0 + extra / tool.mass) * m_tool + gravity_moment(tool, m_load, load_point) - m_tool) / lever
+        force = ((scale + extra / tool.mass) * m_tool + gravity_moment(tool, m_load, load_point) - m_tool) / lever
         force = force * (1.0 - cfg.per_world("free_pose", 0.0))
         k_s = cfg.per_world("series_stiffness", math.inf)
         k_eff = series_rate(stiffness, k_s)
@@ -280,8 +321,10 @@ def build_ringing(config: RingingConfig | None = None, tool: SweepTool | None = 
             damping = cfg.per_world("dashpot", 0.0)
         else:
             zeta = cfg.per_world("damping_ratio", "measured_damping")
-            inertia = rig_inertia(tool, m_load, load_point)
-            k_rot = stiffness * lever**2 + gravity_stiffness(tool, m_load, load_point)
+            frac = cfg.per_world("load_mass_fraction", 1.0)
+            inertia = np.array([rig_inertia(tool, f * m_load, load_point, m) for f, m in zip(frac, scale, strict=True)])
+            k_rot = stiffness * lever**2 + np.array([gravity_stiffness(tool, m_load, load_point, tool_mass_scale=m)
+                                                     for m in scale])
             damping = 2.0 * np.asarray(zeta) * np.sqrt(k_rot * inertia) / lever**2
         overrides["spring:spring:stiffness"] = k_eff
         overrides["spring:spring:damping"] = damping
@@ -358,7 +401,7 @@ def run_ringing(config: RingingConfig | None = None, *, device: str | None = Non
         return _run_twin(cfg, device, progress)
     rig = build_ringing(cfg, tool)
     model, state = rig.builder.finalize(device, n_worlds=len(cfg.springs), overrides=rig.overrides)
-    dt = cfg.dt or 0.5 * wd.critical_timestep(model)
+    dt = cfg.dt or min(0.5 * wd.critical_timestep(model), 0.5 / cfg.sample_rate)  # at least two steps a sample
     sim = wd.Simulation(model, state, dt=dt)
     t0 = time.perf_counter()
     sensor = wd.observers.body_point("sweep_lower", rig.tool.sensor_point)
@@ -382,15 +425,17 @@ def run_ringing(config: RingingConfig | None = None, *, device: str | None = Non
     else:
         deflection = np.abs(static)
     omega0 = cfg.hit_amplitude * deflection * 2 * np.pi * f_guess / rig.lever
-    # the load rides with the tool: it gets the velocity of its pin, omega x (pin - pivot)
-    load = np.arange(model.n_worlds) * model.bodies_per_world + model.names["body"]["load"]
     angvel, vel, pos = state.body_angvel.numpy().copy(), state.body_vel.numpy().copy(), state.body_pos.numpy()
     angvel[body] = 0.0
     angvel[body, 0] = -omega0  # backwards, like a hammer blow on the blade's front
+    if cfg.hit_velocity is not None:  # the sensor below the pivot moves along y at angvel_x * lever
+        angvel[body, 0] = cfg.per_world("hit_velocity", 0.0) / rig.lever
     pivot = pos[body] + np.einsum("nij,nj->ni", quats_to_matrices(state.body_quat.numpy()[body]),
                                   model.host["body_pivot"][body])
     vel[body] = np.cross(angvel[body], pos[body] - pivot)
-    vel[load] = np.cross(angvel[body], pos[load] - pivot)
+    if "load" in model.names["body"]:  # the load rides with the tool: the velocity of its pin, omega x (pin - pivot)
+        load = np.arange(model.n_worlds) * model.bodies_per_world + model.names["body"]["load"]
+        vel[load] = np.cross(angvel[body], pos[load] - pivot)
     state.body_angvel.assign(angvel)
     state.body_vel.assign(vel)
     every = max(1, int(round(1.0 / (cfg.sample_rate * dt))))
@@ -410,9 +455,10 @@ def run_ringing(config: RingingConfig | None = None, *, device: str | None = Non
             pass  # too few peaks (overdamped): left as NaN and reported
     analytic: dict[str, np.ndarray] = {}
     if cfg.spring_model == "linear":
-        pairs = [analytic_frequency(rig, float(k), float(c), float(f))
-                 for k, c, f in zip(rig.stiffness, rig.info["dashpot_n_s_per_m"],
-                                    cfg.per_world("load_mass_fraction", 1.0), strict=True)]
+        pairs = [analytic_frequency(rig, float(k), float(c), float(f), float(m))
+                 for k, c, f, m in zip(series_rate(rig.stiffness, cfg.per_world("series_stiffness", math.inf)),
+                                       rig.info["dashpot_n_s_per_m"], cfg.per_world("load_mass_fraction", 1.0),
+                                       cfg.per_world("tool_mass_scale", 1.0), strict=True)]
         analytic = {"freq_hz": np.array([p[0] for p in pairs]), "damping": np.array([p[1] for p in pairs])}
     spring = static + rig.info["spring_stretch_m"] if cfg.spring_model == "linear" else static
     return RingingResult(tuple(cfg.springs), cfg.spring_model, t, disp, freq, zeta, static, spring, dt, wall,

@@ -49,6 +49,8 @@ SCALES = {
     "ci": {"bin": (0.5, 0.65, 0.45), "bed_depth": 0.2, "radius": 0.02, "travel": 0.3, "steady_travel": 0.15},
     "cpu": {"bin": (0.7, 1.1, 0.45), "bed_depth": 0.22, "radius": 0.015, "travel": 0.75, "steady_travel": 0.45},
     "paper": {"bin": (1.0, 2.0, 0.5), "bed_depth": 0.25, "radius": 0.007, "travel": 1.6, "steady_travel": 0.5},
+    # the paper's members and bed depth in a shorter, narrower bin: small enough for a Yade twin on a CPU
+    "strip": {"bin": (0.6, 0.75, 0.45), "bed_depth": 0.25, "radius": 0.007, "travel": 0.45, "steady_travel": 0.2},
 }
 SPRING_MODELS = ("linear", "paper")
 KNOBS = ("stiffness", "dashpot", "pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",

@@ -10,7 +10,8 @@
     warpdem calibrate draught --assembly C [--scale ci|cpu|paper] [--speed 0.62] [--screen-scale ci|cpu|paper]
                       (both: [--generations 5] [--population 20] [--parents 7] [--seed 0] [--device] [--out DIR]
                        [--gene NAME=LOW:HIGH] [--archive FILE] [--no-resume] [--ray-workers N] [--ray-address A])
-    warpdem diagnose MEASURED --rig ringing|soil-bin [--params FILE] [--mechanisms a,b] [--uncertainty k=v,...]
+    warpdem diagnose MEASURED --rig ringing|soil-bin [--rig-file rig.toml] [--params FILE] [--mechanisms a,b]
+                     [--uncertainty k=v,...]
                       [--rounds N] [--batch-worlds N] [--no-resume] [--device] [--out DIR]
                       (MEASURED: a summary CSV, a folder with summary.csv/series, paper:ringing or paper:soil-bin)
 
@@ -342,7 +343,18 @@ def run_diagnose_cmd(args: argparse.Namespace) -> int:
         else measured.load(args.measured)
     params: dict[str, object] = json.loads(Path(args.params).read_text()) if args.params else {}
     fixed = params.pop("fixed", {})
-    rig = make_rig_model(args.rig, data, device=device, fixed=fixed, uncertainty=args.uncertainty, **params)
+    from calibration import rig_description
+
+    desc = rig_description.load(args.rig_file) if args.rig_file else \
+        rig_description.find_description(args.measured) if Path(args.measured).is_dir() else None
+    if desc is not None:
+        if args.rig != "ringing":
+            raise ValueError(f"a rig description ({desc.source}) is for --rig ringing, got --rig {args.rig}")
+        print(f"rig description: {desc.source}")
+    rig = make_rig_model(args.rig, data, device=device, fixed=fixed, uncertainty=args.uncertainty, **params,
+                         **({"description": desc} if desc is not None else {}))
+    if desc is not None:
+        params["description"] = desc.to_dict()
     settings = diagnosis.DiagnosisSettings(rounds=args.rounds, alpha=args.alpha, min_gain=args.min_gain,
                                            mechanisms=tuple(args.mechanisms.split(",")) if args.mechanisms else None,
                                            batch_worlds=args.batch_worlds)
@@ -438,6 +450,9 @@ def main(argv: list[str] | None = None) -> int:
     q.add_argument("--params", default=None, help="JSON: rig settings (ringing: load_force, ring_time, ...; "
                                                   "soil-bin: scale, assembly, travel, cache_dir, ...) and 'fixed': "
                                                   "baseline parameters not to fit (e.g. dashpot)")
+    q.add_argument("--rig-file", default=None,
+                   help="ringing: the rig's description (TOML/JSON: inertia, lever arms, load, spring rates, what "
+                        "is uncertain; calibration.rig_description); default rig.toml or rig.json in MEASURED")
     q.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
     q.add_argument("--out", default="results/diagnose", help="results folder")
     q.add_argument("--mechanisms", default=None, help="comma-separated candidates (default: all that apply)")

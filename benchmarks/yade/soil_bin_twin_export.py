@@ -4,6 +4,7 @@ Run from the repository root (the project's Python, warpdem installed):
 
     python benchmarks/yade/soil_bin_twin_export.py A      # -> benchmarks/yade/soil_bin_twin_spec_A.npz
     python benchmarks/yade/soil_bin_twin_export.py C      # -> benchmarks/yade/soil_bin_twin_spec_C.npz
+    python benchmarks/yade/soil_bin_twin_export.py C --scale strip   # -> ..._spec_C_strip.npz (paper's members)
 
 The scene is built exactly as ``scenes.soil_bin.run_soil_bin`` builds it for
 ``SoilBinConfig(scale="ci", assembly=X, springs=(0,), parameter_set=11, speed=(0.62,))`` (same functions, same
@@ -72,13 +73,18 @@ COHESION_NOTE = (
 )
 
 
-def config_for(assembly: str) -> sb.SoilBinConfig:
-    return sb.SoilBinConfig(scale="ci", assembly=assembly, springs=(0,), parameter_set=PARAMETER_SET, speed=(SPEED,))
+def config_for(assembly: str, scale: str = "ci") -> sb.SoilBinConfig:
+    return sb.SoilBinConfig(scale=scale, assembly=assembly, springs=(0,), parameter_set=PARAMETER_SET, speed=(SPEED,))
 
 
-def build(assembly: str, device: str = "cpu") -> dict:
+def spec_name(assembly: str, scale: str = "ci") -> str:
+    """The spec's file name: ``soil_bin_twin_spec_C.npz`` at ci scale, ``soil_bin_twin_spec_C_strip.npz`` else."""
+    return f"soil_bin_twin_spec_{assembly}{'' if scale == 'ci' else '_' + scale}.npz"
+
+
+def build(assembly: str, device: str = "cpu", scale: str = "ci") -> dict:
     """The scene exactly as run_soil_bin builds it; returns config, bed, tool, keep, model, state, sim, dt."""
-    config = config_for(assembly)
+    config = config_for(assembly, scale)
     t0 = time.perf_counter()
     bed = sb.bed_for(config, device=device, cache_dir=ROOT / "results" / "beds",
                      progress=lambda phase, t, ke: print(f"  deposit {phase} t={t:.2f} s KE/particle={ke:.2e} J",
@@ -127,9 +133,9 @@ def yade_clump_rule(centres: np.ndarray, radii: np.ndarray, rho: float) -> tuple
     return float(m.sum()), com, np.sort(np.linalg.eigvalsh(it))
 
 
-def export(assembly: str) -> Path:
+def export(assembly: str, scale: str = "ci") -> Path:
     t0 = time.perf_counter()
-    s = build(assembly)
+    s = build(assembly, scale=scale)
     model, sim, config, tool, bed = s["model"], s["sim"], s["config"], s["tool"], s["bed"]
     h = model.host
     soil_group = model.names["group"]["soil"]
@@ -203,7 +209,7 @@ def export(assembly: str) -> Path:
     data.update(material_keys("tool", tool_m, model, mats["tool"]))
     # the builder's tool material must be the one described here
     assert abs(data["tool_young_f32"] - tool_m.young) < 1e-3 * tool_m.young
-    out = HERE / f"soil_bin_twin_spec_{assembly}.npz"
+    out = HERE / spec_name(assembly, scale)
     np.savez_compressed(out, **data)
     print(f"  {assembly}: {n_part} particles, {len(radius)} spheres, {int((n_members > 1).sum())} clumps, "
           f"dt = {s['dt']:.6e} s, record every {s['every']} steps, {s['stop']} steps; bed {s['t_bed']:.1f} s; "
@@ -212,5 +218,8 @@ def export(assembly: str) -> Path:
 
 
 if __name__ == "__main__":
-    for a in sys.argv[1:] or ["A"]:
-        export(a.upper())
+    argv = sys.argv[1:]
+    scale = argv[argv.index("--scale") + 1] if "--scale" in argv else "ci"
+    names = [a for k, a in enumerate(argv) if not a.startswith("--") and (k == 0 or argv[k - 1] != "--scale")]
+    for a in names or ["A"]:
+        export(a.upper(), scale)
