@@ -4,8 +4,8 @@ direct shear box and ranked by its distance to the laboratory's cohesion and int
 Distance: ``(dc / c_lab)^2 + (dphi / phi_lab)^2`` against the laboratory test at 3.96 % moisture (6.4 kPa, 32.3
 deg; the soil bin's moisture), the metric :func:`scenes.shear_box.closest_ga_set` uses on the paper's Tables 4-6.
 All sets run as the worlds of one batched shear-box simulation (one world per set and normal stress). Cohesion is
-set on the contacts present at the start of shear and not on new ones, as in the soil bin the sets were calibrated
-in (a shear box and the soil-bin run it screens must agree on this; see ``scenes.shear_box``).
+set on the contacts present at the start of shear and not on new ones, the rule of both soil rigs
+(``scenes.paper.COHESION_ON_NEW_CONTACTS``).
 """
 
 from __future__ import annotations
@@ -36,7 +36,6 @@ def screen(sets: Sequence[dict[str, float]], assembly: str = "C", scale: str = "
     """
     if not sets:
         raise ValueError("no parameter sets to screen")
-    changes = {"cohesion_on_new_contacts": False, **changes}
     configs = [preset(scale, assembly, friction_angle=float(s["friction_angle"]),
                       normal_cohesion=float(s["normal_cohesion"]), shear_cohesion=0.5 * float(s["normal_cohesion"]),
                       eta_roll=float(s["eta_roll"]), eta_twist=float(s["eta_roll"]), label=f"set {k + 1}", **changes)

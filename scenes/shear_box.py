@@ -36,11 +36,10 @@ Rig (boxes and plate are triangle meshes; both faces of a facet are active):
   mean forces balance to 0.2 % and the contacts' friction alone dissipates;
 - cohesion model: the paper does not say whether cohesion was given to new contacts (Yade's
   setCohesionOnNewContacts) nor whether bonds were fragile, so both are options. Defaults: ``fragile=True`` (Yade's
-  CohFrictMat default: a bond breaks for good at its strength) and ``cohesion_on_new_contacts=True`` (a moist
-  soil's capillary bridges form on every new contact). A soil bin run and the shear box that evaluates its
-  parameter set should use the same choice; the soil bin's default is still the other one
-  (``SoilBinConfig.cohesion_on_new_contacts=False``: bonds on the bed's initial contacts only), and at paper scale
-  the choice moves the rigid draught by 10 % (docs/fidelity.md). It matters: at the ``ci`` scale GA set 1's bonds
+  CohFrictMat default: a bond breaks for good at its strength) and ``cohesion_on_new_contacts=False``, the rule of
+  both soil rigs (``scenes.paper.COHESION_ON_NEW_CONTACTS``, chosen by the evidence in docs/fidelity.md: closer to
+  the paper's own shear-box friction angles over its 15 GA sets; at paper scale the other rule adds 10 % to the
+  soil bin's rigid draught). It matters: at the ``ci`` scale GA set 1's bonds
   (Cs min(R)^2 ~ 0.5 N, below the ~1-2 N contact forces) give c ~ 1 kPa when fragile (they break within the first
   millimetre, long before the frictional peak) and ~3 kPa when not (the paper's DEM: 7 kPa); the cohesionless sample
   gives c ~ 0.1-0.5 kPa, and phi ~ 41 deg in all three;
@@ -182,8 +181,9 @@ class ShearBoxConfig:
     moment_law: bool = True
     fragile: bool = True
     """a bond breaks for good at its strength (Yade's default) or yields plastically."""
-    cohesion_on_new_contacts: bool = True
-    """contacts made during the test also get cohesion (Yade's setCohesionOnNewContacts; module docstring)."""
+    cohesion_on_new_contacts: bool = paper.COHESION_ON_NEW_CONTACTS
+    """contacts made during the test also get cohesion (Yade's setCohesionOnNewContacts; module docstring); default
+    the soil bin's rule, bonds on the contacts at the start of shear only."""
     young: float = paper.SOIL_YOUNG
     poisson: float = paper.SOIL_POISSON
     density: float = paper.SOIL_DENSITY

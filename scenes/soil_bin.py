@@ -105,10 +105,10 @@ class SoilBinConfig:
     started from it without settling is not at rest (docs/fidelity.md)."""
     member_radius: float | None = None
     """radius of the assembly's member spheres [m] (default: the scale's; the paper does not print its sizes)."""
-    cohesion_on_new_contacts: bool = False
-    """False: cohesion on the contacts of the first step only (the bed's, Yade's setCohesionNow); True: also on
-    every contact made during the run (Yade's setCohesionOnNewContacts, the shear box's default). The paper does
-    not say which."""
+    cohesion_on_new_contacts: bool = paper.COHESION_ON_NEW_CONTACTS
+    """False (default, both soil rigs' rule: ``scenes.paper.COHESION_ON_NEW_CONTACTS``): cohesion on the contacts of
+    the first step only (the bed's, Yade's setCohesionNow); True: also on every contact made during the run (Yade's
+    setCohesionOnNewContacts)."""
 
     def __post_init__(self) -> None:
         if self.scale not in SCALES:

@@ -37,7 +37,7 @@ from calibration.rig_description import RingingRigDescription, equivalent, load
 from calibration.rig_models import RingingRigModel
 
 SPRINGS = (4, 12, 20, 32)
-RATES = {n: 8000.0 * 4 / n for n in SPRINGS}  # N/m: 9 ... 3 Hz on this rig
+RATES = {n: 8000.0 * 4 / n for n in (4, 8, 12, 16, 20, 24, 28, 32)}  # N/m: 9 ... 3 Hz on this rig
 J, A, S = 0.30, 0.35, 0.50  # kg m^2 about the pivot, spring lever, sensor lever [m]
 LOAD, ARM, DEPTH = 60.0, 0.20, 0.30  # N (a cable: no mass), horizontal arm [m], depth below the pivot [m]
 TOOL_M, COM = 4.0, (0.02, 0.10)  # the tool's mass [kg] and centre of mass (forward, below the pivot) [m]
@@ -46,17 +46,18 @@ RATE = 2400.0
 UNCERTAINTY = {"frequency": 0.015, "damping": 0.05}
 
 
-def hinged_beam_records(effect: dict[str, float], seed: int, ring_time: float = 1.5) -> Measured:
+def hinged_beam_records(effect: dict[str, float], seed: int, ring_time: float = 1.5,
+                        springs: tuple[int, ...] = SPRINGS) -> Measured:
     """The independent model's records (module docstring), one per configuration."""
     rng = np.random.default_rng(seed)
-    k = np.array([RATES[n] for n in SPRINGS]) * (1.0 + 0.01 * rng.standard_normal(len(SPRINGS)))
+    k = np.array([RATES[n] for n in springs]) * (1.0 + 0.01 * rng.standard_normal(len(springs)))
     ks = effect.get("series_stiffness", math.inf)
     k_lin = k * ks / (k + ks) if math.isfinite(ks) else k
     k3 = effect.get("progressive", 0.0)
     u0 = np.array([_static((LOAD * ARM + TOOL_M * 9.81 * COM[0]) / A, kk, k3) for kk in k_lin])
     k_grav = LOAD * DEPTH + TOOL_M * 9.81 * COM[1]
     c, tf, b = DASHPOT, effect.get("pivot_friction", 0.0), effect.get("drag", 0.0)
-    v0 = 0.06 * np.where(np.arange(len(SPRINGS)) % 2 == 0, 1.0, -1.0)  # sensor velocity of the hit [m/s]
+    v0 = 0.06 * np.where(np.arange(len(springs)) % 2 == 0, 1.0, -1.0)  # sensor velocity of the hit [m/s]
     om0 = v0 / S
     eps = 1e-3 * np.abs(om0)
 
@@ -68,8 +69,8 @@ def hinged_beam_records(effect: dict[str, float], seed: int, ring_time: float = 
     sub = 8
     dt = 1.0 / (RATE * sub)
     n = int(round(ring_time * RATE))
-    th, om = np.zeros(len(SPRINGS)), om0.copy()
-    out = np.empty((n, len(SPRINGS)))
+    th, om = np.zeros(len(springs)), om0.copy()
+    out = np.empty((n, len(springs)))
     for i in range(n):
         out[i] = th
         for _ in range(sub):
@@ -81,11 +82,11 @@ def hinged_beam_records(effect: dict[str, float], seed: int, ring_time: float = 
             om = om + dt / 6 * (k1o + 2 * k2o + 2 * k3o + k4o)
     rest = int(0.1 * RATE)
     series = []
-    for w, nspr in enumerate(SPRINGS):
+    for w, nspr in enumerate(springs):
         x = np.r_[np.zeros(rest), S * out[:, w]]
         x = x + 2e-4 + 0.005 * np.abs(x).max() * rng.standard_normal(x.size)
         series.append(Series({"springs": float(nspr)}, "displacement", np.arange(x.size) / RATE, x, f"beam:{nspr}"))
-    return Measured({"springs": np.array(SPRINGS, float)}, {"springs": "-"}, series, "hinged beam (test)")
+    return Measured({"springs": np.array(springs, float)}, {"springs": "-"}, series, "hinged beam (test)")
 
 
 def _static(force: float, k: float, k3: float) -> float:
@@ -93,12 +94,12 @@ def _static(force: float, k: float, k3: float) -> float:
     return float(np.real(roots[np.argmin(np.abs(np.imag(roots)))]))
 
 
-def description(**kw: object) -> RingingRigDescription:
+def description(springs: tuple[int, ...] = SPRINGS, **kw: object) -> RingingRigDescription:
     """What the user writes: the inertia stated 40 % high, the rates 10 % low, both marked uncertain."""
     return RingingRigDescription(tool_inertia=1.4 * J, tool_mass=TOOL_M, tool_com=COM, spring_lever=A, sensor_lever=S,
                                  load_force=LOAD, load_arm=ARM,
                                  load_depth=DEPTH, load_mass_rides=False,
-                                 spring_rates={n: 0.9 * RATES[n] for n in SPRINGS},
+                                 spring_rates={n: 0.9 * RATES[n] for n in springs},
                                  uncertain=("inertia", "stiffness", "damping"), **kw)
 
 
@@ -157,7 +158,7 @@ def test_hidden_effect_in_a_foreign_rig_is_named(effect: str, truth: dict[str, f
     base = d.baseline.params_all()
     assert base["stiffness_scale"] / base["inertia_factor"] > 1.2, base
     assert any("effective inertia" in line for line in d.adjustments)
-    assert d.verification["gain_rel"] > 0.5
+    assert d.verification["gain_rel"] > diagnosis.DiagnosisSettings().min_gain  # re-simulated, held out
 
 
 def test_clean_foreign_rig_gets_no_cause_and_its_first_order_factors() -> None:
