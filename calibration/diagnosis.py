@@ -78,7 +78,7 @@ class DiagnosisSettings:
 
     rounds: int = 6
     """one grid round, then Levenberg-Marquardt rounds."""
-    first_grid: dict[int, int] = field(default_factory=lambda: {0: 1, 1: 9, 2: 6, 3: 4, 4: 3})
+    first_grid: dict[int, int] = field(default_factory=lambda: {0: 1, 1: 9, 2: 6, 3: 6, 4: 3})
     """grid points per gene in the first round, by the number of genes."""
     fd_step: float = 0.003
     """forward-difference step in unit coordinates (0.3 % of a linear range; 1 % in value per 1.5 decades)."""
@@ -599,6 +599,12 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
     return diag
 
 
+def _missing(observables: tuple[str, ...], values: np.ndarray) -> str:
+    """Why a simulation gave no value for some observables ("" when it gave all)."""
+    gone = [o for o, v in zip(observables, values, strict=True) if np.isnan(v)]
+    return f"the simulation gave no value for {', '.join(gone)}" if gone else ""
+
+
 def _describe(rig: object, j: int) -> str:
     return rig.describe_config(j) if hasattr(rig, "describe_config") else f"configuration {j}"
 
@@ -643,7 +649,8 @@ def verify(rig: object, diag: Diagnosis, log: Callable[[str], None] = lambda s: 
             "heldout_mae": _nanmean(np.abs(err)),
             "series": [out.series[i] for i in sel_all] if out.series else None,
             "static_deflection": out.covariates.get("static_deflection", np.full(len(cases), np.nan))[sel_all],
-            "failed": [out.failed[i] for i in sel] if out.failed else [],
+            "failed": [out.failed[i] for i in sel] if out.failed else [_missing(diag.observables, out.values[i])
+                                                                        for i in sel],
         }
     if diag.cause:
         b, e = res["baseline"], res[names[1]]

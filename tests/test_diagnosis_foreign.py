@@ -181,3 +181,29 @@ def test_effect_outside_the_registry_is_unexplained() -> None:
     d = run({"drag": 30.0}, seed=4)
     assert d.verdict == "unexplained residual", (d.verdict, d.cause, d.steps, d.ranking)
     assert d.pattern
+
+
+def test_rig_toml_next_to_the_data_is_used_by_the_command(tmp_path: pytest.TempPathFactory) -> None:
+    # `warpdem diagnose FOLDER` picks up FOLDER/rig.toml: the run's config records the description and the
+    # baseline fits what it marks uncertain (the inertia factor, which the default description does not fit), the
+    # report saying so. A short fit (two rounds, one mechanism): the plumbing, not the physics (tests above).
+    import json
+
+    from calibration.synthetic import _write
+    from warpdem.cli import main
+
+    _write(tmp_path / "m", hinged_beam_records({}, seed=2))
+    d = description()
+    (tmp_path / "m" / "rig.toml").write_text(
+        f"tool_inertia = {d.tool_inertia}\ntool_mass = {TOOL_M}\ntool_com = [{COM[0]}, {COM[1]}]\n"
+        f"spring_lever = {A}\nsensor_lever = {S}\nload_force = {LOAD}\nload_arm = {ARM}\nload_depth = {DEPTH}\n"
+        "load_mass_rides = false\nuncertain = ['inertia', 'stiffness', 'damping']\n[spring_rates]\n"
+        + "".join(f"{n} = {k}\n" for n, k in d.spring_rates.items()))
+    out = tmp_path / "d"
+    assert main(["diagnose", str(tmp_path / "m"), "--rig", "ringing", "--device", DEVICE, "--out", str(out),
+                 "--rounds", "2", "--mechanisms", "pivot_friction",
+                 "--uncertainty", "frequency=0.015,damping=0.05"]) == 0
+    js = json.loads((out / "diagnosis.json").read_text())
+    cfg = json.loads((out / "config.json").read_text())
+    assert cfg["params"]["description"]["tool_inertia"] == pytest.approx(1.4 * J)
+    assert any("effective inertia" in line for line in js["baseline_adjustments"])

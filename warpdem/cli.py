@@ -367,7 +367,7 @@ def run_diagnose_cmd(args: argparse.Namespace) -> int:
                   settings={"rounds": args.rounds, "alpha": args.alpha, "min_gain": args.min_gain,
                             "mechanisms": args.mechanisms, "uncertainty": args.uncertainty})
     d = diagnosis.diagnose(rig, settings, log=lambda m: print(m, flush=True), checkpoint=checkpoint)
-    report = diagnosis_report.write(d, out, command="warpdem " + " ".join(sys.argv[1:]))
+    report = diagnosis_report.write(d, out, command="warpdem " + " ".join(args.argv))
     print(f"verdict: {d.verdict}{': ' + ' + '.join(d.cause) if d.cause else ''}; report in {report}")
     return 0
 
@@ -466,6 +466,7 @@ def main(argv: list[str] | None = None) -> int:
                    help="at most N worlds per batched simulation, the checkpoint saved after each (0: one per round)")
     q.add_argument("--no-resume", action="store_true", help="start afresh even if --out holds a checkpoint")
     args = parser.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)
     commands = {"diagnose": run_diagnose_cmd, "demo": run_demo, "reproduce": run_reproduce, "ringing": run_ringing_cmd,
                 "soil-bin": run_soil_bin_cmd,
                 "speed-sweep": run_speed_sweep_cmd, "shear-box": run_shear_box_cmd, "calibrate": run_calibrate_cmd}
