@@ -207,3 +207,17 @@ def test_rig_toml_next_to_the_data_is_used_by_the_command(tmp_path: pytest.TempP
     cfg = json.loads((out / "config.json").read_text())
     assert cfg["params"]["description"]["tool_inertia"] == pytest.approx(1.4 * J)
     assert any("effective inertia" in line for line in js["baseline_adjustments"])
+
+
+@pytest.mark.parametrize(("law", "p"), [("linear", -1.0), ("exponential", 0.0), ("hyperbolic", 1.0)])
+def test_envelope_law_of_closed_form_decays(law: str, p: float) -> None:
+    # the envelope exponent of peak amplitudes that follow each law exactly (closed forms of a Coulomb, a viscous and
+    # a quadratic-drag decay: A0 (1 - lam t), A0 e^(-lam t), A0 / (1 + lam t)), with 1 % noise on every peak: the
+    # fitted exponent within 3 of its standard errors, and the standard error small enough to tell the laws apart
+    from calibration.rig_models import envelope_fit
+
+    t = np.arange(12) * 0.2
+    a = {"linear": 1 - 0.35 * t, "exponential": np.exp(-0.6 * t), "hyperbolic": 1 / (1 + 1.5 * t)}[law]  # to ~1/4
+    a = a * (1 + 0.01 * np.random.default_rng(0).standard_normal(t.size))
+    got, se, _, _ = envelope_fit(t, a)
+    assert abs(got - p) < 3 * se and se < 0.1, (got, se)
