@@ -46,6 +46,8 @@ from pathlib import Path
 
 import numpy as np
 
+from warpdem.errors import InputError
+
 UNCERTAIN = ("inertia", "stiffness", "damping")
 """first-order unknowns a baseline may fit: ``inertia`` (a factor on the rig's inertia about the pivot),
 ``stiffness`` (a factor on every spring rate), ``damping`` (one dashpot for all configurations)."""
@@ -53,7 +55,7 @@ FILES = ("rig.toml", "rig.json")
 """the names under which :func:`find_description` looks for a description next to measured data."""
 
 
-class DescriptionError(ValueError):
+class DescriptionError(InputError):
     """A rig description with a bad or unknown entry (the message names it, its value and what is allowed)."""
 
 

@@ -221,3 +221,18 @@ def test_envelope_law_of_closed_form_decays(law: str, p: float) -> None:
     a = a * (1 + 0.01 * np.random.default_rng(0).standard_normal(t.size))
     got, se, _, _ = envelope_fit(t, a)
     assert abs(got - p) < 3 * se and se < 0.1, (got, se)
+
+
+def test_a_bad_rig_file_ends_the_command_with_one_line(tmp_path: pytest.TempPathFactory,
+                                                       capsys: pytest.CaptureFixture) -> None:
+    from calibration.synthetic import _write
+    from warpdem.cli import main
+
+    _write(tmp_path / "m", hinged_beam_records({}, seed=2, ring_time=0.3))
+    (tmp_path / "m" / "rig.toml").write_text("spring_lever = -0.3\n")
+    assert main(["diagnose", str(tmp_path / "m"), "--rig", "ringing", "--device", DEVICE,
+                 "--out", str(tmp_path / "d")]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert err.strip().splitlines()[-1] == \
+        "warpdem diagnose: error: rig description: spring_lever must be a positive number [SI], got -0.3", err

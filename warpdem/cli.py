@@ -34,6 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InputError
+
 
 def _progress(label: str) -> object:
     """A progress callback ``show(done, total)`` drawing a bar labelled ``label``."""
@@ -470,7 +472,11 @@ def main(argv: list[str] | None = None) -> int:
     commands = {"diagnose": run_diagnose_cmd, "demo": run_demo, "reproduce": run_reproduce, "ringing": run_ringing_cmd,
                 "soil-bin": run_soil_bin_cmd,
                 "speed-sweep": run_speed_sweep_cmd, "shear-box": run_shear_box_cmd, "calibrate": run_calibrate_cmd}
-    return commands[args.command](args)
+    try:
+        return commands[args.command](args)
+    except InputError as e:  # a user's bad input: one line naming it, no traceback; internal errors keep theirs
+        print(f"warpdem {args.command}: error: {e}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":
