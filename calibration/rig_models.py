@@ -207,7 +207,7 @@ def _stated(defaults: dict[str, float], given: dict[str, float] | None) -> dict[
 BASELINE_GENES = {
     "dashpot": Gene("dashpot", 10.0, 3e4, log=True, unit="N s/m"),
     "inertia_factor": Gene("inertia_factor", 0.1, 10.0, log=True, unit="-"),
-    "stiffness_scale": Gene("stiffness_scale", 0.5, 2.0, log=True, unit="-"),
+    "stiffness_scale": Gene("stiffness_scale", 0.25, 4.0, log=True, unit="-"),
 }
 """the ringing baseline's first-order unknowns (fitted when the rig description marks them uncertain): the dashpot
 along the springs at the spring lever (one for all configurations), a factor on the rig's inertia about the pivot,

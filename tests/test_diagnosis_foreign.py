@@ -156,7 +156,7 @@ def test_hidden_effect_in_a_foreign_rig_is_named(effect: str, truth: dict[str, f
     # (1 / 0.9) / (1 / 1.4) = 1.56x the stated ratio (only the ratio is determined by ringing records); a hidden
     # effect pulls on it, so only its direction is asserted
     base = d.baseline.params_all()
-    assert base["stiffness_scale"] / base["inertia_factor"] > 1.2, base
+    assert base["stiffness_scale"] / base["inertia_factor"] > 1.0, base
     assert any("effective inertia" in line for line in d.adjustments)
     assert d.verification["gain_rel"] > diagnosis.DiagnosisSettings().min_gain  # re-simulated, held out
 
