@@ -351,7 +351,7 @@ def run_diagnose_cmd(args: argparse.Namespace) -> int:
         rig_description.find_description(args.measured) if Path(args.measured).is_dir() else None
     if desc is not None:
         if args.rig != "ringing":
-            raise ValueError(f"a rig description ({desc.source}) is for --rig ringing, got --rig {args.rig}")
+            raise InputError(f"a rig description ({desc.source}) is for --rig ringing, got --rig {args.rig}")
         print(f"rig description: {desc.source}")
     rig = make_rig_model(args.rig, data, device=device, fixed=fixed, uncertainty=args.uncertainty, **params,
                          **({"description": desc} if desc is not None else {}))
