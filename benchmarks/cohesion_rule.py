@@ -15,16 +15,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
-# benchmarks/calibration.py would shadow the calibration package: import from the repository root
-sys.path = [str(Path(__file__).resolve().parents[1])] + [p for p in sys.path
-                                                        if Path(p or ".").resolve() != Path(__file__).resolve().parent]
-
-import numpy as np  # noqa: E402
-import warp as wp  # noqa: E402
+import numpy as np
+import warp as wp
 
 wp.config.quiet = True
 

@@ -213,8 +213,6 @@ BASELINE_GENES = {
 along the springs at the spring lever (one for all configurations), a factor on the rig's inertia about the pivot,
 a factor on every spring rate."""
 UNCERTAIN_GENE = {"damping": "dashpot", "inertia": "inertia_factor", "stiffness": "stiffness_scale"}
-FIRST_ORDER_MECHANISMS = {"inertia": ("extra_mass", "load_inertia")}
-"""mechanisms that only change what a fitted first-order unknown already covers (skipped when it is fitted)."""
 
 
 class RingingRigModel:
@@ -322,6 +320,8 @@ class RingingRigModel:
         if description.tool_inertia or description.spring_lever or description.spring_rates:
             genes["dashpot"] = self._dashpot_gene()
         self.genes = tuple(genes[g] for g in wanted if g not in self.fixed)
+        # with the inertia fitted, the knobs that only change the inertia (extra_mass, load_mass_fraction: the
+        # mechanisms extra_mass and load_inertia) would duplicate a baseline gene: the rig does not offer them
         self.knobs = frozenset({"pivot_friction", "progressive", "series_stiffness", "free_pose", "sensor_offset",
                                 "sensor_drift"}
                                | ({"extra_mass"} if "inertia" not in description.uncertain else set())
@@ -407,16 +407,13 @@ class RingingRigModel:
     def _spring_force(self) -> float:
         """The spring's static force under the load at the pose of warpdem's rig [N] (tension positive)."""
         if self._geometry is None:
-            from scenes.ringing import gravity_moment
+            from scenes.ringing import gravity_moment, load_point_on
             from scenes.sweep import build_sweep
 
             tool = build_sweep()
             lever = float(abs(tool.sensor_point[2] - tool.pivot[2]))
-            load_point = np.asarray(tool.tip, dtype=np.float64)
             eq = self._equivalent(1.0)
-            if eq.load_offset is not None:
-                forward = math.copysign(1.0, load_point[1] - tool.pivot[1])
-                load_point = tool.pivot + np.array([0.0, forward * eq.load_offset[0], -eq.load_offset[1]])
+            load_point = load_point_on(tool, eq.load_offset)
             m_tool = gravity_moment(tool, 0.0, load_point)
             moment = eq.tool_mass_scale * m_tool + gravity_moment(tool, eq.load_force / 9.81, load_point) - m_tool
             self._geometry = {"force": moment / lever}

@@ -199,6 +199,16 @@ class RingingRig:
     info: dict[str, object] = field(default_factory=dict)
 
 
+def load_point_on(tool: SweepTool, load_offset: tuple[float, float] | None = None) -> np.ndarray:
+    """Where the load acts [m] (3,): the blade tip, or ``load_offset`` = (forward on the tip's side, below) from the
+    pivot."""
+    tip = np.asarray(tool.tip, dtype=np.float64)
+    if load_offset is None:
+        return tip
+    forward = math.copysign(1.0, tip[1] - tool.pivot[1])
+    return tool.pivot + np.array([0.0, forward * load_offset[0], -load_offset[1]])
+
+
 def rig_inertia(tool: SweepTool, load_mass: float, load_point: np.ndarray, tool_mass_scale: float = 1.0) -> float:
     """Moment of inertia of tool (its mass and inertia times ``tool_mass_scale``) + load (a point mass) about the
     pivot axis x [kg m^2]."""
@@ -252,10 +262,7 @@ def build_ringing(config: RingingConfig | None = None, tool: SweepTool | None = 
                                        friction_angle=paper.TOOL_FRICTION))
     add_sweep(b, tool, "tool", mount="hinged", group="tool")
     m_load = cfg.load_force / 9.81
-    load_point = np.asarray(tool.tip, dtype=np.float64)
-    if cfg.load_offset is not None:
-        forward = math.copysign(1.0, load_point[1] - tool.pivot[1])
-        load_point = tool.pivot + np.array([0.0, forward * cfg.load_offset[0], -cfg.load_offset[1]])
+    load_point = load_point_on(tool, cfg.load_offset)
     r_load = paper.LOAD_RADIUS
     massless = cfg.load_mass_fraction is not None and not any(cfg.load_mass_fraction)
     if not massless:

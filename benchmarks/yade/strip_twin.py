@@ -34,22 +34,16 @@ wp.config.quiet = True
 
 from scenes import soil_bin as sb  # noqa: E402
 from scenes.assemblies import Bed  # noqa: E402
-from warpdem import analysis  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 sys.path.insert(0, str(HERE))
 import soil_bin_twin_export as ex  # noqa: E402
+from soil_bin_twin_compare import load, shifts, steady  # noqa: E402
 
-EPS = 1e-9
 FIRST_FULL = 10
 """the record (every 72 steps) of Yade's first contact count with --full-every 10: 720 steps."""
 ASSEMBLY, SCALE = "C", "strip"
-
-
-def load(path: Path) -> dict[str, np.ndarray]:
-    with np.load(path) as f:
-        return {k: f[k] for k in f.files}
 
 
 def run(device: str, seeds: list[int], out: Path) -> None:
@@ -63,8 +57,7 @@ def run(device: str, seeds: list[int], out: Path) -> None:
         bed = bed0
         if k:
             centres = bed.centres.copy()
-            shift = np.random.RandomState(k).uniform(-EPS, EPS, (int(spec["n_particles"]), 3))
-            centres[spec["sphere_bed_index"]] += shift[spec["sphere_particle"]]
+            centres[spec["sphere_bed_index"]] += shifts(spec, k)[spec["sphere_particle"]]
             bed = Bed(bed.spec, bed.bin_size, bed.depth, centres, bed.radii, bed.particle, bed.porosity,
                       bed.coordination, bed.seed, bed.wall_s)
         t0 = time.perf_counter()
@@ -77,11 +70,6 @@ def run(device: str, seeds: list[int], out: Path) -> None:
                             coordination=r.series["coordination"][:, 0], wall_s=wall, device=device, seed=k)
         print(f"seed {k}: {r.steady[0]['draught_mean']:.1f} +- {r.steady[0]['draught_sem']:.1f} N, {wall:.0f} s",
               flush=True)
-
-
-def steady(t: np.ndarray, x: np.ndarray, spec: dict) -> analysis.SteadyState:
-    trav = np.minimum(t * float(spec["speed"]), float(spec["travel"]))
-    return analysis.steady_state(t, x, trav, start_travel=float(spec["steady_travel"]))
 
 
 def compare(folder: Path, report: Path) -> str:

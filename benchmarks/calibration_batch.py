@@ -1,7 +1,7 @@
 """Calibration throughput: one GA population evaluated as one batched simulation vs one individual at a time.
 
-    python benchmarks/calibration.py --device cpu  --problems ringing-linear draught-ci --population 20
-    python benchmarks/calibration.py --device cuda --problems ringing-paper draught-cpu --population 20
+    python benchmarks/calibration_batch.py --device cpu  --problems ringing-linear draught-ci --population 20
+    python benchmarks/calibration_batch.py --device cuda --problems ringing-paper draught-cpu --population 20
 
 Problems (their full rigs, as ``warpdem calibrate`` runs them):
 
