@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import logging
 import os
 import time
 import warnings
@@ -34,6 +35,12 @@ import numpy as np
 
 from .archive import Archive, Record, write_json_atomic
 from .genes import GASettings
+
+_QUIET = logging.getLogger("warpdem.pygad")
+_QUIET.addHandler(logging.NullHandler())
+_QUIET.propagate = False
+"""PyGAD's logger: PyGAD logs an exception's traceback before it re-raises it; warpdem reports it once, itself (a
+budget stop is no error at all)."""
 
 STATE_FILE, ARCHIVE_FILE, META_FILE, HISTORY_FILE = "ga_state", "archive.json", "calibration.json", "history.json"
 
@@ -147,7 +154,7 @@ class _Calibration:
                             fitness_func=self.fitness_func, fitness_batch_size=s.population,
                             parent_selection_type=s.parent_selection, keep_parents=s.keep_parents,
                             keep_elitism=s.keep_elitism, crossover_type=s.crossover, mutation_type=s.mutation,
-                            mutation_percent_genes=s.mutation_percent_genes, random_seed=s.seed,
+                            mutation_percent_genes=s.mutation_percent_genes, random_seed=s.seed, logger=_QUIET,
                             on_generation=self.on_generation, suppress_warnings=True, **s.extra)
 
     def on_start(self, ga) -> None:  # noqa: ANN001

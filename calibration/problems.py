@@ -174,6 +174,7 @@ class DraughtProblem:
         speed: carriage speed [m/s] (the paper's 0.62). target_n: default :func:`draught_target`.
         genes: gene ranges to replace, name -> (low, high) (see :data:`DRAUGHT_GENES`).
         travel, steady_travel: [m], default the scale's; the mean draught is taken after ``steady_travel``.
+        settle_time: [s] the bed settles under each individual's soil set before the tool moves (SoilBinConfig).
         seed: the bed's deposition seed. cache_dir: where deposited beds are kept (None: not kept).
         device: Warp device of the simulations.
     """
@@ -186,6 +187,7 @@ class DraughtProblem:
     travel: float | None = None
     steady_travel: float | None = None
     working_depth: float = paper.WORKING_DEPTH
+    settle_time: float = 0.0
     seed: int = 0
     cache_dir: str | None = None
     device: str | None = None
@@ -206,7 +208,8 @@ class DraughtProblem:
         self._bed = None
         self.config = SoilBinConfig(scale=self.scale, assembly=self.assembly, springs=(0,), speed=(self.speed,),
                                     working_depth=self.working_depth, travel=self.travel,
-                                    steady_travel=self.steady_travel, seed=self.seed)
+                                    steady_travel=self.steady_travel, seed=self.seed,
+                                    settle_time=self.settle_time)
 
     def __getstate__(self) -> dict[str, object]:  # the bed is re-read or re-deposited by a remote worker
         return {**self.__dict__, "_bed": None}
@@ -220,7 +223,8 @@ class DraughtProblem:
         p = self.config.preset
         return {"rig": "soil_bin_rigid", "assembly": self.assembly, "scale": self.scale, "speed": self.speed,
                 "working_depth": self.working_depth, "travel": self.travel or p["travel"],
-                "steady_travel": self.steady_travel or p["steady_travel"], "seed": self.seed}
+                "steady_travel": self.steady_travel or p["steady_travel"], "seed": self.seed,
+                **({"settle_time": self.settle_time} if self.settle_time else {})}
 
     def spec(self) -> dict[str, object]:
         return {**self.simulation_key(), "targets": self.targets, "genes": [asdict(g) for g in self.gene_list]}

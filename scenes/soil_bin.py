@@ -33,6 +33,7 @@ import numpy as np
 
 import warpdem as wd
 from warpdem import analysis
+from warpdem.errors import BudgetExhausted
 
 from . import paper
 from .assemblies import AssemblySpec, Bed, bin_mesh, deposit
@@ -49,6 +50,8 @@ SCALES = {
     "ci": {"bin": (0.5, 0.65, 0.45), "bed_depth": 0.2, "radius": 0.02, "travel": 0.3, "steady_travel": 0.15},
     "cpu": {"bin": (0.7, 1.1, 0.45), "bed_depth": 0.22, "radius": 0.015, "travel": 0.75, "steady_travel": 0.45},
     "paper": {"bin": (1.0, 2.0, 0.5), "bed_depth": 0.25, "radius": 0.007, "travel": 1.6, "steady_travel": 0.5},
+    # the paper's first, 1 m long bin (its calibration and Table 7's 1 m columns) at the paper scale's members
+    "paper_1m": {"bin": (1.0, 1.0, 0.5), "bed_depth": 0.25, "radius": 0.007, "travel": 0.65, "steady_travel": 0.3},
     # the paper's members and bed depth in a shorter, narrower bin: small enough for a Yade twin on a CPU
     "strip": {"bin": (0.6, 0.75, 0.45), "bed_depth": 0.25, "radius": 0.007, "travel": 0.45, "steady_travel": 0.2},
 }
@@ -288,6 +291,16 @@ def _check_knobs(knobs: dict[str, object] | None, n_worlds: int, rigid: bool, sp
     return out
 
 
+def dashpot_for(tool: SweepTool, stiffness: np.ndarray, damping_ratio: np.ndarray) -> np.ndarray:
+    """The linear spring's dashpot [N s/m] (n,) that gives the hinged tool alone (no soil, no load) on springs of
+    ``stiffness`` [N/m] (n,) the damping ratio ``damping_ratio`` [-] (n,): 2 zeta sqrt(k_rot I_p) / s^2, with the
+    pivot inertia I_p [kg m^2], the sensor lever s [m] and the rotational stiffness k s^2 less gravity's."""
+    lever = float(abs(tool.sensor_point[2] - tool.pivot[2]))
+    i_p = tool.inertia_about(tool.pivot)[0, 0]
+    k_rot = np.asarray(stiffness) * lever**2 - tool.mass * 9.81 * (tool.com[2] - tool.pivot[2])
+    return 2.0 * np.asarray(damping_ratio) * np.sqrt(k_rot * i_p) / lever**2
+
+
 def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int], speeds: list[float],
            device: str | None, soil_overrides: dict[str, object] | None = None,
            knobs: dict[str, np.ndarray] | None = None) -> tuple[wd.Model, wd.State, dict]:
@@ -317,7 +330,6 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
         s = np.asarray(tool.sensor_point)
         rows = [paper.ringing_row(n) for n in springs]
         offsets = [1e-3 * r["support_offset_mm"] if config.support_offset else 0.0 for r in rows]
-        lever = float(abs(s[2] - tool.pivot[2]))
         if config.spring_model == "linear":
             length = 0.1
             # the anchor sits the offset (+ = against travel) behind the spring's unloaded place, so the spring
@@ -333,10 +345,7 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
             if "dashpot" in knobs:
                 dashpot = knobs["dashpot"]
             else:
-                i_p = tool.inertia_about(tool.pivot)[0, 0]
-                k_rot = k * lever**2 - tool.mass * 9.81 * (tool.com[2] - tool.pivot[2])
-                zeta = np.array([r["measured_damping"] for r in rows])
-                dashpot = 2.0 * zeta * np.sqrt(k_rot * i_p) / lever**2
+                dashpot = dashpot_for(tool, k, np.array([r["measured_damping"] for r in rows]))
             k_eff = series_rate(k, knobs.get("series_stiffness", np.full(len(springs), math.inf)))
             overrides.update({
                 "body:carriage:velocity": [(0.0, sp, 0.0) for sp in speeds],
@@ -444,7 +453,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
                  tool: SweepTool | None = None, progress: object | None = None,
                  viewer: object | None = None, soil_overrides: dict[str, object] | None = None,
                  speeds: list[float] | None = None, knobs: dict[str, object] | None = None,
-                 checkpoint: str | Path | None = None, checkpoint_every: float = 60.0) -> SoilBinRun:
+                 checkpoint: str | Path | None = None, checkpoint_every: float = 60.0,
+                 deadline: float | None = None) -> SoilBinRun:
     """One simulation: rigid tools (every entry of ``springs`` 0) or passive configurations, one world each.
 
     ``speeds``: carriage speed per world [m/s] (n_worlds,) (default: the config's speed of each spring count).
@@ -457,8 +467,12 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     ``checkpoint``: a folder (see :class:`RunCheckpoint`) written every ``checkpoint_every`` seconds of wall time
     and at every carriage stop; when it holds a checkpoint of the same run, the run resumes from it and ends as
     the uninterrupted one would (bit for bit on the CPU).
+    ``deadline``: a ``time.time()`` [s] after which the run saves its checkpoint and raises
+    :class:`warpdem.errors.BudgetExhausted` (needs ``checkpoint``); called again, it continues.
     """
     t0 = time.perf_counter()
+    if deadline is not None and checkpoint is None:
+        raise ValueError("deadline needs a checkpoint folder to stop into")
     if 0 in springs and any(n != 0 for n in springs):
         raise ValueError(f"rigid and passive tools run in separate simulations: springs must be all 0 or all "
                          f"passive configurations, got {springs}")
@@ -547,10 +561,14 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
                 sim.set_body_velocity("support", carriage_vel[moving], moving)
             if done == end:
                 _stop_carriages(sim, np.nonzero(stop == end)[0])
-            if ck is not None and (done == end or time.perf_counter() - saved_at >= checkpoint_every):
+            late = deadline is not None and time.time() >= deadline and done < n_steps
+            if ck is not None and (done == end or late or time.perf_counter() - saved_at >= checkpoint_every):
                 parts = [{kk: np.concatenate([p_[kk] for p_ in parts]) for kk in parts[0] if kk != "viewer"}]
                 ck.save(sim, parts[0])
                 saved_at = time.perf_counter()
+            if late:
+                raise BudgetExhausted(f"soil-bin run stopped at its budget after step {done} of {n_steps}; its "
+                                      f"checkpoint is in {str(checkpoint)!r}")
     out = {k: np.concatenate([p_[k] for p_ in parts]) for k in parts[0]}
     if view is not None:
         view.close()

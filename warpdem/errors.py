@@ -32,6 +32,10 @@ class SimulationError(RuntimeError):
         self.cause = cause
 
 
+class BudgetExhausted(RuntimeError):
+    """A long run stopped at its wall-time budget after saving what it had: run it again to continue."""
+
+
 def _describe(value: object) -> str:
     arr = np.asarray(value)
     if arr.size > 6:

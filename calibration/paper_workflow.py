@@ -1,0 +1,551 @@
+"""The paper's whole workflow at one scale, in resumable pieces, with error bars from replicas.
+
+Stages, each writing its result into the run folder when it ends:
+
+1. ``ringing_linear`` and ``ringing_paper``: the ringing calibration of all eight spring configurations (PyGAD with
+   the paper's settings) for the linear spring-dashpot and for the paper's spring spheres. The eight GAs of a model
+   run in lockstep: each generation of all eight is ONE batched simulation (:class:`Lockstep`).
+2. ``draught``: the soil's GA calibration against the measured rigid draught at 0.62 m/s (Table 3) on the scale's
+   calibration bin (``paper``: the paper's first, 1 m long bin at the paper's particle size).
+3. ``screening``: the accepted sets (or, when none is accepted, the fittest) in the direct shear box; the set
+   closest to the laboratory's strength becomes the soil of the Table 3 runs.
+4. ``table3``: on each of several independent beds (replicas, one deposition seed each) the rigid tool at every
+   distinct speed of Table 3 and the eight passive configurations at their own speeds, with Table 2's support
+   offsets and without them; the linear springs carry the stiffness and dashpot calibrated in stage 1. Every
+   reduction is paired with the rigid run of the same bed and speed; its standard error comes from the scatter
+   over replicas. Replicas are added (up to ``replicas_max``) until every reduction's standard error is below
+   ``target_sem``.
+5. ``report.md`` beside Tables 2, 3 and 7, with figures.
+
+Pieces and resume: the GA stages save their state after every generation, every soil-bin job checkpoints (into
+``checkpoints/``) and every finished job writes its rows. Given a budget [s] of wall time, the workflow stops with
+:class:`warpdem.errors.BudgetExhausted` at the first point where the next piece would not fit (a GA batch as long
+as the last one, or a soil-bin run at its deadline, which saves its checkpoint first); the same call continues
+where it stopped and ends with the same result (bit for bit on the CPU).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from scenes import paper
+from scenes import soil_bin as sb
+from scenes.ringing import RingingConfig, build_ringing, run_ringing
+from warpdem.errors import BudgetExhausted, InputError
+
+from .archive import write_json_atomic
+from .ga import accepted_records, calibrate
+from .genes import GASettings
+from .problems import DraughtProblem, RingingProblem
+from .report import write_report
+from .screening import screen
+
+CALIBRATION_SCALE = {"ci": "ci", "cpu": "cpu", "paper": "paper_1m", "strip": "strip"}
+"""soil-bin scale of the draught calibration for each workflow scale: the paper calibrated in its first, 1 m long
+bin (section 2.1.2); ``paper_1m`` is that bin at the paper scale's particle size."""
+SCREEN_SCALE = {"ci": "ci", "cpu": "cpu", "paper": "paper", "strip": "paper"}
+"""shear-box scale (:func:`scenes.shear_box.preset`) of the screening for each workflow scale."""
+VARIANTS = ("offset", "no_offset")
+"""Table 3 variants: the passive tool with Table 2's support offsets (the paper's final model) and without."""
+
+
+@dataclass
+class WorkflowConfig:
+    """What a workflow run does. Every field is recorded in ``workflow.json``; a folder holding another
+    configuration is refused."""
+
+    scale: str = "paper"
+    """soil-bin scale of the Table 3 runs (:data:`scenes.soil_bin.SCALES`)."""
+    assembly: str = "C"
+    springs: tuple[int, ...] = paper.SPRING_COUNTS
+    """passive configurations of the ringing calibration and of Table 3."""
+    ringing_models: tuple[str, ...] = ("linear", "paper")
+    ringing_ga: GASettings = field(default_factory=GASettings)
+    ringing_time: float = 2.0
+    """[s] of free ringing per simulation."""
+    draught_ga: GASettings = field(default_factory=GASettings)
+    screen_top: int = 6
+    """shear-box screening of at most this many sets (the accepted ones, fittest first)."""
+    screen_changes: dict[str, object] = field(default_factory=dict)
+    """further :class:`scenes.shear_box.ShearBoxConfig` fields of the screening (e.g. ``shear_displacement``)."""
+    replicas_min: int = 3
+    replicas_max: int = 8
+    target_sem: float = 1.0
+    """[percentage points]: replicas are added until every reduction's standard error is below this."""
+    settle_time: float = 0.5
+    """[s] each soil-bin bed settles under the run's soil set before the tool moves (``SoilBinConfig``)."""
+    worlds_per_job: int = 4
+    """soil-bin worlds per simulation (at most): smaller jobs fit a shorter budget."""
+    travel: float | None = None
+    """[m] of the Table 3 runs (default: the scale's)."""
+    steady_travel: float | None = None
+    calibration_travel: float | None = None
+    """[m] of the draught calibration's runs (default: its scale's)."""
+    seed: int = 0
+    """first bed's deposition seed; replica r uses seed + r."""
+
+    def __post_init__(self) -> None:
+        if self.scale not in CALIBRATION_SCALE:
+            raise InputError(f"scale must be one of {sorted(CALIBRATION_SCALE)}, got {self.scale!r}")
+        for n in self.springs:
+            if n not in paper.SPRING_COUNTS:
+                raise InputError(f"springs must be among {paper.SPRING_COUNTS}, got {n!r}")
+        if not self.springs:
+            raise InputError("springs must name at least one passive configuration, got ()")
+        for m in self.ringing_models:
+            if m not in ("linear", "paper"):
+                raise InputError(f"ringing_models must be among ('linear', 'paper'), got {m!r}")
+        if not 1 <= self.replicas_min <= self.replicas_max:
+            raise InputError(f"replicas must satisfy 1 <= replicas_min <= replicas_max, got {self.replicas_min}, "
+                             f"{self.replicas_max}")
+        if not (math.isfinite(self.target_sem) and self.target_sem > 0):
+            raise InputError(f"target_sem must be a positive number of percentage points, got {self.target_sem!r}")
+        if self.worlds_per_job < 1:
+            raise InputError(f"worlds_per_job must be >= 1, got {self.worlds_per_job!r}")
+
+    def to_dict(self) -> dict[str, object]:
+        return json.loads(json.dumps(asdict(self), default=str))
+
+    def speeds(self) -> dict[int, float]:
+        """Table 3's mean carriage speed [m/s] of each passive configuration."""
+        t3 = paper.table("soil_bin_measured")
+        return {n: float(t3["speed_mean_m_s"][t3["springs"] == n][0]) for n in self.springs}
+
+    def rigid_speeds(self) -> list[float]:
+        """The distinct speeds [m/s] of the configurations, ascending: the rigid runs of a replica."""
+        return sorted({sb.speed_key(v) for v in self.speeds().values()})
+
+
+class Budget:
+    """A wall-time budget [s] (None: unlimited) shared by the pieces of one call."""
+
+    def __init__(self, seconds: float | None) -> None:
+        if seconds is not None and not (math.isfinite(seconds) and seconds > 0):
+            raise InputError(f"budget must be a positive number of seconds, got {seconds!r}")
+        self.deadline = None if seconds is None else time.time() + seconds
+
+    def left(self) -> float:
+        return math.inf if self.deadline is None else self.deadline - time.time()
+
+    def require(self, seconds: float, what: str) -> None:
+        """Raise BudgetExhausted unless ``seconds`` are left for ``what``."""
+        if self.left() < seconds:
+            raise BudgetExhausted(f"stopped before {what} (about {seconds:.0f} s needed, {max(self.left(), 0):.0f} "
+                                  "s left of the budget); run the same command again to continue")
+
+
+class _Guard:
+    """An evaluator that refuses a batch the budget cannot hold: one taking as long per individual as the last."""
+
+    def __init__(self, evaluate: Callable[[np.ndarray], list[dict[str, float]]], budget: Budget, what: str) -> None:
+        self.evaluate, self.budget, self.what = evaluate, budget, what
+        self.per_individual = 0.0
+
+    def __call__(self, values: np.ndarray) -> list[dict[str, float]]:
+        self.budget.require(self.per_individual * len(values), f"a batch of {len(values)} {self.what}")
+        t = time.perf_counter()
+        out = self.evaluate(values)
+        self.per_individual = (time.perf_counter() - t) / max(len(values), 1)
+        return out
+
+
+class Lockstep:
+    """Several GA calibrations whose batches are simulated together: each calibration runs in its own thread and
+    hands its batch to the main thread, which waits until every running calibration has one (or has ended), then
+    simulates them all as ONE call of ``run_batches(list of (index, values)) -> list of observables lists``.
+
+    A calibration's result does not depend on the others as long as ``run_batches`` gives each world what it
+    would give alone (true of the ringing rig, whose worlds share no contacts and no time-step choice)."""
+
+    def __init__(self, run_batches: Callable[[list[tuple[int, np.ndarray]]], list[list[dict[str, float]]]],
+                 budget: Budget) -> None:
+        self.run_batches, self.budget = run_batches, budget
+        self.cond = threading.Condition()
+        self.pending: dict[int, np.ndarray] = {}
+        self.results: dict[int, list[dict[str, float]]] = {}
+        self.running: set[int] = set()
+        self.stop: BaseException | None = None
+        self.per_world = 0.0
+
+    def evaluator(self, i: int) -> Callable[[np.ndarray], list[dict[str, float]]]:
+        def evaluate(values: np.ndarray) -> list[dict[str, float]]:
+            with self.cond:
+                self.pending[i] = np.asarray(values)
+                self.cond.notify_all()
+                while i not in self.results and self.stop is None:
+                    self.cond.wait()
+                if self.stop is not None:
+                    raise BudgetExhausted(str(self.stop)) if isinstance(self.stop, BudgetExhausted) else \
+                        RuntimeError(f"lockstep stopped: {self.stop}")
+                return self.results.pop(i)
+        return evaluate
+
+    def run(self, jobs: list[Callable[[Callable[[np.ndarray], list[dict[str, float]]]], object]]) -> list[object]:
+        """Run ``jobs[i](evaluator_i)`` in threads, serving their batches here; returns their results in order.
+        The first error (a BudgetExhausted included) stops them all and is raised."""
+        outcome: dict[int, object] = {}
+        errors: dict[int, BaseException] = {}
+
+        def target(i: int) -> None:
+            try:
+                outcome[i] = jobs[i](self.evaluator(i))
+            except BaseException as e:  # noqa: BLE001 (handed to the main thread)
+                errors[i] = e
+            finally:
+                with self.cond:
+                    self.running.discard(i)
+                    self.cond.notify_all()
+
+        threads = [threading.Thread(target=target, args=(i,), daemon=True) for i in range(len(jobs))]
+        self.running = set(range(len(jobs)))
+        for t in threads:
+            t.start()
+        while True:
+            with self.cond:
+                while self.running and not set(self.running) <= set(self.pending):
+                    self.cond.wait()
+                if not self.running:
+                    break
+                batch = sorted(self.pending.items())
+                self.pending.clear()
+            try:
+                n = sum(len(v) for _, v in batch)
+                self.budget.require(self.per_world * n, f"a lockstep batch of {n} worlds")
+                t0 = time.perf_counter()
+                obs = self.run_batches(batch)
+                self.per_world = (time.perf_counter() - t0) / max(n, 1)
+            except BaseException as e:  # noqa: BLE001 (every calibration thread is told, then it is raised)
+                with self.cond:
+                    self.stop = e
+                    self.cond.notify_all()
+                for t in threads:
+                    t.join()
+                raise
+            with self.cond:
+                for (i, _), o in zip(batch, obs, strict=True):
+                    self.results[i] = o
+                self.cond.notify_all()
+        for t in threads:
+            t.join()
+        if errors:
+            raise errors[min(errors)]
+        return [outcome[i] for i in range(len(jobs))]
+
+
+def ringing_batches(problems: list[RingingProblem], device: str | None
+                    ) -> Callable[[list[tuple[int, np.ndarray]]], list[list[dict[str, float]]]]:
+    """Simulate batches of several ringing problems (one spring model, one time step) as one simulation."""
+    def run(batch: list[tuple[int, np.ndarray]]) -> list[list[dict[str, float]]]:
+        cfgs = [problems[i]._config(np.atleast_2d(v), problems[i].dt) for i, v in batch]
+        per_world = {f: sum((getattr(c, f) for c in cfgs), ()) for f in ("springs", "spring_young", "local_damping",
+                                                                           "stiffness", "damping_ratio")
+                     if getattr(cfgs[0], f) is not None}
+        res = run_ringing(replace(cfgs[0], **per_world), device=device)
+        out, k = [], 0
+        for _, v in batch:
+            n = len(np.atleast_2d(v))
+            out.append([{"freq_hz": float(res.frequency_hz[j]), "damping": float(res.damping_ratio[j]),
+                         "static_deflection_m": float(res.static_deflection[j])} for j in range(k, k + n)])
+            k += n
+        return out
+    return run
+
+
+# ------------------------------------------------------------------------------------------------ ensembles
+def ensemble(values: list[float], record_sems: list[float]) -> dict[str, float]:
+    """Mean of replicas and its standard errors: ``sem`` from the scatter over replicas (std with ddof 1 over
+    sqrt(n); with one replica, its record's own), ``record_sem`` from the records' own standard errors
+    (sqrt(sum sem_r^2) / n), ``std`` over replicas, ``n``."""
+    v = np.asarray(values, dtype=np.float64)
+    s = np.asarray(record_sems, dtype=np.float64)
+    n = len(v)
+    record_sem = float(np.sqrt(np.sum(s**2)) / n) if n else math.nan
+    std = float(np.std(v, ddof=1)) if n > 1 else math.nan
+    return {"mean": float(np.mean(v)) if n else math.nan, "sem": std / math.sqrt(n) if n > 1 else record_sem,
+            "record_sem": record_sem, "std": std, "n": n}
+
+
+def replicas_needed(sems: list[float], n: int, target: float, most: int) -> int:
+    """Replicas that bring the largest standard error (from ``n`` replicas) below ``target`` if it falls as
+    1/sqrt(n): ceil(n (max sem / target)^2), at least n, at most ``most``."""
+    worst = max((s for s in sems if math.isfinite(s)), default=math.inf)
+    if not math.isfinite(worst):
+        return min(most, n + 1)
+    return int(min(most, max(n, math.ceil(n * (worst / target) ** 2 - 1e-9))))
+
+
+# ------------------------------------------------------------------------------------------------ the run
+class Workflow:
+    """One run folder of the workflow (see the module's docstring). ``log`` receives one line per event."""
+
+    def __init__(self, out: str | Path, config: WorkflowConfig | None = None, *, device: str | None = None,
+                 log: Callable[[str], None] | None = None) -> None:
+        self.out = Path(out)
+        self.config = config or WorkflowConfig()
+        self.device = device
+        self.log = log or (lambda m: None)
+        meta = self.out / "workflow.json"
+        spec = {"config": self.config.to_dict()}
+        if meta.exists():
+            saved = json.loads(meta.read_text())
+            if saved.get("config") != spec["config"]:
+                raise InputError(f"{str(self.out)!r} holds a workflow with another configuration; choose another "
+                                 "--out (or remove that folder)")
+        else:
+            write_json_atomic(meta, spec)
+
+    # ---- small helpers ----------------------------------------------------------------------------------------
+    def _path(self, name: str) -> Path:
+        return self.out / name
+
+    def _done(self, name: str) -> dict | None:
+        p = self._path(name)
+        return json.loads(p.read_text()) if p.exists() else None
+
+    def _timed(self, key: str, seconds: float) -> None:
+        p = self._path("timings.json")
+        t = json.loads(p.read_text()) if p.exists() else {}
+        t[key] = seconds
+        write_json_atomic(p, t)
+
+    # ---- stage 1: ringing ---------------------------------------------------------------------------------------
+    def ringing(self, model: str, budget: Budget) -> dict:
+        name = f"ringing_{model}.json"
+        if (done := self._done(name)) is not None:
+            return done
+        c = self.config
+        problems = [RingingProblem(springs=n, spring_model=model, fitness="paper", ring_time=c.ringing_time,
+                                   device=self.device) for n in c.springs]
+        dt = min(p.dt for p in problems)
+        for p in problems:
+            p._dt = dt
+        lock = Lockstep(ringing_batches(problems, self.device), budget)
+        t0 = time.perf_counter()
+        self.log(f"ringing calibration ({model} springs): {len(problems)} GAs in lockstep")
+
+        def job(k: int) -> Callable[[Callable], object]:
+            return lambda ev: calibrate(problems[k], c.ringing_ga, out=self.out / f"ringing_{model}" /
+                                        str(c.springs[k]), evaluator=ev)
+        results = lock.run([job(k) for k in range(len(problems))])
+        rows = []
+        for n, p, res in zip(c.springs, problems, results, strict=True):
+            b = res.best
+            row = {"springs": n, **b.genes, **b.observables, **{f"target_{k}": v for k, v in p.targets.items()},
+                   **b.errors, "fitness": b.fitness, "simulated": res.n_simulated}
+            if model == "linear":
+                rig = build_ringing(RingingConfig(springs=(n,), spring_model="linear",
+                                                  stiffness=(b.genes["stiffness"],),
+                                                  damping_ratio=(b.genes["damping_ratio"],)))
+                row["dashpot_n_s_per_m"] = float(np.asarray(rig.info["dashpot_n_s_per_m"])[0])
+            rows.append(row)
+        out = {"model": model, "dt": dt, "rows": rows, "wall_s": time.perf_counter() - t0}
+        write_json_atomic(self._path(name), out)
+        self.log(f"ringing calibration ({model}) done in {out['wall_s']:.0f} s")
+        return out
+
+    # ---- stage 2: draught calibration ----------------------------------------------------------------------------
+    def draught_problem(self) -> DraughtProblem:
+        c = self.config
+        return DraughtProblem(assembly=c.assembly, scale=CALIBRATION_SCALE[c.scale], travel=c.calibration_travel,
+                              settle_time=c.settle_time, seed=c.seed, cache_dir=str(self.out / "beds"),
+                              device=self.device)
+
+    def draught(self, budget: Budget) -> dict:
+        if (done := self._done("draught.json")) is not None:
+            return done
+        problem = self.draught_problem()
+        self.log(f"draught calibration on the {problem.scale} bin (target {problem.targets['draught_mean_n']:.1f} N)")
+        problem.bed()  # deposit (or read) the calibration bed before the first batch is timed
+        t0 = time.perf_counter()
+        res = calibrate(problem, self.config.draught_ga, out=self.out / "draught",
+                        evaluator=_Guard(problem.evaluate, budget, "soil-bin worlds"),
+                        progress=lambda h: self.log(f"  draught GA generation {h['generation']}: best fitness "
+                                                    f"{h['best_fitness']:.3g}, {h['best_genes']}"))
+        write_report(res, problem, self.out / "draught", extra={"device": self.device})
+        accepted = accepted_records(res, problem)
+        recs = accepted or sorted((r for r in res.archive if r.stage != "archive"), key=lambda r: -r.fitness)
+        out = {"accepted": len(accepted), "best": {"genes": res.best.genes, "observables": res.best.observables,
+                                                   "errors": res.best.errors, "fitness": res.best.fitness},
+               "candidates": [{"genes": r.genes, "draught_mean_n": r.observables["draught_mean_n"],
+                               "re_draught": r.errors["re_draught"]} for r in recs[:self.config.screen_top]],
+               "target_n": problem.targets["draught_mean_n"], "scale": problem.scale,
+               "simulated": res.n_simulated, "wall_s": time.perf_counter() - t0}
+        write_json_atomic(self._path("draught.json"), out)
+        return out
+
+    # ---- stage 3: screening ------------------------------------------------------------------------------------
+    def screening(self, draught: dict, budget: Budget) -> dict:
+        if (done := self._done("screening.json")) is not None:
+            return done
+        key = "screening"
+        t = json.loads(self._path("timings.json").read_text()).get(key, 0.0) if self._path(
+            "timings.json").exists() else 0.0
+        budget.require(t, "the shear-box screening")
+        self.log(f"shear-box screening of {len(draught['candidates'])} sets ({SCREEN_SCALE[self.config.scale]})")
+        t0 = time.perf_counter()
+        rows = screen([c["genes"] for c in draught["candidates"]], self.config.assembly,
+                      SCREEN_SCALE[self.config.scale], device=self.device, **self.config.screen_changes)
+        for r in rows:
+            r["draught_mean_n"] = draught["candidates"][r["set"] - 1]["draught_mean_n"]
+        chosen = {g: rows[0][g] for g in ("friction_angle", "normal_cohesion", "eta_roll")}
+        out = {"rows": rows, "chosen": chosen, "from_accepted": draught["accepted"] > 0,
+               "wall_s": time.perf_counter() - t0}
+        self._timed(key, out["wall_s"])
+        write_json_atomic(self._path("screening.json"), out)
+        return out
+
+    # ---- stage 4: Table 3 --------------------------------------------------------------------------------------
+    def jobs(self, replica: int) -> list[dict]:
+        """The soil-bin jobs of one replica: (kind, springs, speeds) in at most ``worlds_per_job`` worlds each."""
+        c = self.config
+        speeds = c.speeds()
+        out = []
+
+        def chunks(kind: str, springs: list[int], vs: list[float]) -> None:
+            for k in range(0, len(springs), c.worlds_per_job):
+                out.append({"name": f"r{replica}_{kind}_{k // c.worlds_per_job}", "replica": replica, "kind": kind,
+                            "springs": springs[k:k + c.worlds_per_job], "speeds": vs[k:k + c.worlds_per_job]})
+        rigid = c.rigid_speeds()
+        chunks("rigid", [0] * len(rigid), rigid)
+        for variant in VARIANTS:
+            chunks(variant, list(c.springs), [speeds[n] for n in c.springs])
+        return out
+
+    def run_job(self, job: dict, soil: dict, ring: dict | None, budget: Budget) -> dict:
+        path = self._path(f"table3/{job['name']}.json")
+        if (done := self._done(f"table3/{job['name']}.json")) is not None:
+            return done
+        c = self.config
+        budget.require(30.0, f"soil-bin job {job['name']}")
+        cfg = sb.SoilBinConfig(scale=c.scale, assembly=c.assembly, springs=tuple(job["springs"]),
+                               speed=tuple(job["speeds"]), support_offset=job["kind"] == "offset",
+                               travel=c.travel, steady_travel=c.steady_travel, seed=c.seed + job["replica"],
+                               settle_time=c.settle_time)
+        n = len(job["springs"])
+        overrides = {"friction_angle": [soil["friction_angle"]] * n, "normal_cohesion": [soil["normal_cohesion"]] * n,
+                     "shear_cohesion": [0.5 * soil["normal_cohesion"]] * n, "eta_roll": [soil["eta_roll"]] * n,
+                     "eta_twist": [soil["eta_roll"]] * n}
+        knobs = None
+        if job["kind"] != "rigid" and ring is not None:
+            by_n = {r["springs"]: r for r in ring["rows"]}
+            knobs = {"stiffness": [by_n[s]["stiffness"] for s in job["springs"]],
+                     "dashpot": [by_n[s]["dashpot_n_s_per_m"] for s in job["springs"]]}
+        bed = sb.bed_for(cfg, device=self.device, cache_dir=self.out / "beds")
+        self.log(f"soil-bin job {job['name']}: {n} worlds, springs {job['springs']}, speeds {job['speeds']} m/s")
+        t0 = time.perf_counter()
+        run = sb.run_soil_bin(cfg, list(job["springs"]), bed=bed, device=self.device, speeds=list(job["speeds"]),
+                              soil_overrides=overrides, knobs=knobs, checkpoint=self.out / "checkpoints" / job["name"],
+                              deadline=budget.deadline)
+        if job["replica"] == 0:  # the series of one bed for the figures
+            keep = {"time": run.time, "travel": run.travel,
+                    **{k: run.series[k] for k in ("draught", "displacement", "ke_tool", "ke_soil")}}
+            tmp = path.with_suffix(".tmp.npz")
+            path.parent.mkdir(parents=True, exist_ok=True)
+            np.savez_compressed(tmp, **keep)
+            tmp.replace(path.with_suffix(".npz"))
+        out = {**job, "rows": sb.json_safe(run.steady), "dt": run.dt, "steps": run.steps, "spheres": run.n_spheres,
+               "particles": run.n_particles, "wall_s": time.perf_counter() - t0}
+        write_json_atomic(path, out)
+        import shutil
+
+        shutil.rmtree(self.out / "checkpoints" / job["name"], ignore_errors=True)
+        self.log(f"  done in {out['wall_s']:.0f} s")
+        return out
+
+    def table3(self, soil: dict, ring: dict | None, budget: Budget) -> dict:
+        c = self.config
+        replicas = c.replicas_min
+        r = 0
+        while r < replicas:
+            results = [self.run_job(j, soil, ring, budget) for j in self.jobs(r)]
+            del results
+            r += 1
+            if r == replicas:
+                stats = self.table3_stats(r)
+                sems = [row["reduction"]["sem"] for rows in stats["variants"].values() for row in rows]
+                replicas = replicas_needed(sems, r, c.target_sem, c.replicas_max)
+                if replicas > r:
+                    self.log(f"largest reduction SE {max(sems):.2f} pp with {r} replicas: running {replicas}")
+        stats = self.table3_stats(replicas)
+        write_json_atomic(self._path("table3.json"), stats)
+        return stats
+
+    def table3_stats(self, replicas: int) -> dict:
+        """Per variant and configuration: draught, rigid reference and reduction over the replicas' jobs."""
+        c = self.config
+        rows: dict[tuple[str, int], list[dict]] = {}
+        rigid: dict[tuple[int, float], dict] = {}
+        for r in range(replicas):
+            for job in self.jobs(r):
+                done = self._done(f"table3/{job['name']}.json")
+                for row in done["rows"]:
+                    if job["kind"] == "rigid":
+                        rigid[(r, sb.speed_key(row["speed"]))] = row
+                    else:
+                        rows.setdefault((job["kind"], row["springs"]), []).append({**row, "replica": r})
+        speeds = c.speeds()
+        out: dict[str, object] = {"replicas": replicas, "variants": {}, "rigid": []}
+        for v in c.rigid_speeds():
+            reps = [rigid[(r, v)] for r in range(replicas)]
+            out["rigid"].append({"speed": v, "draught": ensemble([x["draught_mean"] for x in reps],
+                                                                 [x["draught_sem"] for x in reps])})
+        for variant in VARIANTS:
+            table = []
+            for n in c.springs:
+                reps = rows[(variant, n)]
+                refs = [rigid[(x["replica"], sb.speed_key(speeds[n]))] for x in reps]
+                reds = [sb.reduction(x["draught_mean"], x["draught_sem"], ref["draught_mean"], ref["draught_sem"])
+                        for x, ref in zip(reps, refs, strict=True)]
+                table.append({
+                    "springs": n, "speed": speeds[n],
+                    "draught": ensemble([x["draught_mean"] for x in reps], [x["draught_sem"] for x in reps]),
+                    "rigid": ensemble([x["draught_mean"] for x in refs], [x["draught_sem"] for x in refs]),
+                    "reduction": ensemble([d[0] for d in reds], [d[1] for d in reds]),
+                    "displacement_mm": ensemble([1e3 * x["displacement_mean"] for x in reps],
+                                                [1e3 * x["displacement_sem"] for x in reps]),
+                    "per_replica_reduction": [d[0] for d in reds]})
+            out["variants"][variant] = table
+        out["comparison"] = {v: compare(t) for v, t in out["variants"].items()}
+        return out
+
+    # ---- everything --------------------------------------------------------------------------------------------
+    def run(self, budget: Budget | None = None) -> dict:
+        """Run (or continue) every stage; returns the summary. Raises BudgetExhausted when the budget ends first."""
+        budget = budget or Budget(None)
+        t0 = time.perf_counter()
+        ring = {m: self.ringing(m, budget) for m in self.config.ringing_models}
+        draught = self.draught(budget)
+        screening = self.screening(draught, budget)
+        table3 = self.table3(screening["chosen"], ring.get("linear"), budget)
+        summary = {"ringing": ring, "draught": draught, "screening": screening, "table3": table3,
+                   "wall_s_last_call": time.perf_counter() - t0}
+        write_json_atomic(self._path("summary.json"), sb.json_safe(summary))
+        from .workflow_report import write_workflow_report
+
+        write_workflow_report(self.out, self.config, summary, device=self.device)
+        return summary
+
+
+def compare(table: list[dict]) -> dict[str, float]:
+    """A variant's reductions against Table 3's and against the paper's final DEM (Table 7, 2 m bin): mean absolute
+    error [percentage points] with its standard error (first order: sqrt(sum SE_i^2) / n; the laboratory's values
+    taken exact), and how many signs agree."""
+    t3 = paper.table("soil_bin_measured")
+    t7 = paper.table("soil_bin_dem")
+    sim = np.array([r["reduction"]["mean"] for r in table])
+    se = np.array([r["reduction"]["sem"] for r in table])
+    lab = np.array([float(t3["reduction_pct"][t3["springs"] == r["springs"]][0]) for r in table])
+    dem = np.array([float(t7["c_final_red_pct"][t7["springs"] == r["springs"]][0]) for r in table])
+    return {"mae_pp": float(np.mean(np.abs(sim - lab))), "mae_sem_pp": float(np.sqrt(np.sum(se**2)) / len(se)),
+            "signs_right": int(np.sum(np.sign(sim) == np.sign(lab))), "n": len(table),
+            "max_sem_pp": float(np.max(se)),
+            "paper_dem_mae_pp": float(np.mean(np.abs(dem - lab))),
+            "paper_dem_signs_right": int(np.sum(np.sign(dem) == np.sign(lab)))}

@@ -1,0 +1,185 @@
+"""The paper workflow's plumbing (calibration.paper_workflow), on Warp's CPU backend.
+
+References:
+- ensemble statistics: the sampling distribution of synthetic replicas with known variances (closed forms: the
+  variance of a replica mean is (tau^2 + var_record) / n; an AR(1) record's mean has variance
+  sigma^2 (1 + phi) / ((1 - phi) N) for large N);
+- pairing: synthetic job results whose every replica has the same reduction while the beds differ;
+- resume: the same workflow run without interruption. This compares warpdem with itself: it checks that pieces,
+  checkpoints and the lockstep resume without changing a bit, not the physics (which the rigs' own tests check).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from calibration.genes import GASettings
+from calibration.paper_workflow import VARIANTS, Budget, Workflow, WorkflowConfig, compare, ensemble, replicas_needed
+from scenes import paper
+from warpdem import analysis
+from warpdem.errors import BudgetExhausted, InputError
+
+
+def _ar1(rng: np.random.Generator, n: int, phi: float, sigma: float) -> np.ndarray:
+    """An AR(1) series of stationary standard deviation ``sigma``."""
+    e = rng.normal(0.0, sigma * math.sqrt(1 - phi**2), n)
+    x = np.empty(n)
+    x[0] = rng.normal(0.0, sigma)
+    for k in range(1, n):
+        x[k] = phi * x[k - 1] + e[k]
+    return x
+
+
+def test_ensemble_standard_error_matches_the_known_variance_of_replicas():
+    """Replicas = a bed effect (sd tau) + an AR(1) record (sd sigma, phi) averaged by analysis.steady_state. Over
+    many trials: E[sem^2] equals the variance of the replica mean, (tau^2 + var_record) / n (tolerance 3 standard
+    errors of that mean of sem^2, ~12 %), the record-based SE estimates var_record / n (15 %: the autocorrelation
+    estimate's bias), and the t interval covers the true mean 95 % of the time (+- 3 binomial SE)."""
+    rng = np.random.default_rng(1)
+    mu, tau, sigma, phi, n_rec, n_rep, trials = 300.0, 3.0, 10.0, 0.8, 1500, 4, 400
+    var_record = sigma**2 * (1 + phi) / ((1 - phi) * n_rec)
+    t = np.arange(n_rec) * 0.002
+    sem2, rec2, covered = [], [], 0
+    for _ in range(trials):
+        means, sems = [], []
+        for _ in range(n_rep):
+            y = mu + rng.normal(0.0, tau) + _ar1(rng, n_rec, phi, sigma)
+            st = analysis.steady_state(t, y, t, start_travel=0.0)
+            means.append(st.mean)
+            sems.append(st.sem)
+        e = ensemble(means, sems)
+        assert e["n"] == n_rep
+        sem2.append(e["sem"] ** 2)
+        rec2.append(e["record_sem"] ** 2)
+        covered += abs(e["mean"] - mu) <= stats.t.ppf(0.975, n_rep - 1) * e["sem"]
+    expected = (tau**2 + var_record) / n_rep
+    assert np.mean(sem2) == pytest.approx(expected, rel=3 * math.sqrt(2 / (n_rep - 1) / trials))
+    assert np.mean(rec2) == pytest.approx(var_record / n_rep, rel=0.15)
+    p = covered / trials
+    assert abs(p - 0.95) < 3 * math.sqrt(0.95 * 0.05 / trials)
+
+
+def test_ensemble_of_one_replica_takes_its_record_sem():
+    e = ensemble([5.0], [0.7])
+    assert e["mean"] == 5.0 and e["sem"] == pytest.approx(0.7) and math.isnan(e["std"])
+
+
+def test_replicas_needed_from_the_one_over_sqrt_n_law():
+    assert replicas_needed([2.0, 0.5], 3, 1.0, 20) == 12  # 3 (2 / 1)^2
+    assert replicas_needed([2.0], 3, 1.0, 8) == 8  # capped
+    assert replicas_needed([0.9, 0.2], 3, 1.0, 8) == 3  # already below
+    assert replicas_needed([1.0 + 1e-12], 4, 1.0, 8) == 4  # at the target (rounding)
+    assert replicas_needed([math.nan], 1, 1.0, 8) == 2  # one replica has no scatter yet: one more
+
+
+def _config(**kw: object) -> WorkflowConfig:
+    base = {"scale": "ci", "assembly": "A", "springs": (16, 32), "ringing_models": ("linear",),
+            "ringing_ga": GASettings(generations=1, population=4, parents=2), "ringing_time": 1.0,
+            "draught_ga": GASettings(generations=1, population=3, parents=2), "screen_top": 1,
+            "screen_changes": {"shear_displacement": 0.03, "consolidation_time": (0.02, 0.1)},
+            "replicas_min": 2, "replicas_max": 2, "settle_time": 0.0, "travel": 0.2, "steady_travel": 0.1,
+            "calibration_travel": 0.2}
+    base.update(kw)
+    return WorkflowConfig(**base)
+
+
+def test_paired_reductions_remove_the_bed_effect(tmp_path):
+    """Synthetic jobs: on bed r the rigid draught at speed v is 300 (1 + b_r) + 20 v and every passive run draws
+    (1 - red_n / 100) of its own bed's rigid run at its speed. The paired reductions are red_n on every bed (SE 0)
+    although the draughts scatter; Table 3's MAE follows from red_n by hand."""
+    cfg = _config(springs=paper.SPRING_COUNTS, replicas_min=3, replicas_max=3, worlds_per_job=3)
+    wf = Workflow(tmp_path, cfg)
+    red = {n: 0.5 * n - 6.0 for n in cfg.springs}  # -4 ... +10 %
+    bed = [0.0, 0.08, -0.05]
+    for r in range(3):
+        for job in wf.jobs(r):
+            rows = []
+            for n, v in zip(job["springs"], job["speeds"], strict=True):
+                rigid = 300.0 * (1 + bed[r]) + 20.0 * v
+                d = rigid if n == 0 else rigid * (1 - red[n] / 100)
+                rows.append({"springs": n, "speed": v, "draught_mean": d, "draught_sem": 2.0,
+                             "displacement_mean": 1e-3 * n, "displacement_sem": 1e-5})
+            (tmp_path / "table3").mkdir(exist_ok=True)
+            (tmp_path / "table3" / f"{job['name']}.json").write_text(json.dumps({**job, "rows": rows}))
+    st = wf.table3_stats(3)
+    assert len(st["rigid"]) == len(cfg.rigid_speeds()) == 6
+    for variant in VARIANTS:
+        for row in st["variants"][variant]:
+            assert row["reduction"]["mean"] == pytest.approx(red[row["springs"]], abs=1e-9)
+            assert row["reduction"]["sem"] == pytest.approx(0.0, abs=1e-9)
+            assert row["draught"]["sem"] > 5.0  # the beds' scatter is in the draughts, not in the reductions
+    t3 = paper.table("soil_bin_measured")
+    mae = np.mean([abs(red[int(n)] - r) for n, r in zip(t3["springs"], t3["reduction_pct"], strict=True)])
+    assert st["comparison"]["offset"]["mae_pp"] == pytest.approx(mae)
+    signs = sum(np.sign(red[int(n)]) == np.sign(r) for n, r in zip(t3["springs"], t3["reduction_pct"], strict=True))
+    assert compare(st["variants"]["offset"])["signs_right"] == signs
+
+
+def test_a_folder_of_another_workflow_is_refused(tmp_path):
+    Workflow(tmp_path, _config())
+    with pytest.raises(InputError, match="another configuration"):
+        Workflow(tmp_path, _config(replicas_max=3))
+
+
+class _StopAfter(Budget):
+    """A budget that lets ``n`` pieces start, then stops (deterministic, unlike wall time)."""
+
+    def __init__(self, n: int) -> None:
+        super().__init__(None)
+        self.n = n
+
+    def require(self, seconds: float, what: str) -> None:
+        if self.n <= 0:
+            raise BudgetExhausted(f"test stop before {what}")
+        self.n -= 1
+
+
+class _PastDeadline(Budget):
+    """Every piece may start, but a soil-bin run stops at its first checkpoint chance."""
+
+    def __init__(self) -> None:
+        super().__init__(None)
+        self.deadline = time.time() - 1.0
+
+    def require(self, seconds: float, what: str) -> None:
+        pass
+
+
+def _numbers(summary: dict) -> dict:
+    return {"ringing": summary["ringing"]["linear"]["rows"], "draught": summary["draught"]["best"],
+            "chosen": summary["screening"]["chosen"], "table3": summary["table3"]["variants"],
+            "rigid": summary["table3"]["rigid"]}
+
+
+def test_workflow_stopped_at_every_kind_of_piece_resumes_to_the_uninterrupted_result(tmp_path):
+    """ci scale, assembly A: the whole workflow in one call, and again in calls that stop inside the ringing
+    lockstep, between GA generations, inside a soil-bin run (from its checkpoint) and between jobs. The two
+    summaries agree to the bit (CPU)."""
+    cfg = _config()
+    whole = Workflow(tmp_path / "whole", cfg, device="cpu").run()
+    import shutil
+
+    shutil.copytree(tmp_path / "whole" / "beds", tmp_path / "pieces" / "beds")
+    wf = Workflow(tmp_path / "pieces", cfg, device="cpu")
+    stops = []
+    budgets = [_StopAfter(1), _StopAfter(1), _PastDeadline()]
+    for k in range(40):
+        budget = budgets[k] if k < len(budgets) else _StopAfter(1)
+        try:
+            pieces = wf.run(budget)
+            break
+        except BudgetExhausted as e:
+            stops.append(str(e))
+            wf = Workflow(tmp_path / "pieces", cfg, device="cpu")
+    else:
+        pytest.fail(f"the workflow did not end in 40 calls: {stops[-3:]}")
+    assert any("lockstep" in s for s in stops)  # stopped inside the ringing calibration's lockstep
+    assert any("soil-bin run stopped" in s for s in stops), stops  # and inside a soil-bin run
+    assert len(stops) >= 8
+    assert _numbers(pieces) == _numbers(whole)
