@@ -26,8 +26,10 @@ where it stopped and ends with the same result (bit for bit on the CPU).
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
+import shutil
 import threading
 import time
 from collections.abc import Callable
@@ -108,6 +110,8 @@ class WorkflowConfig:
                              f"{self.replicas_max}")
         if not (math.isfinite(self.target_sem) and self.target_sem > 0):
             raise InputError(f"target_sem must be a positive number of percentage points, got {self.target_sem!r}")
+        if not (math.isfinite(self.settle_time) and self.settle_time >= 0):
+            raise InputError(f"settle_time must be a finite number of seconds >= 0, got {self.settle_time!r}")
         if self.worlds_per_job < 1:
             raise InputError(f"worlds_per_job must be >= 1, got {self.worlds_per_job!r}")
 
@@ -143,17 +147,21 @@ class Budget:
 
 
 class _Guard:
-    """An evaluator that refuses a batch the budget cannot hold: one taking as long per individual as the last."""
+    """An evaluator that refuses a batch the budget cannot hold: one taking as long per individual as the last
+    (``per_individual`` [s]: the estimate before the first batch, e.g. from an earlier call; ``timed`` receives
+    each new estimate)."""
 
-    def __init__(self, evaluate: Callable[[np.ndarray], list[dict[str, float]]], budget: Budget, what: str) -> None:
+    def __init__(self, evaluate: Callable[[np.ndarray], list[dict[str, float]]], budget: Budget, what: str,
+                 per_individual: float = 0.0, timed: Callable[[float], None] | None = None) -> None:
         self.evaluate, self.budget, self.what = evaluate, budget, what
-        self.per_individual = 0.0
+        self.per_individual, self.timed = per_individual, timed or (lambda v: None)
 
     def __call__(self, values: np.ndarray) -> list[dict[str, float]]:
         self.budget.require(self.per_individual * len(values), f"a batch of {len(values)} {self.what}")
         t = time.perf_counter()
         out = self.evaluate(values)
         self.per_individual = (time.perf_counter() - t) / max(len(values), 1)
+        self.timed(self.per_individual)
         return out
 
 
@@ -166,14 +174,15 @@ class Lockstep:
     would give alone (true of the ringing rig, whose worlds share no contacts and no time-step choice)."""
 
     def __init__(self, run_batches: Callable[[list[tuple[int, np.ndarray]]], list[list[dict[str, float]]]],
-                 budget: Budget) -> None:
+                 budget: Budget, per_world: float = 0.0, timed: Callable[[float], None] | None = None) -> None:
         self.run_batches, self.budget = run_batches, budget
+        self.timed = timed or (lambda v: None)
         self.cond = threading.Condition()
         self.pending: dict[int, np.ndarray] = {}
         self.results: dict[int, list[dict[str, float]]] = {}
         self.running: set[int] = set()
         self.stop: BaseException | None = None
-        self.per_world = 0.0
+        self.per_world = per_world
 
     def evaluator(self, i: int) -> Callable[[np.ndarray], list[dict[str, float]]]:
         def evaluate(values: np.ndarray) -> list[dict[str, float]]:
@@ -222,6 +231,7 @@ class Lockstep:
                 t0 = time.perf_counter()
                 obs = self.run_batches(batch)
                 self.per_world = (time.perf_counter() - t0) / max(n, 1)
+                self.timed(self.per_world)
             except BaseException as e:  # noqa: BLE001 (every calibration thread is told, then it is raised)
                 with self.cond:
                     self.stop = e
@@ -311,10 +321,27 @@ class Workflow:
         return json.loads(p.read_text()) if p.exists() else None
 
     def _timed(self, key: str, seconds: float) -> None:
+        """Record how long a piece took [s] (``timings.json``): later calls size their budget checks by it."""
         p = self._path("timings.json")
         t = json.loads(p.read_text()) if p.exists() else {}
         t[key] = seconds
         write_json_atomic(p, t)
+
+    def _timing(self, key: str, default: float = 0.0) -> float:
+        p = self._path("timings.json")
+        return float(json.loads(p.read_text()).get(key, default)) if p.exists() else default
+
+    def _bed_fingerprint(self, key: str, bed: sb.Bed) -> tuple[str, str | None]:
+        """(this bed's fingerprint, the one recorded under ``key`` before if it differs, else None); records it.
+        A bed missing from ``beds/`` is deposited again: the same bed on the CPU, another realisation on CUDA."""
+        fp = hashlib.sha1(np.ascontiguousarray(bed.centres).tobytes()).hexdigest()[:16]
+        p = self._path("beds.json")
+        known = json.loads(p.read_text()) if p.exists() else {}
+        old = known.get(key)
+        if old != fp:
+            known[key] = fp
+            write_json_atomic(p, known)
+        return fp, (old if old not in (None, fp) else None)
 
     # ---- stage 1: ringing ---------------------------------------------------------------------------------------
     def ringing(self, model: str, budget: Budget) -> dict:
@@ -327,7 +354,8 @@ class Workflow:
         dt = min(p.dt for p in problems)
         for p in problems:
             p._dt = dt
-        lock = Lockstep(ringing_batches(problems, self.device), budget)
+        lock = Lockstep(ringing_batches(problems, self.device), budget, self._timing(f"ringing_{model}_per_world"),
+                        lambda v: self._timed(f"ringing_{model}_per_world", v))
         t0 = time.perf_counter()
         self.log(f"ringing calibration ({model} springs): {len(problems)} GAs in lockstep")
 
@@ -363,10 +391,14 @@ class Workflow:
             return done
         problem = self.draught_problem()
         self.log(f"draught calibration on the {problem.scale} bin (target {problem.targets['draught_mean_n']:.1f} N)")
-        problem.bed()  # deposit (or read) the calibration bed before the first batch is timed
+        _, old = self._bed_fingerprint("draught", problem.bed())  # deposited or read before any batch is timed
+        if old is not None:
+            self.log(f"  the calibration bed was missing and has been deposited again as another realisation (was "
+                     f"{old}): generations before and after this call see different beds")
         t0 = time.perf_counter()
-        res = calibrate(problem, self.config.draught_ga, out=self.out / "draught",
-                        evaluator=_Guard(problem.evaluate, budget, "soil-bin worlds"),
+        guard = _Guard(problem.evaluate, budget, "soil-bin worlds", self._timing("draught_per_world"),
+                       lambda v: self._timed("draught_per_world", v))
+        res = calibrate(problem, self.config.draught_ga, out=self.out / "draught", evaluator=guard,
                         progress=lambda h: self.log(f"  draught GA generation {h['generation']}: best fitness "
                                                     f"{h['best_fitness']:.3g}, {h['best_genes']}"))
         write_report(res, problem, self.out / "draught", extra={"device": self.device})
@@ -424,7 +456,11 @@ class Workflow:
         if (done := self._done(f"table3/{job['name']}.json")) is not None:
             return done
         c = self.config
-        budget.require(30.0, f"soil-bin job {job['name']}")
+        ckpt = self.out / "checkpoints" / job["name"]
+        timing = f"job_{job['kind'] == 'rigid' and 'rigid' or 'passive'}_{len(job['springs'])}"
+        # a job that has not started must fit whole (its checkpoint would not outlive a lost machine); one that
+        # has, saves its checkpoint at the deadline
+        budget.require(30.0 if ckpt.exists() else self._timing(timing, 30.0), f"soil-bin job {job['name']}")
         cfg = sb.SoilBinConfig(scale=c.scale, assembly=c.assembly, springs=tuple(job["springs"]),
                                speed=tuple(job["speeds"]), support_offset=job["kind"] == "offset",
                                travel=c.travel, steady_travel=c.steady_travel, seed=c.seed + job["replica"],
@@ -439,11 +475,14 @@ class Workflow:
             knobs = {"stiffness": [by_n[s]["stiffness"] for s in job["springs"]],
                      "dashpot": [by_n[s]["dashpot_n_s_per_m"] for s in job["springs"]]}
         bed = sb.bed_for(cfg, device=self.device, cache_dir=self.out / "beds")
+        fp, old = self._bed_fingerprint(f"replica_{job['replica']}", bed)
+        if old is not None:
+            self._set_aside(job["replica"], old)
         self.log(f"soil-bin job {job['name']}: {n} worlds, springs {job['springs']}, speeds {job['speeds']} m/s")
         t0 = time.perf_counter()
+        resumed = ckpt.exists()
         run = sb.run_soil_bin(cfg, list(job["springs"]), bed=bed, device=self.device, speeds=list(job["speeds"]),
-                              soil_overrides=overrides, knobs=knobs, checkpoint=self.out / "checkpoints" / job["name"],
-                              deadline=budget.deadline)
+                              soil_overrides=overrides, knobs=knobs, checkpoint=ckpt, deadline=budget.deadline)
         if job["replica"] == 0:  # the series of one bed for the figures
             keep = {"time": run.time, "travel": run.travel,
                     **{k: run.series[k] for k in ("draught", "displacement", "ke_tool", "ke_soil")}}
@@ -451,22 +490,41 @@ class Workflow:
             path.parent.mkdir(parents=True, exist_ok=True)
             np.savez_compressed(tmp, **keep)
             tmp.replace(path.with_suffix(".npz"))
-        out = {**job, "rows": sb.json_safe(run.steady), "dt": run.dt, "steps": run.steps, "spheres": run.n_spheres,
-               "particles": run.n_particles, "wall_s": time.perf_counter() - t0}
+        out = {**job, "bed": fp, "rows": sb.json_safe(run.steady), "dt": run.dt, "steps": run.steps,
+               "spheres": run.n_spheres, "particles": run.n_particles, "wall_s": time.perf_counter() - t0}
         write_json_atomic(path, out)
-        import shutil
-
-        shutil.rmtree(self.out / "checkpoints" / job["name"], ignore_errors=True)
+        if not resumed:
+            self._timed(timing, out["wall_s"])
+        shutil.rmtree(ckpt, ignore_errors=True)
         self.log(f"  done in {out['wall_s']:.0f} s")
         return out
+
+    def _set_aside(self, replica: int, fingerprint: str) -> None:
+        """Move the finished jobs of ``replica`` made on the bed ``fingerprint`` to ``table3/stale/``: its bed had
+        to be deposited again and came out another realisation, so they would not pair with the jobs to come."""
+        stale = self._path("table3/stale")
+        for j in self.jobs(replica):
+            p = self._path(f"table3/{j['name']}.json")
+            if p.exists() and json.loads(p.read_text()).get("bed") == fingerprint:
+                stale.mkdir(parents=True, exist_ok=True)
+                for q in (p, p.with_suffix(".npz")):
+                    if q.exists():
+                        q.replace(stale / f"{q.stem}_{fingerprint}{q.suffix}")
+                self.log(f"  {j['name']} set aside: made on bed {fingerprint}, which was deposited again differently")
+
+    def replica(self, r: int, soil: dict, ring: dict | None, budget: Budget) -> list[dict]:
+        """Every job of replica ``r``, all on one bed."""
+        while True:
+            results = [self.run_job(j, soil, ring, budget) for j in self.jobs(r)]
+            if len({x.get("bed") for x in results}) == 1:
+                return results
 
     def table3(self, soil: dict, ring: dict | None, budget: Budget) -> dict:
         c = self.config
         replicas = c.replicas_min
         r = 0
         while r < replicas:
-            results = [self.run_job(j, soil, ring, budget) for j in self.jobs(r)]
-            del results
+            self.replica(r, soil, ring, budget)
             r += 1
             if r == replicas:
                 stats = self.table3_stats(r)

@@ -454,8 +454,11 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
                  viewer: object | None = None, soil_overrides: dict[str, object] | None = None,
                  speeds: list[float] | None = None, knobs: dict[str, object] | None = None,
                  checkpoint: str | Path | None = None, checkpoint_every: float = 60.0,
-                 deadline: float | None = None) -> SoilBinRun:
+                 deadline: float | None = None, place: bool = True) -> SoilBinRun:
     """One simulation: rigid tools (every entry of ``springs`` 0) or passive configurations, one world each.
+
+    ``tool``: the sweep (default :func:`scenes.sweep.build_sweep`), put on the bed's surface by :func:`place_tool`
+    unless ``place`` is False (then it is used where it is, e.g. a twin's exported scene).
 
     ``speeds``: carriage speed per world [m/s] (n_worlds,) (default: the config's speed of each spring count).
     ``knobs``: per-world settings and extensions, name -> (n_worlds,) values (see :data:`KNOBS`).
@@ -484,7 +487,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     speeds = [float(v) for v in speeds]
     rigid = all(n == 0 for n in springs)
     knob_arrays = _check_knobs(knobs, len(springs), rigid, config.spring_model)
-    tool = place_tool(bed, config.working_depth, tool)
+    tool = place_tool(bed, config.working_depth, tool) if place or tool is None else tool
     model, state, info = _build(config, bed, tool, springs, speeds, device, soil_overrides, knob_arrays)
     dt = config.dt or min(0.3 * wd.pwave_timestep(model), 0.5 * wd.critical_timestep(model))
     p = config.preset

@@ -5,7 +5,8 @@ from benchmarks/yade/soil_bin_twin_spec_A.npz (the scene ``run_soil_bin`` builds
 soil_bin_twin_export.py: bed after the starting trench, bin and tool triangles, materials, dt, cohesion on the
 first step's contacts). The run here is ``run_soil_bin`` itself; its probe (soil_bin_twin_compare.Probe) checks
 that the scene equals the exported one and counts the contacts in Yade's id space, so both engines' numbers come
-from the same formulas. The bed is made by ``bed_for`` on the CPU (deterministic: the probe would refuse another).
+from the same formulas. The bed and the tool's place are read from the spec (``spec_bed_and_tool``): a deposition
+repeated on another CPU or Warp build comes out another bed, which the probe would refuse.
 
 Tolerances:
 - the first record (25 steps after the bonds were set): the same number of sphere-sphere contacts and bonds

@@ -183,3 +183,47 @@ def test_workflow_stopped_at_every_kind_of_piece_resumes_to_the_uninterrupted_re
     assert any("soil-bin run stopped" in s for s in stops), stops  # and inside a soil-bin run
     assert len(stops) >= 8
     assert _numbers(pieces) == _numbers(whole)
+
+
+def test_jobs_on_a_bed_deposited_again_differently_are_set_aside(tmp_path):
+    """Pairing rule: a replica's reductions pair jobs of ONE bed. When the bed had to be deposited again and came out
+    another realisation (CUDA deposition is not repeatable), the replica's finished jobs on the old bed move to
+    table3/stale/ so that they are run again on the new one; jobs of other replicas stay."""
+    from scenes.assemblies import AssemblySpec, Bed
+
+    wf = Workflow(tmp_path, _config())
+    bed = Bed(AssemblySpec(kind="A", radius=0.02), (0.5, 0.65, 0.45), 0.2, np.zeros((3, 3)), np.full(3, 0.02),
+              np.arange(3))
+    other = Bed(bed.spec, bed.bin_size, bed.depth, bed.centres + 1e-9, bed.radii, bed.particle)
+    fp, old = wf._bed_fingerprint("replica_0", bed)
+    assert old is None and wf._bed_fingerprint("replica_0", bed) == (fp, None)
+    (tmp_path / "table3").mkdir()
+    for r in (0, 1):
+        for j in wf.jobs(r):
+            (tmp_path / "table3" / f"{j['name']}.json").write_text(json.dumps({**j, "bed": fp}))
+    fp2, old = wf._bed_fingerprint("replica_0", other)
+    assert fp2 != fp and old == fp
+    wf._set_aside(0, old)
+    left = sorted(p.name for p in (tmp_path / "table3").glob("*.json"))
+    assert left == sorted(f"{j['name']}.json" for j in wf.jobs(1))
+    assert len(list((tmp_path / "table3" / "stale").glob("*.json"))) == len(wf.jobs(0))
+
+
+def test_cli_full_workflow_stops_with_exit_3_and_refuses_another_configuration(tmp_path, capsys):
+    """`warpdem reproduce --workflow full --budget S`: when the next piece would not fit (here the ringing lockstep,
+    timed at 1e6 s per world by an earlier call), it stops with exit code 3 and one line; the same folder with
+    another configuration is a one-line input error (exit 2)."""
+    from warpdem.cli import main
+
+    out = tmp_path / "wf"
+    out.mkdir()
+    (out / "timings.json").write_text(json.dumps({"ringing_linear_per_world": 1e6}))
+    args = ["reproduce", "--workflow", "full", "--scale", "ci", "--assembly", "A", "--springs", "16,32",
+            "--generations", "1", "--population", "2", "--parents", "1", "--device", "cpu", "--out", str(out)]
+    capsys.readouterr()
+    assert main([*args, "--budget", "600"]) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("warpdem reproduce: stopped: stopped before a lockstep batch of 4 worlds")
+    assert not (out / "ringing_linear.json").exists()
+    assert main([*args, "--replicas-max", "4"]) == 2
+    assert "another configuration" in capsys.readouterr().err

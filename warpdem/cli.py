@@ -1,6 +1,8 @@
 """The ``warpdem`` command.
 
     warpdem reproduce [--scale ci|cpu|paper] [--device cpu|cuda] [--out DIR] [--assembly A|B|C] [--springs 0,16,32]
+    warpdem reproduce --workflow full [--scale] [--assembly] [--budget S] [--replicas-min 3] [--replicas-max 8]
+                      [--target-sem 1] [--worlds-per-job 4] [--generations 5] [--population 20] [--parents 7]
     warpdem ringing   [--spring-model paper|linear] [--springs 4,8,...] [--device] [--out DIR]
     warpdem soil-bin  [--scale] [--assembly] [--springs] [--spring-model] [--viewer] [--viewer-save FILE.rrd]
     warpdem speed-sweep [--scale] [--assembly] [--speeds 0.45,0.5,...] [--device] [--out DIR]
@@ -21,6 +23,9 @@ tool at every configuration's speed and 16 and 32 springs (each reduction agains
 and writes a results folder with config.json (parameters, versions, device, seed), the time series, summary.json,
 PNG plots and report.md beside the paper's Tables 2, 3 and 7. Each rig also has its own command. The soil-bin runs
 of ``reproduce`` and ``soil-bin`` checkpoint into OUT/checkpoints; the same command run again after a kill resumes.
+``reproduce --workflow full`` runs the paper's whole workflow (:mod:`calibration.paper_workflow`): ringing and draught
+calibrations, shear-box screening, Table 3 with and without support offsets on several beds; with ``--budget`` it
+stops (exit code 3) where the next piece would not fit, and the same command continues.
 """
 
 from __future__ import annotations
@@ -166,12 +171,53 @@ def _setup(args: argparse.Namespace) -> str:
 
 
 def run_reproduce(args: argparse.Namespace) -> int:
+    if args.workflow == "full":
+        return run_workflow(args)
     from scenes.reproduce import reproduce
 
     device = _setup(args)
-    summary = reproduce(args.out, scale=args.scale, device=device, assembly=args.assembly, springs=args.springs,
-                        seed=args.seed, progress=_bar)
+    summary = reproduce(args.out, scale=args.scale, device=device, assembly=args.assembly,
+                        springs=args.springs or (0, 16, 32), seed=args.seed, progress=_bar)
     print(f"results in {args.out} (report.md), wall time {summary['wall_s']:.0f} s on {device}")
+    return 0
+
+
+def run_workflow(args: argparse.Namespace) -> int:
+    """``reproduce --workflow full``: calibration.paper_workflow in OUT, continued when OUT holds one already."""
+    from calibration.genes import GASettings
+    from calibration.paper_workflow import Budget, Workflow, WorkflowConfig
+    from scenes import paper
+    from warpdem.errors import BudgetExhausted
+
+    device = _setup(args)
+    if args.springs is not None and 0 in args.springs:
+        raise InputError(f"--springs of the full workflow lists passive configurations (the rigid runs are always "
+                         f"made), got {','.join(map(str, args.springs))}")
+    for name in ("generations", "population", "parents"):
+        if getattr(args, name) < 1:
+            raise InputError(f"--{name} must be >= 1, got {getattr(args, name)}")
+    if args.population < args.parents:
+        raise InputError(f"--population ({args.population}) must be at least --parents ({args.parents})")
+    ga = GASettings(generations=args.generations, population=args.population, parents=args.parents, seed=args.seed)
+    config = WorkflowConfig(scale=args.scale, assembly=args.assembly,
+                            springs=args.springs or paper.SPRING_COUNTS, ringing_ga=ga, draught_ga=ga,
+                            replicas_min=args.replicas_min, replicas_max=args.replicas_max,
+                            target_sem=args.target_sem, worlds_per_job=args.worlds_per_job,
+                            settle_time=args.settle_time, seed=args.seed)
+    budget = Budget(args.budget)
+    wf = Workflow(args.out, config, device=device, log=lambda m: print(m, flush=True))
+    t0 = time.perf_counter()
+    try:
+        summary = wf.run(budget)
+    except BudgetExhausted as e:
+        print(f"warpdem reproduce: stopped: {e}", file=sys.stderr)
+        return 3
+    cmp = summary["table3"]["comparison"]
+    for variant, c in cmp.items():
+        print(f"Table 3, {variant}: MAE {c['mae_pp']:.2f} +- {c['mae_sem_pp']:.2f} pp, signs {c['signs_right']}/"
+              f"{c['n']}, largest reduction SE {c['max_sem_pp']:.2f} pp (paper's DEM: MAE "
+              f"{c['paper_dem_mae_pp']:.2f} pp, signs {c['paper_dem_signs_right']}/{c['n']})")
+    print(f"results in {args.out} (report.md), this call {time.perf_counter() - t0:.0f} s on {device}")
     return 0
 
 
@@ -389,7 +435,27 @@ def main(argv: list[str] | None = None) -> int:
     r = sub.add_parser("reproduce", help="the paper's study (ringing + soil bin) with a report; after a kill, "
                        "the same command resumes the soil-bin runs from OUT/checkpoints")
     common(r, "results/reproduce")
-    r.add_argument("--springs", type=_springs, default=(0, 16, 32), help="soil-bin configurations, 0 = rigid")
+    r.add_argument("--springs", type=_springs, default=None,
+                   help="soil-bin configurations, 0 = rigid (quick: default 0,16,32; full: the passive ones, "
+                        "default all eight)")
+    r.add_argument("--workflow", choices=("quick", "full"), default="quick",
+                   help="quick: ringing with the paper's parameters + soil bin with the paper's GA set 11; full: "
+                        "ringing and draught calibrations, shear-box screening, Table 3 with replicas (resumable: "
+                        "run the same command again after a stop)")
+    r.add_argument("--budget", type=float, default=None,
+                   help="full: wall time [s] of this call; the workflow stops (exit code 3) where the next piece "
+                        "would not fit, saving its state; the same command continues")
+    r.add_argument("--replicas-min", type=int, default=3, help="full: independent beds at least (default 3)")
+    r.add_argument("--replicas-max", type=int, default=8, help="full: independent beds at most (default 8)")
+    r.add_argument("--target-sem", type=float, default=1.0,
+                   help="full: replicas are added until every reduction's standard error is below this "
+                        "[percentage points] (default 1)")
+    r.add_argument("--worlds-per-job", type=int, default=4, help="full: soil-bin worlds per simulation (default 4)")
+    r.add_argument("--settle-time", type=float, default=0.5,
+                   help="full: [s] a bed settles under the soil set before the tool moves (default 0.5)")
+    r.add_argument("--generations", type=int, default=5, help="full: GA generations (default: the paper's 5)")
+    r.add_argument("--population", type=int, default=20, help="full: GA population (default: the paper's 20)")
+    r.add_argument("--parents", type=int, default=7, help="full: GA parents mating (default: the paper's 7)")
     g = sub.add_parser("ringing", help="ringing test of the eight spring configurations")
     common(g, "results/ringing", scale=False)
     g.add_argument("--springs", type=_springs, default=None)

@@ -44,7 +44,8 @@ wp.config.quiet = True
 
 import warpdem as wd  # noqa: E402
 from scenes import soil_bin as sb  # noqa: E402
-from scenes.assemblies import Bed  # noqa: E402
+from scenes.assemblies import AssemblySpec, Bed  # noqa: E402
+from scenes.sweep import build_sweep  # noqa: E402
 from warpdem import analysis  # noqa: E402
 from warpdem.observers import _csr_entries  # noqa: E402
 
@@ -198,18 +199,31 @@ def steady(t: np.ndarray, x: np.ndarray, spec: dict[str, np.ndarray]) -> analysi
     return analysis.steady_state(t, x, trav, start_travel=float(spec["steady_travel"]))
 
 
-def run_soil_bin_twin(assembly: str, spec: dict[str, np.ndarray], seed: int | None = None) -> dict:
-    """run_soil_bin itself on the export's bed (seed: the bed with realization ``seed``'s shifts)."""
+def spec_bed_and_tool(assembly: str, spec: dict[str, np.ndarray], seed: int | None = None
+                      ) -> tuple[Bed, sb.SweepTool]:
+    """The export's scene as run_soil_bin's inputs, read from the spec alone (a deposition repeated on another CPU
+    or Warp build is another bed: chaotic dynamics amplify last-bit differences): the kept particles' bed centres
+    in the export's order, and the sweep moved to the exported tip. ``seed``: the bed with realization ``seed``'s
+    shifts."""
     config = ex.config_for(assembly)
-    bed = sb.bed_for(config, cache_dir=ROOT / "results" / "beds")
+    centres = np.array(spec["sphere_pos_bed"], dtype=np.float64)
     if seed is not None:
-        centres = bed.centres.copy()
-        centres[spec["sphere_bed_index"]] += shifts(spec, seed)[spec["sphere_particle"]]
-        bed = Bed(bed.spec, bed.bin_size, bed.depth, centres, bed.radii, bed.particle, bed.porosity,
-                  bed.coordination, bed.seed, bed.wall_s)
+        centres += shifts(spec, seed)[spec["sphere_particle"]]
+    bed = Bed(AssemblySpec(kind=assembly, radius=config.preset["radius"]), tuple(spec["bin_size"]),
+              float(spec["bed_depth"]), centres, np.array(spec["sphere_radius"]),
+              np.array(spec["sphere_particle"]), float(spec["bed_porosity"]), float(spec["bed_coordination"]),
+              int(spec["seed"]))
+    tool = build_sweep()
+    return bed, tool.moved(np.asarray(spec["tool_tip"]) - tool.tip)
+
+
+def run_soil_bin_twin(assembly: str, spec: dict[str, np.ndarray], seed: int | None = None) -> dict:
+    """run_soil_bin itself on the export's bed and tool (seed: the bed with realization ``seed``'s shifts)."""
+    config = ex.config_for(assembly)
+    bed, tool = spec_bed_and_tool(assembly, spec, seed)
     probe = Probe(spec, perturbed=seed is not None)
     t0 = time.perf_counter()
-    run = sb.run_soil_bin(config, [0], bed=bed, device="cpu", viewer=probe)
+    run = sb.run_soil_bin(config, [0], bed=bed, device="cpu", viewer=probe, tool=tool, place=False)
     wall = time.perf_counter() - t0
     if run.n_particles != int(spec["n_particles"]):
         raise AssertionError(f"run has {run.n_particles} particles, spec {int(spec['n_particles'])}")
