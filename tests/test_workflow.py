@@ -81,6 +81,7 @@ def test_replicas_needed_from_the_one_over_sqrt_n_law():
 def _config(**kw: object) -> WorkflowConfig:
     base = {"scale": "ci", "assembly": "A", "springs": (16, 32), "ringing_models": ("linear",),
             "ringing_ga": GASettings(generations=1, population=4, parents=2), "ringing_time": 1.0,
+            "ringing_refine": {"linear": 2, "paper": 0},
             "draught_ga": GASettings(generations=1, population=3, parents=2), "screen_top": 1,
             "screen_changes": {"shear_displacement": 0.03, "consolidation_time": (0.02, 0.1)},
             "replicas_min": 2, "replicas_max": 2, "settle_time": 0.0, "travel": 0.2, "steady_travel": 0.1,

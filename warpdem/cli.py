@@ -210,7 +210,8 @@ def run_workflow(args: argparse.Namespace) -> int:
     try:
         summary = wf.run(budget)
     except BudgetExhausted as e:
-        print(f"warpdem reproduce: stopped: {e}", file=sys.stderr)
+        report = wf.write_interim_report()
+        print(f"warpdem reproduce: stopped: {e}; the report so far is {report}", file=sys.stderr)
         return 3
     cmp = summary["table3"]["comparison"]
     for variant, c in cmp.items():
