@@ -19,13 +19,16 @@ to its depth (particles whose centre lies above it are removed) and settles agai
 from __future__ import annotations
 
 import math
+import os
 import time
+import uuid
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
 import warpdem as wd
+from warpdem.errors import InputError
 from warpdem.mass import quats_to_matrices
 
 from . import paper
@@ -109,21 +112,39 @@ class Bed:
         return int(self.particle.max()) + 1 if len(self.particle) else 0
 
     def save(self, path: str | Path) -> None:
-        """Write the bed to ``path`` (.npz)."""
-        np.savez_compressed(path, centres=self.centres, radii=self.radii, particle=self.particle,
-                            bin_size=np.array(self.bin_size), depth=self.depth, porosity=self.porosity,
-                            coordination=self.coordination, seed=self.seed, wall_s=self.wall_s,
-                            spec=np.array(str(asdict(self.spec))))
+        """Write the bed to ``path`` (.npz) atomically: a temporary file of a unique name, then renamed, so that
+        a killed run never leaves a truncated bed and two runs never write into one file."""
+        path = Path(path)
+        tmp = path.with_name(f".{path.stem}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp.npz")
+        try:
+            np.savez_compressed(tmp, centres=self.centres, radii=self.radii, particle=self.particle,
+                                bin_size=np.array(self.bin_size), depth=self.depth, porosity=self.porosity,
+                                coordination=self.coordination, seed=self.seed, wall_s=self.wall_s,
+                                spec=np.array(str(asdict(self.spec))))
+            os.replace(tmp, path)
+        finally:
+            tmp.unlink(missing_ok=True)
 
     @staticmethod
     def load(path: str | Path) -> Bed:
-        """Read a bed written by :meth:`save`."""
+        """Read a bed written by :meth:`save`; a file that is not one raises InputError naming it."""
         import ast
+        import zipfile
 
-        d = np.load(path)
-        spec = AssemblySpec(**ast.literal_eval(str(d["spec"])))
-        return Bed(spec, tuple(float(v) for v in d["bin_size"]), float(d["depth"]), d["centres"], d["radii"],
-                   d["particle"], float(d["porosity"]), float(d["coordination"]), int(d["seed"]), float(d["wall_s"]))
+        try:
+            with np.load(path) as d:
+                spec = AssemblySpec(**ast.literal_eval(str(d["spec"])))
+                bed = Bed(spec, tuple(float(v) for v in d["bin_size"]), float(d["depth"]), d["centres"],
+                          d["radii"], d["particle"], float(d["porosity"]), float(d["coordination"]), int(d["seed"]),
+                          float(d["wall_s"]))
+        except (OSError, EOFError, KeyError, ValueError, SyntaxError, TypeError, zipfile.BadZipFile) as e:
+            raise InputError(f"{str(path)!r} is not a readable bed ({type(e).__name__}: {e}); delete it to deposit "
+                             "the bed again") from None
+        n = len(bed.centres)
+        if bed.centres.shape != (n, 3) or bed.radii.shape != (n,) or bed.particle.shape != (n,):
+            raise InputError(f"{str(path)!r} is not a consistent bed (centres {bed.centres.shape}, radii "
+                             f"{bed.radii.shape}, particle {bed.particle.shape}); delete it to deposit it again")
+        return bed
 
     def add_to(self, b: wd.ModelBuilder, material: str, *, group: str = "soil",
                keep: np.ndarray | None = None) -> np.ndarray:

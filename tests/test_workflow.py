@@ -211,20 +211,20 @@ def test_jobs_on_a_bed_deposited_again_differently_are_set_aside(tmp_path):
 
 
 def test_cli_full_workflow_stops_with_exit_3_and_refuses_another_configuration(tmp_path, capsys):
-    """`warpdem reproduce --workflow full --budget S`: when the next piece would not fit (here the ringing lockstep,
-    timed at 1e6 s per world by an earlier call), it stops with exit code 3 and one line; the same folder with
-    another configuration is a one-line input error (exit 2)."""
+    """`warpdem reproduce --workflow full --budget S`: when the next piece would not fit (a budget of 1 ms lets the
+    first ringing batch start, then none), it stops with exit code 3 and one line; the same folder with another
+    configuration is a one-line input error (exit 2) and leaves the folder as it was."""
     from warpdem.cli import main
 
     out = tmp_path / "wf"
-    out.mkdir()
-    (out / "timings.json").write_text(json.dumps({"ringing_linear_per_world": 1e6}))
     args = ["reproduce", "--workflow", "full", "--scale", "ci", "--assembly", "A", "--springs", "16,32",
             "--generations", "1", "--population", "2", "--parents", "1", "--device", "cpu", "--out", str(out)]
     capsys.readouterr()
-    assert main([*args, "--budget", "600"]) == 3
+    assert main([*args, "--budget", "0.001"]) == 3
     err = capsys.readouterr().err.strip().splitlines()
-    assert err[-1].startswith("warpdem reproduce: stopped: stopped before a lockstep batch of 4 worlds")
+    assert len(err) == 1 and err[0].startswith("warpdem reproduce: stopped: stopped before a lockstep batch")
     assert not (out / "ringing_linear.json").exists()
+    before = sorted(p.relative_to(out) for p in out.rglob("*"))
     assert main([*args, "--replicas-max", "4"]) == 2
-    assert "another configuration" in capsys.readouterr().err
+    assert "holds another run" in capsys.readouterr().err
+    assert sorted(p.relative_to(out) for p in out.rglob("*")) == before

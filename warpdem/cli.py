@@ -35,6 +35,7 @@ import json
 import platform
 import sys
 import time
+import uuid
 from pathlib import Path
 
 import numpy as np
@@ -56,13 +57,11 @@ def _default_device() -> str:
 def run_demo(args: argparse.Namespace) -> int:
     import warp as wp
 
-    wp.config.quiet = True
     import warpdem as wd
     from scenes import demo
 
     device = args.device or _default_device()
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = _claim(args, args.out)
     box = (0.24, 0.10, 0.12)
     config = {
         "command": "demo", "device": device, "particles": args.particles, "seed": args.seed, "box_m": box,
@@ -156,6 +155,45 @@ def _write_config(out: Path, command: str, device: str, **fields: object) -> Non
                                                  **fields}, indent=2, default=str))
 
 
+CLAIM = ".warpdem-run.json"
+"""The file that marks a results folder as one run's: the command and every parameter that makes the run."""
+_NOT_IDENTITY = {"argv", "out", "verbose", "overwrite", "budget", "no_resume", "debug"}
+
+
+def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) -> Path:
+    """Make ``out`` this run's folder, or refuse: a folder holding another run (another command or other
+    parameters) needs ``--overwrite`` (which removes it first); a non-empty folder that is no warpdem run is
+    refused always (``adopt``: a file whose presence marks a folder of this command made before claims existed).
+    The same command with the same parameters continues in its own folder."""
+    import shutil
+
+    out = Path(out)
+    mine = json.loads(json.dumps({"command": args.command, **{k: v for k, v in sorted(vars(args).items())
+                                                                if k not in _NOT_IDENTITY | {"command"}}},
+                                 default=str))
+    claim = out / CLAIM
+    if claim.exists():
+        try:
+            held = json.loads(claim.read_text())
+        except (OSError, ValueError):
+            held = {}
+        if held == mine:
+            return out
+        if not getattr(args, "overwrite", False):
+            diff = [k for k in sorted(set(held) | set(mine)) if held.get(k) != mine.get(k)]
+            what = ", ".join(f"{k} {held.get(k)!r} (now {mine.get(k)!r})" for k in diff[:4])
+            raise InputError(f"--out {str(out)!r} holds another run ({what}); choose another --out, or pass "
+                             "--overwrite to replace it")
+        shutil.rmtree(out)
+    elif out.exists() and any(out.iterdir()) and not (adopt and (out / adopt).exists()):
+        raise InputError(f"--out {str(out)!r} is not empty and holds no warpdem run; choose a new or empty folder")
+    out.mkdir(parents=True, exist_ok=True)
+    tmp = out / f".{CLAIM}.{uuid.uuid4().hex[:8]}.tmp"
+    tmp.write_text(json.dumps(mine, indent=1))
+    tmp.replace(claim)
+    return out
+
+
 def _springs(text: str) -> tuple[int, ...]:
     try:
         return tuple(int(v) for v in text.split(",") if v.strip())
@@ -163,10 +201,16 @@ def _springs(text: str) -> tuple[int, ...]:
         raise argparse.ArgumentTypeError(f"--springs must be comma-separated integers, got {text!r}") from None
 
 
-def _setup(args: argparse.Namespace) -> str:
+def _quiet_warp() -> None:
+    """Warp's banner and kernel-load lines off (``--verbose`` keeps them)."""
     import warp as wp
 
-    wp.config.quiet = True
+    wp.config.quiet = True  # Warp < 1.19
+    if hasattr(wp, "LOG_ERROR"):
+        wp.config.log_level = wp.LOG_ERROR
+
+
+def _setup(args: argparse.Namespace) -> str:
     return args.device or _default_device()
 
 
@@ -176,6 +220,7 @@ def run_reproduce(args: argparse.Namespace) -> int:
     from scenes.reproduce import reproduce
 
     device = _setup(args)
+    _claim(args, args.out)
     summary = reproduce(args.out, scale=args.scale, device=device, assembly=args.assembly,
                         springs=args.springs or (0, 16, 32), seed=args.seed, progress=_bar)
     print(f"results in {args.out} (report.md), wall time {summary['wall_s']:.0f} s on {device}")
@@ -205,6 +250,7 @@ def run_workflow(args: argparse.Namespace) -> int:
                             target_sem=args.target_sem, worlds_per_job=args.worlds_per_job,
                             settle_time=args.settle_time, seed=args.seed)
     budget = Budget(args.budget)
+    _claim(args, args.out, adopt="workflow.json")
     wf = Workflow(args.out, config, device=device, log=lambda m: print(m, flush=True))
     t0 = time.perf_counter()
     try:
@@ -227,8 +273,7 @@ def run_ringing_cmd(args: argparse.Namespace) -> int:
     from scenes.reproduce import plot_ringing
 
     device = _setup(args)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = _claim(args, args.out)
     springs = args.springs or ringing.RingingConfig().springs
     res = {}
     for m in ([args.spring_model] if args.spring_model else list(ringing.SPRING_MODELS)):
@@ -251,8 +296,7 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
     from scenes import soil_bin as sb
 
     device = _setup(args)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = _claim(args, args.out)
     cfg = sb.SoilBinConfig(scale=args.scale, assembly=args.assembly, springs=args.springs or (0, 16, 32),
                            spring_model=args.spring_model or "linear", seed=args.seed)
     viewer = None
@@ -287,8 +331,7 @@ def run_speed_sweep_cmd(args: argparse.Namespace) -> int:
     from scenes import speed_sweep
 
     device = _setup(args)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = _claim(args, args.out)
     cfg = sb.SoilBinConfig(scale=args.scale, assembly=args.assembly, springs=(0,), seed=args.seed)
     _write_config(out, "speed-sweep", device, speeds=args.speeds, scale=args.scale, assembly=args.assembly,
                   seed=args.seed, preset=sb.SCALES[args.scale])
@@ -311,8 +354,7 @@ def run_shear_box_cmd(args: argparse.Namespace) -> int:
     from scenes import shear_box
 
     device = _setup(args)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = _claim(args, args.out)
     cfg = shear_box.preset(args.scale, args.assembly, seed=args.seed)
     _write_config(out, "shear-box", device, config=str(cfg))
     res = shear_box.run_shear_box(cfg, device)
@@ -342,9 +384,8 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
         kw: dict[str, object] = {"springs": args.springs, "spring_model": args.spring_model, "fitness": args.fitness}
     else:
         kw = {"assembly": args.assembly, "scale": args.scale, "speed": args.speed, "seed": args.seed}
-    out = Path(args.out or f"results/calibrate/{args.kind}_" + (str(args.springs) if args.kind == "ringing"
-                                                                  else args.assembly))
-    out.mkdir(parents=True, exist_ok=True)
+    out = _claim(args, args.out or f"results/calibrate/{args.kind}_" + (str(args.springs) if args.kind == "ringing"
+                                                                        else args.assembly))
     _write_config(out, f"calibrate {args.kind}", device, settings=settings.to_dict(), problem=kw, genes=genes)
 
     def show(h: dict[str, object]) -> None:
@@ -407,8 +448,7 @@ def run_diagnose_cmd(args: argparse.Namespace) -> int:
     settings = diagnosis.DiagnosisSettings(rounds=args.rounds, alpha=args.alpha, min_gain=args.min_gain,
                                            mechanisms=tuple(args.mechanisms.split(",")) if args.mechanisms else None,
                                            batch_worlds=args.batch_worlds)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = _claim(args, args.out)
     checkpoint = out / "checkpoint.json"
     if args.no_resume and checkpoint.exists():
         checkpoint.unlink()
@@ -421,17 +461,44 @@ def run_diagnose_cmd(args: argparse.Namespace) -> int:
     return 0
 
 
+class _DefaultsFormatter(argparse.HelpFormatter):
+    """--help with each option's default where its text does not already say it."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        d = action.default
+        if action.option_strings and d not in (None, False, argparse.SUPPRESS) and "default" not in text:
+            text += f" (default: {','.join(map(str, d)) if isinstance(d, tuple | list) else d})"
+        return text
+
+
+class _DefaultsParser(argparse.ArgumentParser):
+    """Subcommand parsers whose --help shows every option's default."""
+
+    def __init__(self, **kw: object) -> None:
+        super().__init__(formatter_class=_DefaultsFormatter, **kw)
+
+
+SCALE_HELP = ("soil-bin size: ci = 0.5 x 0.65 m bin, 20 mm members (tests, seconds); cpu = 0.7 x 1.1 m, 15 mm "
+              "(minutes on a CPU); paper = the paper's 1.0 x 2.0 m bin, 7 mm members, about 214,000 spheres (a GPU)")
+ASSEMBLY_HELP = "A = single spheres, B = two-sphere clumps, C = the paper's mix with elongated three-sphere clumps"
+
+
 def main(argv: list[str] | None = None) -> int:
+    from . import __version__
+
     parser = argparse.ArgumentParser(prog="warpdem", description="DEM of soil-tool interaction on NVIDIA Warp")
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser.add_argument("--version", action="version", version=f"warpdem {__version__}")
+    parser.add_argument("--verbose", action="store_true", help="keep Warp's banner and kernel-load lines")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_DefaultsParser)
 
     def common(p: argparse.ArgumentParser, out: str, scale: bool = True) -> None:
         p.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
         p.add_argument("--out", default=out, help="results folder")
-        p.add_argument("--seed", type=int, default=0)
+        p.add_argument("--seed", type=int, default=0, help="the bed's deposition seed")
         if scale:
-            p.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"))
-            p.add_argument("--assembly", default="C", choices=("A", "B", "C"))
+            p.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"), help=SCALE_HELP)
+            p.add_argument("--assembly", default="C", choices=("A", "B", "C"), help=ASSEMBLY_HELP)
 
     r = sub.add_parser("reproduce", help="the paper's study (ringing + soil bin) with a report; after a kill, "
                        "the same command resumes the soil-bin runs from OUT/checkpoints")
@@ -467,7 +534,8 @@ def main(argv: list[str] | None = None) -> int:
                        "from OUT/checkpoints")
     common(s, "results/soil_bin")
     s.add_argument("--springs", type=_springs, default=None, help="configurations, 0 = rigid (default 0,16,32)")
-    s.add_argument("--spring-model", choices=("paper", "linear"), default=None)
+    s.add_argument("--spring-model", choices=("paper", "linear"), default=None,
+                   help="passive tool's springs: linear spring-dashpot (default) or the paper's spring spheres")
     s.add_argument("--viewer", action="store_true", help="stream to the Rerun viewer")
     s.add_argument("--viewer-save", default=None, help="write a Rerun recording (.rrd) instead of / as well")
     s.add_argument("--speed-range", default="0.2,0.7", help="particle speed colour range [m/s] (Fig. 15: 0.2,0.7)")
@@ -482,7 +550,7 @@ def main(argv: list[str] | None = None) -> int:
     d = sub.add_parser("demo", help="deposit a small cohesive bed and cut it with a blade")
     d.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
     d.add_argument("--particles", type=int, default=1500)
-    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--seed", type=int, default=0, help="deposition seed")
     d.add_argument("--deposit-time", type=float, default=0.5, help="simulated deposition time [s]")
     d.add_argument("--speed", type=float, default=0.5, help="blade speed [m/s]")
     d.add_argument("--depth", type=float, default=0.03, help="cutting depth [m]")
@@ -534,8 +602,14 @@ def main(argv: list[str] | None = None) -> int:
     q.add_argument("--batch-worlds", type=int, default=0,
                    help="at most N worlds per batched simulation, the checkpoint saved after each (0: one per round)")
     q.add_argument("--no-resume", action="store_true", help="start afresh even if --out holds a checkpoint")
+    for p in sub.choices.values():
+        p.add_argument("--overwrite", action="store_true",
+                       help="replace a results folder (--out) that holds another run; without it such a folder is "
+                            "refused")
     args = parser.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)
+    if not args.verbose:
+        _quiet_warp()
     commands = {"diagnose": run_diagnose_cmd, "demo": run_demo, "reproduce": run_reproduce, "ringing": run_ringing_cmd,
                 "soil-bin": run_soil_bin_cmd,
                 "speed-sweep": run_speed_sweep_cmd, "shear-box": run_shear_box_cmd, "calibrate": run_calibrate_cmd}

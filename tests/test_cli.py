@@ -1,0 +1,86 @@
+"""The `warpdem` command as a user meets it: --version, defaults in --help, Warp's banner off (one process each)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import warpdem
+
+
+def _run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "warpdem.cli", *args], capture_output=True, text=True, timeout=300)
+
+
+def test_version_and_defaults_in_help() -> None:
+    r = _run("--version")
+    assert r.returncode == 0 and r.stdout.strip() == f"warpdem {warpdem.__version__}"
+    h = _run("soil-bin", "--help")
+    assert h.returncode == 0
+    text = " ".join(h.stdout.split())
+    for shown in ("(default: cpu)", "(default: C)", "(default: results/soil_bin)", "214,000 spheres"):
+        assert shown in text, shown
+
+
+def test_warp_banner_off_unless_verbose_and_bad_input_is_one_line() -> None:
+    """The command initialises Warp (it picks the default device) and then refuses --springs 0 for the full
+    workflow: stdout holds no banner, stderr one line; --verbose brings the banner back."""
+    args = ("reproduce", "--workflow", "full", "--springs", "0", "--out", "unused")
+    r = _run(*args)
+    assert r.returncode == 2
+    assert "initialized" not in r.stdout
+    lines = [x for x in r.stderr.splitlines() if x.strip() and "CUDA driver" not in x]
+    assert lines == ["warpdem reproduce: error: --springs of the full workflow lists passive configurations (the "
+                     "rigid runs are always made), got 0"]
+    v = _run("--verbose", *args)
+    assert v.returncode == 2 and "initialized" in v.stdout
+
+
+def test_bed_files_are_written_atomically_and_a_damaged_one_is_named(tmp_path) -> None:
+    """Bed.save leaves only the bed (no temporary file); a truncated or foreign file raises InputError naming it,
+    not a raw zipfile/numpy error."""
+    import numpy as np
+    import pytest
+
+    from scenes.assemblies import AssemblySpec, Bed
+    from warpdem.errors import InputError
+
+    bed = Bed(AssemblySpec(kind="A", radius=0.01), (0.2, 0.2, 0.2), 0.1, np.random.default_rng(0).random((5, 3)),
+              np.full(5, 0.01), np.arange(5))
+    path = tmp_path / "bed.npz"
+    bed.save(path)
+    assert [p.name for p in tmp_path.iterdir()] == ["bed.npz"]
+    back = Bed.load(path)
+    assert np.array_equal(back.centres, bed.centres) and np.array_equal(back.particle, bed.particle)
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(InputError, match="bed.npz.*not a readable bed"):
+        Bed.load(path)
+    np.savez(path, centres=np.zeros((3, 3)))
+    with pytest.raises(InputError, match="not a readable bed"):
+        Bed.load(path)
+
+
+def test_two_runs_into_one_folder_lose_nothing(tmp_path) -> None:
+    """`warpdem ringing` for 16 springs, then for 32 springs into the same --out: the second is refused (exit 2, one
+    line) and the first run's summary is untouched; the same command again continues in its folder; --overwrite
+    replaces it. A non-empty folder that is no warpdem run is refused."""
+    import json
+
+    out = tmp_path / "ring"
+    base = ("ringing", "--spring-model", "linear", "--device", "cpu", "--out", str(out))
+    assert _run(*base, "--springs", "16").returncode == 0
+    first = (out / "summary.json").read_text()
+    assert [r["springs"] for r in json.loads(first)["linear"]] == [16]
+    r = _run(*base, "--springs", "32")
+    assert r.returncode == 2 and "holds another run" in r.stderr and "--overwrite" in r.stderr
+    assert (out / "summary.json").read_text() == first
+    assert _run(*base, "--springs", "16").returncode == 0
+    assert _run(*base, "--springs", "32", "--overwrite").returncode == 0
+    assert [r["springs"] for r in json.loads((out / "summary.json").read_text())["linear"]] == [32]
+    other = tmp_path / "mine"
+    other.mkdir()
+    (other / "notes.txt").write_text("keep")
+    r = _run(*base[:-1], str(other), "--springs", "16")
+    assert r.returncode == 2 and "holds no warpdem run" in r.stderr
+    assert (other / "notes.txt").read_text() == "keep"
