@@ -4,18 +4,26 @@ set by ``set_body_velocity`` and local damping set by ``set_local_damping``) and
 from the same scene.
 
 A restored CPU run continues bit for bit as the uninterrupted one would.
+
+The file carries a manifest (every array's shape, dtype and CRC-32); loading checks it, then checks the arrays
+against the simulation (shapes, finite state, candidate lists inside their capacity, partners that exist) and
+refuses with an InputError naming the file and the field, so that a damaged or foreign file never reaches a kernel.
 """
 
 from __future__ import annotations
 
+import json
 import os
+import uuid
+import zipfile
+import zlib
 
 import numpy as np
 import warp as wp
 
 from .errors import InputError
 
-_FORMAT = 2  # 2: five energy slots (driven work), mutable model arrays
+_FORMAT = 3  # 2: five energy slots (driven work), mutable model arrays; 3: manifest with checksums
 _SIM_ARRAYS = ("energy", "counters", "build_pos", "mesh_build_pos", "mesh_build_quat", "cohesion_now", "fault")
 _MODEL_ARRAYS = ("body_pivot_vel", "group_damping")
 """model arrays that the Simulation's setters change during a run."""
@@ -43,24 +51,105 @@ def save(sim: object, path: str | os.PathLike) -> None:
         data[f"{name}/capacity"] = np.array(lst.capacity)
         for k, v in lst.numpy().items():
             data[f"{name}/{k}"] = v
-    tmp = str(path) + ".tmp.npz"
-    np.savez_compressed(tmp, **data)
-    os.replace(tmp, path)
+    data["manifest"] = np.array(json.dumps({k: _entry(v) for k, v in data.items()}))
+    tmp = f"{path}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp.npz"
+    try:
+        np.savez_compressed(tmp, **data)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def _entry(v: np.ndarray) -> list:
+    return [list(v.shape), v.dtype.str, zlib.crc32(np.ascontiguousarray(v).tobytes())]
+
+
+def _read(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """The checkpoint's arrays, each checked against the manifest."""
+    where = f"checkpoint {str(path)!r}"
+    try:
+        with np.load(path, allow_pickle=False) as f:
+            data = {k: f[k] for k in f.files}
+    except (OSError, EOFError, ValueError, zipfile.BadZipFile) as e:
+        raise InputError(f"{where} is not readable ({type(e).__name__}: {e})") from None
+    fmt = int(data["format"]) if "format" in data and data["format"].shape == () else -1
+    if fmt != _FORMAT:
+        raise InputError(f"{where} has format {fmt}; this warpdem reads format {_FORMAT} (run again from the start)")
+    try:
+        manifest = json.loads(str(data.pop("manifest")))
+    except (KeyError, ValueError):
+        raise InputError(f"{where} has no readable manifest") from None
+    if set(manifest) != set(data):
+        raise InputError(f"{where}: fields {sorted(set(manifest) ^ set(data))} are missing or not in its manifest")
+    for k, v in data.items():
+        if _entry(v) != manifest[k]:
+            shape, dtype, _ = manifest[k]
+            what = (f"shape {list(v.shape)}, dtype {v.dtype.str} (manifest {shape}, {dtype})"
+                    if [list(v.shape), v.dtype.str] != [shape, dtype] else "checksum differs from its manifest")
+            raise InputError(f"{where}: field {k!r} is damaged: {what}")
+    return data
+
+
+def _check(sim: object, data: dict[str, np.ndarray], where: str) -> None:
+    """Refuse a checkpoint whose arrays cannot belong to ``sim``'s scene (see the module docstring)."""
+    def expect(key: str, shape: tuple[int, ...]) -> np.ndarray:
+        v = data.get(key)
+        if v is None or v.shape != tuple(shape):
+            raise InputError(f"{where}: field {key!r} has shape {None if v is None else list(v.shape)}, the scene "
+                             f"needs {list(shape)}")
+        return v
+
+    for k in ("time", "step", "dt"):
+        expect(k, ())
+    if not (np.isfinite(data["time"]) and data["time"] >= 0):
+        raise InputError(f"{where}: field 'time' is {float(data['time'])!r} s; it must be finite and >= 0")
+    if int(data["step"]) < 0:
+        raise InputError(f"{where}: field 'step' is {int(data['step'])}; it must be >= 0")
+    state = sim.state.numpy()
+    for k, v in state.items():
+        got = expect("state/" + k, v.shape)
+        if got.dtype.kind == "f" and not np.all(np.isfinite(got)):
+            raise InputError(f"{where}: field 'state/{k}' holds NaN or inf")
+    for k in _SIM_ARRAYS:
+        expect("sim/" + k, getattr(sim, k).numpy().shape)
+    for k in _MODEL_ARRAYS:
+        expect("model/" + k, getattr(sim.model, k).numpy().shape)
+    m = sim.model
+    for name, partners in (("ss", (m.n_spheres,)), ("st", (m.n_meshes, _max_faces(sim)))):
+        expect(f"{name}/capacity", ())
+        cap = int(data[f"{name}/capacity"])
+        start, count = expect(f"{name}/start", (m.n_spheres,)), expect(f"{name}/count", (m.n_spheres,))
+        if cap < 1 or np.any(start < 0) or np.any(count < 0) or np.any(start.astype(np.int64) + count > cap):
+            raise InputError(f"{where}: {name} candidate list does not fit its capacity {cap} (start/count out of "
+                             "range)")
+        used = np.repeat(start, count) + np.concatenate([np.arange(c) for c in count]) if count.sum() else \
+            np.zeros(0, np.int64)
+        for key, n in zip(("key_a", "key_b"), partners, strict=False):
+            keys = expect(f"{name}/{key}", (cap,))
+            if len(used) and (keys[used].min() < 0 or keys[used].max() >= n):
+                raise InputError(f"{where}: {name}/{key} names partners outside [0, {n})")
+        expect(f"{name}/hist", (cap,))
+
+
+def _max_faces(sim: object) -> int:
+    faces = sim.model.host.get("mesh_faces", [])
+    return max((len(f) for f in faces), default=0)
 
 
 def load(sim: object, path: str | os.PathLike) -> None:
-    """Restore a checkpoint written by :func:`save` into ``sim`` (built from the same scene, same device or not)."""
-    with np.load(path) as f:
-        data = {k: f[k] for k in f.files}
-    if int(data.get("format", -1)) != _FORMAT:
-        raise InputError(f"checkpoint {str(path)!r} has an unknown format")
-    if not np.array_equal(data["signature"], _signature(sim)):
+    """Restore a checkpoint written by :func:`save` into ``sim`` (built from the same scene, same device or not).
+    A damaged file, or one of another scene, raises InputError naming the file and the field; ``sim`` is left as
+    it was."""
+    data = _read(path)
+    if "signature" not in data or not np.array_equal(data["signature"], _signature(sim)):
         raise InputError(
             f"checkpoint {str(path)!r} was written for a different scene: sizes {data['signature'].tolist()} "
             f"vs {_signature(sim).tolist()} (worlds, bodies, spheres, meshes, springs, materials)"
         )
     if float(data["dt"]) != sim.dt:
         raise InputError(f"checkpoint dt = {float(data['dt'])} s differs from the simulation's dt = {sim.dt} s")
+    _check(sim, data, f"checkpoint {str(path)!r}")
     for k in sim.state.ARRAYS:
         getattr(sim.state, k).assign(data["state/" + k])
     sim.state.time = float(data["time"])
