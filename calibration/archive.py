@@ -42,6 +42,8 @@ class Record:
     fitness: float = 0.0
     batch: int = 0
     """which batched simulation evaluated it (records of one batch were worlds of one simulation)."""
+    failure: str = ""
+    """why its simulation gave no observables (it went unstable: the SimulationError's message); "" when it ran."""
 
     def gene_vector(self, names: Sequence[str]) -> tuple[float, ...]:
         return tuple(float(self.genes[n]) for n in names)

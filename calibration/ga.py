@@ -24,6 +24,7 @@ from __future__ import annotations
 import itertools
 import json
 import logging
+import math
 import os
 import time
 import warnings
@@ -32,6 +33,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from warpdem.errors import SimulationError
 
 from .archive import Archive, Record, write_json_atomic
 from .genes import GASettings
@@ -91,20 +94,42 @@ class _Calibration:
                 todo.append(k)
         if todo:
             t = time.perf_counter()
-            obs = self.evaluator(np.array(todo))
+            obs, failures = self._simulate(np.array(todo))
             if len(obs) != len(todo):
                 raise RuntimeError(f"the evaluator returned {len(obs)} results for {len(todo)} individuals")
             self._batch_wall += time.perf_counter() - t
             self._batch_count += len(todo)
             self.archive.n_batches += 1
-            for v, o in zip(todo, obs, strict=True):
+            for i, (v, o) in enumerate(zip(todo, obs, strict=True)):
                 err = self.problem.errors(o)
                 fit = self.problem.fitness_of(err)
                 self.archive.add(Record(len(self.archive), generation, stage, dict(zip(self.names, v, strict=True)),
-                                        {k: float(x) for k, x in o.items()}, err, fit, self.archive.n_batches))
+                                        {k: float(x) for k, x in o.items()}, err, fit, self.archive.n_batches,
+                                        failures.get(i, "")))
             if self.out is not None:
                 self.archive.save(self.out / ARCHIVE_FILE)
         return [self.archive.get(v) for v in values]
+
+    def _simulate(self, values: np.ndarray) -> tuple[list[dict[str, float]], dict[int, str]]:
+        """The evaluator's observables of ``values`` (n, n_genes), and {index: reason} of the individuals whose
+        simulation went unstable. An unstable world stops its whole batched simulation: the individual it names
+        (world i = individual i, as every warpdem problem builds its batch; otherwise the batch is halved until
+        the culprit is alone) gets NaN observables, hence fitness 0, and the rest are simulated again without it."""
+        try:
+            return list(self.evaluator(values)), {}
+        except SimulationError as e:
+            n = len(values)
+            if n == 1:
+                return [dict.fromkeys(self.problem.targets, math.nan)], {0: str(e)}
+            w = e.world if 0 <= e.world < n else -1
+            if w >= 0:
+                rest, fails = self._simulate(np.delete(values, w, axis=0))
+                rest.insert(w, dict.fromkeys(self.problem.targets, math.nan))
+                return rest, {**{(k if k < w else k + 1): r for k, r in fails.items()}, w: str(e)}
+            half = n // 2
+            a, fa = self._simulate(values[:half])
+            b, fb = self._simulate(values[half:])
+            return a + b, {**fa, **{k + half: r for k, r in fb.items()}}
 
     def log_generation(self, stage: str, generation: int, fitness: np.ndarray) -> None:
         best = self.archive.best()

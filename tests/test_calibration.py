@@ -16,6 +16,7 @@ from calibration.genes import GASettings, Gene, with_ranges
 from calibration.problems import DRAUGHT_GENES, DraughtProblem, RingingProblem, draught_target
 from calibration.screening import distance, lab_strength, screen
 from scenes import ringing
+from warpdem.errors import SimulationError
 
 
 class Oscillator:
@@ -56,6 +57,43 @@ def test_paper_settings_make_85_simulations_in_six_batches() -> None:
     assert p.calls[0] == 20 and all(n <= 13 for n in p.calls[1:]) and len(p.calls) == 6
     # individuals repeat only when crossover + one-gene mutation recreate a known one: at most a few
     assert 80 <= res.n_simulated <= 85
+
+
+class UnstableAboveOscillator(Oscillator):
+    """The oscillator whose simulation "goes unstable" (SimulationError) for stiffness above ``limit``, as one world
+    of a batched simulation stops the whole batch. ``hint``: the error names the failing world (as warpdem's
+    simulations do), else not (world -1: the driver must bisect)."""
+
+    def __init__(self, limit: float, hint: bool) -> None:
+        super().__init__()
+        self.limit, self.hint = limit, hint
+
+    def evaluate(self, values: np.ndarray) -> list[dict]:
+        bad = np.flatnonzero(values[:, 0] > self.limit)
+        if len(bad):
+            self.calls.append(len(values))
+            raise SimulationError(f"unstable: stiffness {values[bad[0], 0]:.0f}", cause="speed",
+                                  world=int(bad[0]) if self.hint else -1)
+        return super().evaluate(values)
+
+
+@pytest.mark.parametrize("hint", [True, False])
+def test_unstable_individuals_get_fitness_zero_and_the_rest_is_unchanged(hint: bool) -> None:
+    """Individuals whose simulation blows up are recorded as failed (reason kept, NaN observables, fitness 0) and
+    the calibration goes on; every other individual gets exactly its closed-form observables (the reference)."""
+    p = UnstableAboveOscillator(limit=2000.0, hint=hint)
+    res = calibrate(p, GASettings(generations=3, population=12, parents=4))
+    failed = [r for r in res.archive if r.failure]
+    ok = [r for r in res.archive if not r.failure]
+    assert failed and ok
+    assert all(r.genes["stiffness"] > 2000.0 and r.fitness == 0.0 and "unstable" in r.failure
+               and math.isnan(r.observables["freq_hz"]) for r in failed)
+    for r in ok:
+        k, z = r.genes["stiffness"], r.genes["damping_ratio"]
+        assert k <= 2000.0
+        assert r.observables["freq_hz"] == pytest.approx(math.sqrt(k) * math.sqrt(1 - z**2) / (2 * math.pi),
+                                                         rel=1e-12)
+    assert res.best.genes["stiffness"] <= 2000.0 and res.best.fitness > 0
 
 
 def test_bad_ga_settings_and_genes_are_named() -> None:

@@ -107,3 +107,21 @@ def test_unstable_run_stops_with_step_body_and_cause() -> None:
     assert err.cause in ("speed", "nan", "escaped")
     assert err.body in (0, 1) and 0 < err.step <= 200
     assert f"body {err.body}" in str(err) and f"step {err.step}" in str(err)
+
+
+def test_an_unstable_world_is_named() -> None:
+    """Three worlds of one scene; only world 1 gets a sphere pushed deep into its partner (the blow-up of the test
+    above, per world): the error names world 1 and a body of it, so a calibration can set that individual aside."""
+    b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
+    b.add_material("m", wd.Material(**GOOD))
+    b.add_sphere((0, 0, 0), 0.01, "m", name="a")
+    b.add_sphere((0.03, 0, 0), 0.01, "m", name="b")
+    model, state = b.finalize(DEVICE, n_worlds=3)
+    pos = state.body_pos.numpy()
+    per = model.bodies_per_world
+    pos[1 * per + 1] = pos[1 * per] + np.array([0.012, 0.0, 0.0])
+    state.body_pos.assign(pos)
+    sim = wd.Simulation(model, state, dt=30 * wd.pwave_timestep(model), force_dt=True)
+    with pytest.raises(wd.SimulationError) as e:
+        sim.advance(200)
+    assert e.value.world == 1 and e.value.body // per == 1 and "(world 1)" in str(e.value)

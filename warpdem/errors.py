@@ -23,13 +23,15 @@ class SimulationError(RuntimeError):
         step: the step at which the problem was detected.
         body: the index of the offending body (-1 when not body-specific).
         cause: a short machine-readable cause ("nan", "speed", "escaped", "energy", "capacity").
+        world: the world of that body (-1 when not body-specific).
     """
 
-    def __init__(self, message: str, step: int = -1, body: int = -1, cause: str = "") -> None:
+    def __init__(self, message: str, step: int = -1, body: int = -1, cause: str = "", world: int = -1) -> None:
         super().__init__(message)
         self.step = step
         self.body = body
         self.cause = cause
+        self.world = world
 
 
 class BudgetExhausted(RuntimeError):

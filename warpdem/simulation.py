@@ -434,7 +434,7 @@ class Simulation:
         raise SimulationError(
             f"simulation unstable at step {step}: body {body} (world {world}) at x = {np.round(x, 6).tolist()} m, "
             f"v = {np.round(v, 6).tolist()} m/s; {hint}",
-            step=step, body=body, cause=cause,
+            step=step, body=body, cause=cause, world=world,
         )
 
     # ------------------------------------------------------------------ public API
