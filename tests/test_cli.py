@@ -84,3 +84,47 @@ def test_two_runs_into_one_folder_lose_nothing(tmp_path) -> None:
     r = _run(*base[:-1], str(other), "--springs", "16")
     assert r.returncode == 2 and "holds no warpdem run" in r.stderr
     assert (other / "notes.txt").read_text() == "keep"
+
+
+BAD = [
+    ("demo --speed -0.5", "argument --speed: must be > 0 m/s, got '-0.5'"),
+    ("demo --depth -0.05", "argument --depth: must be > 0 m"),
+    ("demo --cut 0", "argument --cut: must be > 0 m"),
+    ("demo --deposit-time -1", "argument --deposit-time: must be > 0 s"),
+    ("demo --particles 0", "argument --particles: must be >= 1"),
+    ("demo --speed inf", "argument --speed: must be > 0 m/s, got 'inf'"),
+    ("ringing --springs ,", "argument --springs: must list one or more of"),
+    ("ringing --springs 16,x", "argument --springs: must be comma-separated spring counts"),
+    ("soil-bin --springs 0,17", "argument --springs: must list one or more of"),
+    ("soil-bin --seed -3", "argument --seed: must be >= 0"),
+    ("soil-bin --scale huge", "argument --scale: invalid choice: 'huge'"),
+    ("speed-sweep --speeds 0.5,-1", "argument --speeds: must be one or more speeds > 0"),
+    ("reproduce --budget nan", "argument --budget: must be > 0 s, got 'nan'"),
+    ("reproduce --workflow full --replicas-min 0", "argument --replicas-min: must be >= 1"),
+    ("reproduce --workflow full --target-sem -1", "argument --target-sem: must be > 0"),
+    ("reproduce --workflow full --settle-time -0.1", "argument --settle-time: must be >= 0 s"),
+    ("calibrate draught --population 1", "argument --population: must be >= 2"),
+    ("calibrate draught --speed 0", "argument --speed: must be > 0 m/s"),
+    ("calibrate ringing --springs 17", "argument --springs: invalid choice: 17"),
+    ("calibrate ringing --refine -1", "argument --refine: must be >= 0"),
+    ("diagnose x --rig ringing --alpha 1", "argument --alpha: must be > 0 and < 1, got '1'"),
+    ("diagnose x --rig ringing --min-gain 1.5", "argument --min-gain: must be >= 0 and < 1"),
+    ("diagnose x --rig ringing --rounds 0", "argument --rounds: must be >= 1"),
+]
+
+
+def test_bad_command_lines_get_one_line_naming_the_value(capsys) -> None:
+    """Each bad value ends the command with exit code 2 and exactly one line `warpdem <cmd>: error: <what>`
+    naming the option and the value (no usage block, no traceback), before anything runs."""
+    import pytest
+
+    from warpdem.cli import main
+
+    for line, words in BAD:
+        capsys.readouterr()
+        with pytest.raises(SystemExit) as e:
+            main(line.split())
+        err = capsys.readouterr().err.strip().splitlines()
+        cmd = line.split()[0]
+        assert e.value.code == 2, line
+        assert len(err) == 1 and err[0].startswith(f"warpdem {cmd}: error: ") and words in err[0], (line, err)

@@ -32,10 +32,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import platform
 import sys
 import time
 import uuid
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -195,10 +197,15 @@ def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) 
 
 
 def _springs(text: str) -> tuple[int, ...]:
+    allowed = (0, 4, 8, 12, 16, 20, 24, 28, 32)  # rigid and the paper's eight configurations
     try:
-        return tuple(int(v) for v in text.split(",") if v.strip())
+        v = tuple(int(x) for x in text.split(",") if x.strip())
     except ValueError:
-        raise argparse.ArgumentTypeError(f"--springs must be comma-separated integers, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"must be comma-separated spring counts, got {text!r}") from None
+    if not v or any(n not in allowed for n in v):
+        raise argparse.ArgumentTypeError(f"must list one or more of {','.join(map(str, allowed))} (0 = rigid), got "
+                                         f"{text!r}")
+    return v
 
 
 def _quiet_warp() -> None:
@@ -345,9 +352,32 @@ def run_speed_sweep_cmd(args: argparse.Namespace) -> int:
 
 def _speeds(text: str) -> tuple[float, ...]:
     try:
-        return tuple(float(v) for v in text.split(",") if v.strip())
+        v = tuple(float(x) for x in text.split(",") if x.strip())
     except ValueError:
-        raise argparse.ArgumentTypeError(f"--speeds must be comma-separated speeds [m/s], got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"must be comma-separated speeds [m/s], got {text!r}") from None
+    if not v or not all(math.isfinite(x) and x > 0 for x in v):
+        raise argparse.ArgumentTypeError(f"must be one or more speeds > 0 [m/s], got {text!r}")
+    return v
+
+
+def _number(cast: type, *, gt: float | None = None, ge: float | None = None, lt: float | None = None,
+            unit: str = "") -> Callable[[str], float]:
+    """An argparse type: a finite ``cast`` (int or float) within the given bounds, else a message saying so."""
+    bounds = " and ".join(f"{op} {b:g}" for op, b in ((">", gt), (">=", ge), ("<", lt)) if b is not None)
+    unit = f" {unit}" if unit else ""
+
+    def parse(text: str) -> float:
+        try:
+            v = cast(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {'an integer' if cast is int else 'a number'}{unit}, got "
+                                             f"{text!r}") from None
+        if not math.isfinite(v) or (gt is not None and v <= gt) or (ge is not None and v < ge) or \
+                (lt is not None and v >= lt):
+            raise argparse.ArgumentTypeError(f"must be {bounds}{unit}, got {text!r}")
+        return v
+    parse.__name__ = cast.__name__
+    return parse
 
 
 def run_shear_box_cmd(args: argparse.Namespace) -> int:
@@ -473,10 +503,13 @@ class _DefaultsFormatter(argparse.HelpFormatter):
 
 
 class _DefaultsParser(argparse.ArgumentParser):
-    """Subcommand parsers whose --help shows every option's default."""
+    """Subcommand parsers whose --help shows every option's default and whose errors are one line."""
 
     def __init__(self, **kw: object) -> None:
         super().__init__(formatter_class=_DefaultsFormatter, **kw)
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message}\n")
 
 
 SCALE_HELP = ("soil-bin size: ci = 0.5 x 0.65 m bin, 20 mm members (tests, seconds); cpu = 0.7 x 1.1 m, 15 mm "
@@ -495,7 +528,7 @@ def main(argv: list[str] | None = None) -> int:
     def common(p: argparse.ArgumentParser, out: str, scale: bool = True) -> None:
         p.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
         p.add_argument("--out", default=out, help="results folder")
-        p.add_argument("--seed", type=int, default=0, help="the bed's deposition seed")
+        p.add_argument("--seed", type=_number(int, ge=0), default=0, help="the bed's deposition seed")
         if scale:
             p.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"), help=SCALE_HELP)
             p.add_argument("--assembly", default="C", choices=("A", "B", "C"), help=ASSEMBLY_HELP)
@@ -510,20 +543,26 @@ def main(argv: list[str] | None = None) -> int:
                    help="quick: ringing with the paper's parameters + soil bin with the paper's GA set 11; full: "
                         "ringing and draught calibrations, shear-box screening, Table 3 with replicas (resumable: "
                         "run the same command again after a stop)")
-    r.add_argument("--budget", type=float, default=None,
+    r.add_argument("--budget", type=_number(float, gt=0, unit="s"), default=None,
                    help="full: wall time [s] of this call; the workflow stops (exit code 3) where the next piece "
                         "would not fit, saving its state; the same command continues")
-    r.add_argument("--replicas-min", type=int, default=3, help="full: independent beds at least (default 3)")
-    r.add_argument("--replicas-max", type=int, default=8, help="full: independent beds at most (default 8)")
-    r.add_argument("--target-sem", type=float, default=1.0,
+    r.add_argument("--replicas-min", type=_number(int, ge=1), default=3,
+                   help="full: independent beds at least (default 3)")
+    r.add_argument("--replicas-max", type=_number(int, ge=1), default=8,
+                   help="full: independent beds at most (default 8)")
+    r.add_argument("--target-sem", type=_number(float, gt=0), default=1.0,
                    help="full: replicas are added until every reduction's standard error is below this "
                         "[percentage points] (default 1)")
-    r.add_argument("--worlds-per-job", type=int, default=4, help="full: soil-bin worlds per simulation (default 4)")
-    r.add_argument("--settle-time", type=float, default=0.5,
+    r.add_argument("--worlds-per-job", type=_number(int, ge=1), default=4,
+                   help="full: soil-bin worlds per simulation (default 4)")
+    r.add_argument("--settle-time", type=_number(float, ge=0, unit="s"), default=0.5,
                    help="full: [s] a bed settles under the soil set before the tool moves (default 0.5)")
-    r.add_argument("--generations", type=int, default=5, help="full: GA generations (default: the paper's 5)")
-    r.add_argument("--population", type=int, default=20, help="full: GA population (default: the paper's 20)")
-    r.add_argument("--parents", type=int, default=7, help="full: GA parents mating (default: the paper's 7)")
+    r.add_argument("--generations", type=_number(int, ge=1), default=5,
+                   help="full: GA generations (default: the paper's 5)")
+    r.add_argument("--population", type=_number(int, ge=2), default=20,
+                   help="full: GA population (default: the paper's 20)")
+    r.add_argument("--parents", type=_number(int, ge=1), default=7,
+                   help="full: GA parents mating (default: the paper's 7)")
     g = sub.add_parser("ringing", help="ringing test of the eight spring configurations")
     common(g, "results/ringing", scale=False)
     g.add_argument("--springs", type=_springs, default=None)
@@ -549,36 +588,40 @@ def main(argv: list[str] | None = None) -> int:
     common(x, "results/shear_box")
     d = sub.add_parser("demo", help="deposit a small cohesive bed and cut it with a blade")
     d.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
-    d.add_argument("--particles", type=int, default=1500)
-    d.add_argument("--seed", type=int, default=0, help="deposition seed")
-    d.add_argument("--deposit-time", type=float, default=0.5, help="simulated deposition time [s]")
-    d.add_argument("--speed", type=float, default=0.5, help="blade speed [m/s]")
-    d.add_argument("--depth", type=float, default=0.03, help="cutting depth [m]")
-    d.add_argument("--cut", type=float, default=0.06, help="cut length [m]")
+    d.add_argument("--particles", type=_number(int, ge=1), default=1500)
+    d.add_argument("--seed", type=_number(int, ge=0), default=0, help="deposition seed")
+    d.add_argument("--deposit-time", type=_number(float, gt=0, unit="s"), default=0.5,
+                   help="simulated deposition time [s]")
+    d.add_argument("--speed", type=_number(float, gt=0, unit="m/s"), default=0.5, help="blade speed [m/s]")
+    d.add_argument("--depth", type=_number(float, gt=0, unit="m"), default=0.03, help="cutting depth [m]")
+    d.add_argument("--cut", type=_number(float, gt=0, unit="m"), default=0.06, help="cut length [m]")
     d.add_argument("--out", default="results/demo", help="results folder")
     c = sub.add_parser("calibrate", help="GA calibration (ringing rig or draught), populations as batched worlds")
     c.add_argument("kind", choices=("ringing", "draught"))
     c.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
     c.add_argument("--out", default=None, help="results folder (default results/calibrate/<kind>_<springs|assembly>)")
-    c.add_argument("--seed", type=int, default=0, help="GA seed (and the bed's deposition seed)")
-    c.add_argument("--generations", type=int, default=5)
-    c.add_argument("--population", type=int, default=20)
-    c.add_argument("--parents", type=int, default=7)
-    c.add_argument("--refine", type=int, default=0, help="batched pattern-search iterations after the GA")
+    c.add_argument("--seed", type=_number(int, ge=0), default=0, help="GA seed (and the bed's deposition seed)")
+    c.add_argument("--generations", type=_number(int, ge=1), default=5)
+    c.add_argument("--population", type=_number(int, ge=2), default=20)
+    c.add_argument("--parents", type=_number(int, ge=1), default=7)
+    c.add_argument("--refine", type=_number(int, ge=0), default=0,
+                   help="batched pattern-search iterations after the GA")
     c.add_argument("--gene", type=_gene_range, action="append", help="replace a gene range: NAME=LOW:HIGH (SI)")
-    c.add_argument("--springs", type=int, default=16, help="ringing: spring configuration")
+    c.add_argument("--springs", type=int, default=16, choices=(4, 8, 12, 16, 20, 24, 28, 32),
+                   help="ringing: spring configuration")
     c.add_argument("--spring-model", choices=("paper", "linear", "twin"), default="paper",
                    help="ringing: spring model")
     c.add_argument("--fitness", choices=("paper", "max"), default="paper",
                    help="ringing: eq. (7) 1/(REf REd), or 1/max(REf, REd)")
     c.add_argument("--scale", default="ci", choices=("ci", "cpu", "paper"), help="draught: soil-bin scale")
     c.add_argument("--assembly", default="C", choices=("A", "B", "C"), help="draught: assembly")
-    c.add_argument("--speed", type=float, default=0.62, help="draught: carriage speed [m/s]")
+    c.add_argument("--speed", type=_number(float, gt=0, unit="m/s"), default=0.62, help="draught: carriage speed [m/s]")
     c.add_argument("--screen-scale", default=None, choices=("ci", "cpu", "paper"),
                    help="draught: shear-box scale of the screening (default: --scale)")
     c.add_argument("--archive", default=None, help="archive.json of an earlier calibration to reuse")
     c.add_argument("--no-resume", action="store_true", help="start afresh even if --out holds a saved state")
-    c.add_argument("--ray-workers", type=int, default=None, help="evaluate on N Ray workers (optional extra)")
+    c.add_argument("--ray-workers", type=_number(int, ge=1), default=None,
+                   help="evaluate on N Ray workers (optional extra)")
     c.add_argument("--ray-address", default=None, help="address of an existing Ray cluster")
     q = sub.add_parser("diagnose", help="model criticism: residuals, candidate mechanisms, the named cause, its gain")
     q.add_argument("measured", help="MEASURED data (a summary CSV or a folder; calibration.measured), or "
@@ -596,10 +639,12 @@ def main(argv: list[str] | None = None) -> int:
     q.add_argument("--uncertainty", type=_keyvals, default=None,
                    help="1-sigma uncertainties, e.g. frequency=0.01,damping=0.05 (relative) or "
                         "reduction=2,displacement_mean=2e-4 (absolute: %% points, m)")
-    q.add_argument("--rounds", type=int, default=6, help="fit rounds (one grid, then Levenberg-Marquardt)")
-    q.add_argument("--alpha", type=float, default=0.05, help="family-wise significance level")
-    q.add_argument("--min-gain", type=float, default=0.3, help="least relative fall of the held-out loss")
-    q.add_argument("--batch-worlds", type=int, default=0,
+    q.add_argument("--rounds", type=_number(int, ge=1), default=6,
+                   help="fit rounds (one grid, then Levenberg-Marquardt)")
+    q.add_argument("--alpha", type=_number(float, gt=0, lt=1), default=0.05, help="family-wise significance level")
+    q.add_argument("--min-gain", type=_number(float, ge=0, lt=1), default=0.3,
+                   help="least relative fall of the held-out loss")
+    q.add_argument("--batch-worlds", type=_number(int, ge=0), default=0,
                    help="at most N worlds per batched simulation, the checkpoint saved after each (0: one per round)")
     q.add_argument("--no-resume", action="store_true", help="start afresh even if --out holds a checkpoint")
     for p in sub.choices.values():
