@@ -1,6 +1,7 @@
 """Checkpoints: save the full dynamic state of a Simulation (bodies, contact history, broad-phase reference
-positions, counters, energy accumulators, and the model values a run may change while it goes: pivot velocities
-set by ``set_body_velocity`` and local damping set by ``set_local_damping``) and restore it into a Simulation built
+positions, counters, energy accumulators, the last step's spring forces that observers read, and the model values
+a run may change while it goes: pivot velocities set by ``set_body_velocity`` and local damping set by
+``set_local_damping``) and restore it into a Simulation built
 from the same scene.
 
 A restored CPU run continues bit for bit as the uninterrupted one would.
@@ -24,7 +25,8 @@ import warp as wp
 from .errors import InputError
 
 _FORMAT = 3  # 2: five energy slots (driven work), mutable model arrays; 3: manifest with checksums
-_SIM_ARRAYS = ("energy", "counters", "build_pos", "mesh_build_pos", "mesh_build_quat", "cohesion_now", "fault")
+_SIM_ARRAYS = ("energy", "counters", "build_pos", "mesh_build_pos", "mesh_build_quat", "cohesion_now", "fault",
+               "spring_force")
 _MODEL_ARRAYS = ("body_pivot_vel", "group_damping")
 """model arrays that the Simulation's setters change during a run."""
 
