@@ -44,6 +44,8 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from warpdem.errors import InputError
+
 from . import mechanisms as mech
 from .genes import Gene
 from .rig_models import Case
@@ -532,6 +534,9 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
     ``DiagnosisSettings.batch_worlds``); a diagnosis started again with the same file, rig, data and settings
     resumes where it stopped and comes to the same result."""
     s = settings or DiagnosisSettings()
+    if rig.n_configs < 2:
+        raise InputError(f"the diagnosis holds each configuration out in turn and fits the rest: it needs at least "
+                         f"2 configurations, the data have {rig.n_configs}")
     t0 = time.perf_counter()
     fitter = _Fitter(rig, s, log, checkpoint)
     remaining = mechanisms_for(rig, s)

@@ -39,6 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
+from warpdem.errors import InputError
+
 UNITS: dict[str, dict[str, float]] = {
     "springs": {"-": 1.0},
     "stiffness": {"N/m": 1.0, "N/mm": 1e3, "kN/m": 1e3},
@@ -57,6 +59,22 @@ UNITS: dict[str, dict[str, float]] = {
     "displacement": {"m": 1.0, "mm": 1e-3},
 }
 """accepted units per known quantity and their factor to the SI unit (reduction is kept in %)."""
+RANGES: dict[str, tuple[float, float, str]] = {
+    "springs": (0.0, 1e3, "a spring count"),
+    "stiffness": (1e-3, 1e9, "N/m (a stiffer spring would need a time step below a microsecond)"),
+    "speed": (1e-4, 20.0, "m/s"),
+    "frequency": (1e-3, 1e3, "Hz"),
+    "damping": (1e-6, 1.0, "(a damping ratio: values in percent need the header 'damping [%]')"),
+    "draught_mean": (0.0, 1e6, "N"),
+    "draught_std": (0.0, 1e6, "N"),
+    "rigid_draught_mean": (0.0, 1e6, "N"),
+    "rigid_draught_std": (0.0, 1e6, "N"),
+    "displacement_mean": (-1.0, 1.0, "m"),
+    "displacement_std": (0.0, 1.0, "m"),
+    "reduction": (-100.0, 100.0, "%"),
+}
+"""plausible open range (low, high) of each known quantity in SI (reduction in %), and what it is: a value outside
+is refused with its column and row, so that a unit slip or a typo fails at once instead of as a meaningless fit."""
 _HEADER = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[([^\]]*)\])?\s*$")
 
 
@@ -99,7 +117,7 @@ class Measured:
 def _parse_header(text: str, where: str) -> tuple[str, str]:
     m = _HEADER.match(text)
     if not m:
-        raise ValueError(f"{where}: column header {text!r} is not 'name [unit]'")
+        raise InputError(f"{where}: column header {text!r} is not 'name [unit]'")
     return m.group(1), (m.group(2) or "-").strip()
 
 
@@ -109,7 +127,7 @@ def _factor(name: str, unit: str, where: str) -> tuple[float, str]:
         return 1.0, unit
     accepted = UNITS[name]
     if unit not in accepted:
-        raise ValueError(f"{where}: column {name!r} has unit {unit!r}; accepted: {sorted(accepted)}")
+        raise InputError(f"{where}: column {name!r} has unit {unit!r}; accepted: {sorted(accepted)}")
     si = next(u for u, f in accepted.items() if f == 1.0)
     return accepted[unit], si
 
@@ -127,21 +145,25 @@ def _rows(path: Path) -> tuple[list[str], list[list[str]], dict[str, str]]:
             continue
         lines.append([c.strip() for c in ln.split(",")])
     if not lines:
-        raise ValueError(f"{path}: no header row")
+        raise InputError(f"{path}: no header row")
     header, rows = lines[0], lines[1:]
     for k, r in enumerate(rows):
         if len(r) != len(header):
-            raise ValueError(f"{path}: row {k + 1} has {len(r)} values for {len(header)} columns")
+            raise InputError(f"{path}: row {k + 1} has {len(r)} values for {len(header)} columns")
     return header, rows, meta
 
 
 def _number(text: str, where: str) -> float:
+    """A cell's value; an empty cell is a missing value (NaN), 'nan' or 'inf' written out is refused."""
     if text == "":
         return float("nan")
     try:
-        return float(text)
+        v = float(text)
     except ValueError:
-        raise ValueError(f"{where}: {text!r} is not a number") from None
+        raise InputError(f"{where}: {text!r} is not a number") from None
+    if not np.isfinite(v):
+        raise InputError(f"{where}: {text!r} is not a finite number (leave the cell empty for a missing value)")
+    return v
 
 
 def load_summary(path: str | Path) -> Measured:
@@ -154,10 +176,19 @@ def load_summary(path: str | Path) -> Measured:
         if name in out.summary:
             raise ValueError(f"{path}: column {name!r} appears twice")
         f, si = _factor(name, unit, str(path))
-        out.summary[name] = np.array([_number(r[j], f"{path}: column {name!r}") for r in rows]) * f
+        out.summary[name] = np.array([_number(r[j], f"{path}: column {name!r}, row {k + 1}")
+                                      for k, r in enumerate(rows)]) * f
         out.units[name] = si
+        if name in RANGES:
+            low, high, what = RANGES[name]
+            v = out.summary[name]
+            bad = np.flatnonzero(~np.isnan(v) & ((v < low) | (v > high) | ((v == low) & (low > 0))))
+            if len(bad):
+                k = int(bad[0])
+                raise InputError(f"{path}: column {h!r}, row {k + 1}: {rows[k][j]} ({v[k]:.6g} in SI) is outside "
+                                 f"({low:g}, {high:g}) {what}")
     if "springs" in out.summary and not np.all(np.mod(out.summary["springs"], 1) == 0):
-        raise ValueError(f"{path}: springs must be integers, got {out.summary['springs'].tolist()}")
+        raise InputError(f"{path}: springs must be integers, got {out.summary['springs'].tolist()}")
     return out
 
 
@@ -166,16 +197,16 @@ def load_series(path: str | Path) -> Series:
     path = Path(path)
     header, rows, meta = _rows(path)
     if len(header) != 2:
-        raise ValueError(f"{path}: a series has two columns (time and the signal), got {header}")
+        raise InputError(f"{path}: a series has two columns (time and the signal), got {header}")
     (tn, tu), (sn, su) = (_parse_header(h, str(path)) for h in header)
     if tn != "time" or sn not in ("force", "displacement"):
-        raise ValueError(f"{path}: columns must be 'time [s]' and 'force [N]' or 'displacement [m]', got {header}")
+        raise InputError(f"{path}: columns must be 'time [s]' and 'force [N]' or 'displacement [m]', got {header}")
     ft, _ = _factor(tn, tu, str(path))
     fs, _ = _factor(sn, su, str(path))
     data = np.array([[_number(v, str(path)) for v in r] for r in rows], dtype=np.float64)
     t, x = data[:, 0] * ft, data[:, 1] * fs
     if len(t) < 8 or not np.all(np.diff(t) > 0):
-        raise ValueError(f"{path}: time must increase strictly over at least 8 samples")
+        raise InputError(f"{path}: time must increase strictly over at least 8 samples")
     config: dict[str, float | str] = {}
     for k, v in meta.items():
         try:
@@ -183,7 +214,7 @@ def load_series(path: str | Path) -> Series:
         except ValueError:
             config[k] = v
     if "springs" not in config:
-        raise ValueError(f"{path}: the header must name the configuration, e.g. '# springs: 16'")
+        raise InputError(f"{path}: the header must name the configuration, e.g. '# springs: 16'")
     signal = str(config.pop("signal", sn))
     return Series(config, signal, t, x, str(path))
 
@@ -194,11 +225,11 @@ def load(path: str | Path) -> Measured:
     if path.is_file():
         return load_summary(path)
     if not path.is_dir():
-        raise FileNotFoundError(f"measured data {str(path)!r} is neither a file nor a directory")
+        raise InputError(f"measured data {str(path)!r} is neither a file nor a directory")
     out = load_summary(path / "summary.csv") if (path / "summary.csv").exists() else Measured(source=str(path))
     out.series = [load_series(p) for p in sorted((path / "series").glob("*.csv"))]
     if not out.summary and not out.series:
-        raise ValueError(f"{path}: no summary.csv and no series/*.csv")
+        raise InputError(f"{path}: no summary.csv and no series/*.csv")
     return out
 
 

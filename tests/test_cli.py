@@ -110,6 +110,8 @@ BAD = [
     ("diagnose x --rig ringing --alpha 1", "argument --alpha: must be > 0 and < 1, got '1'"),
     ("diagnose x --rig ringing --min-gain 1.5", "argument --min-gain: must be >= 0 and < 1"),
     ("diagnose x --rig ringing --rounds 0", "argument --rounds: must be >= 1"),
+    ("diagnose x --rig ringing --uncertainty frequency=inf", "argument --uncertainty: frequency must be a finite"),
+    ("diagnose x --rig ringing --uncertainty damping=0", "argument --uncertainty: damping must be a finite"),
 ]
 
 
@@ -128,3 +130,19 @@ def test_bad_command_lines_get_one_line_naming_the_value(capsys) -> None:
         cmd = line.split()[0]
         assert e.value.code == 2, line
         assert len(err) == 1 and err[0].startswith(f"warpdem {cmd}: error: ") and words in err[0], (line, err)
+
+
+def test_a_diagnosis_of_one_configuration_is_refused_before_its_folder_is_made(tmp_path, capsys) -> None:
+    """Leave-one-configuration-out needs at least two configurations: one row is a one-line error (exit 2) and no
+    results folder is written."""
+    from warpdem.cli import main
+
+    m = tmp_path / "one.csv"
+    m.write_text("springs,frequency [Hz],damping [-]\n16,6.09,0.2027\n")
+    out = tmp_path / "diag"
+    capsys.readouterr()
+    assert main(["diagnose", str(m), "--rig", "ringing", "--device", "cpu", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["warpdem diagnose: error: the diagnosis holds each configuration out in turn and fits the rest: "
+                   "it needs at least 2 configurations, the data have 1"]
+    assert not out.exists()

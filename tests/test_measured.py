@@ -7,6 +7,7 @@ import pytest
 
 from calibration import measured
 from warpdem import analysis
+from warpdem.errors import InputError
 
 
 def test_units_convert_to_si(tmp_path) -> None:
@@ -87,8 +88,30 @@ def test_bad_measured_files_are_named(tmp_path) -> None:
     (s / "a.csv").write_text("# springs: 4\ntime [s],force [N]\n" + "\n".join(f"{1 - k / 100},{k}" for k in range(10)))
     with pytest.raises(ValueError, match="time must increase strictly"):
         measured.load(tmp_path / "d")
-    with pytest.raises(FileNotFoundError, match="neither a file nor a directory"):
+    with pytest.raises(InputError, match="neither a file nor a directory"):
         measured.load(tmp_path / "nowhere")
+
+
+@pytest.mark.parametrize("table,words", [
+    ("springs,frequency [Hz],damping [-]\n16,6.1,nan\n", "row 1: 'nan' is not a finite number"),
+    ("springs,frequency [Hz],damping [-]\n16,inf,0.2\n", "'inf' is not a finite number"),
+    ("springs,frequency [Hz],damping [-]\n16,0,0.2\n", "'frequency .*row 1: 0 .* outside"),
+    ("springs,frequency [Hz],damping [-]\n16,6.1,12.4\n", "'damping .*row 1: 12.4 .*percent"),
+    ("springs,stiffness [N/m],frequency [Hz]\n16,1e30,6.1\n", "'stiffness \\[N/m\\]', row 1: 1e30"),
+    ("springs,stiffness [N/m],frequency [Hz]\n16,-5,6.1\n", "row 1: -5 .* outside"),
+    ("springs,speed [m/s],reduction [%]\n16,0.6,150\n", "'reduction \\[%\\]', row 1: 150"),
+    ("springs,speed [m/s],reduction [%]\n16,-0.6,5\n", "'speed \\[m/s\\]', row 1: -0.6"),
+    ("springs,draught_mean [N]\n16,-10\n", "'draught_mean \\[N\\]', row 1: -10"),
+    ("springs,frequency [Hz]\n-4,6.1\n", "'springs', row 1: -4"),
+])
+def test_implausible_measured_values_are_refused_by_column_and_row(tmp_path, table: str, words: str) -> None:
+    """Values no rig can produce (NaN or inf written out, 0 Hz, a damping ratio given in percent under a [-]
+    header, a spring of 1e30 N/m whose time step would collapse, a reduction beyond 100 %, negative speeds, draughts
+    or spring counts) are refused with the file, column, row and value, before any simulation."""
+    p = tmp_path / "m.csv"
+    p.write_text(table)
+    with pytest.raises(InputError, match=words):
+        measured.load(p)
 
 
 def test_soil_bin_records_in_the_measured_format_give_the_observables(tmp_path) -> None:

@@ -449,6 +449,8 @@ def _keyvals(text: str) -> dict[str, float]:
             out[k.strip()] = float(v)
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected NAME=VALUE[,NAME=VALUE...], got {text!r}") from None
+        if not (math.isfinite(out[k.strip()]) and out[k.strip()] > 0):
+            raise argparse.ArgumentTypeError(f"{k.strip()} must be a finite number > 0, got {v.strip()!r}")
     return out
 
 
@@ -478,6 +480,9 @@ def run_diagnose_cmd(args: argparse.Namespace) -> int:
     settings = diagnosis.DiagnosisSettings(rounds=args.rounds, alpha=args.alpha, min_gain=args.min_gain,
                                            mechanisms=tuple(args.mechanisms.split(",")) if args.mechanisms else None,
                                            batch_worlds=args.batch_worlds)
+    if rig.n_configs < 2:  # checked again by diagnose(); here before the results folder is made
+        raise InputError(f"the diagnosis holds each configuration out in turn and fits the rest: it needs at least "
+                         f"2 configurations, the data have {rig.n_configs}")
     out = _claim(args, args.out)
     checkpoint = out / "checkpoint.json"
     if args.no_resume and checkpoint.exists():
