@@ -42,7 +42,7 @@ from scenes import paper
 from scenes import soil_bin as sb
 from scenes.reproduce import versions
 from scenes.ringing import RingingConfig, build_ringing, run_ringing
-from warpdem.errors import BudgetExhausted, InputError
+from warpdem.errors import BudgetExhausted, InputError, SimulationError
 
 from .archive import write_json_atomic
 from .ga import accepted_records, calibrate
@@ -206,7 +206,10 @@ class Lockstep:
                 if self.stop is not None:
                     raise BudgetExhausted(str(self.stop)) if isinstance(self.stop, BudgetExhausted) else \
                         RuntimeError(f"lockstep stopped: {self.stop}")
-                return self.results.pop(i)
+                out = self.results.pop(i)
+            if isinstance(out, SimulationError):  # one of this calibration's worlds went unstable
+                raise out
+            return out
         return evaluate
 
     def run(self, jobs: list[Callable[[Callable[[np.ndarray], list[dict[str, float]]]], object]]) -> list[object]:
@@ -244,12 +247,23 @@ class Lockstep:
                 obs = self.run_batches(batch)
                 self.per_world = (time.perf_counter() - t0) / max(n, 1)
                 self.timed(self.per_world)
-            except BaseException as e:  # noqa: BLE001 (every calibration thread is told, then it is raised)
+            except SimulationError as e:
+                owner = _owner(batch, e.world)
+                if owner is None:
+                    self._halt(e, threads)
+                    raise
+                # the calibration owning the unstable world is told which of its individuals it was (its GA driver
+                # sets that one aside and hands in the rest); the others' batches wait for the next round
+                i, j = owner
                 with self.cond:
-                    self.stop = e
+                    for k, v in batch:
+                        if k != i:
+                            self.pending[k] = v
+                    self.results[i] = SimulationError(str(e), e.step, e.body, e.cause, world=j)
                     self.cond.notify_all()
-                for t in threads:
-                    t.join()
+                continue
+            except BaseException as e:  # noqa: BLE001 (every calibration thread is told, then it is raised)
+                self._halt(e, threads)
                 raise
             with self.cond:
                 for (i, _), o in zip(batch, obs, strict=True):
@@ -260,6 +274,26 @@ class Lockstep:
         if errors:
             raise errors[min(errors)]
         return [outcome[i] for i in range(len(jobs))]
+
+    def _halt(self, e: BaseException, threads: list[threading.Thread]) -> None:
+        with self.cond:
+            self.stop = e
+            self.cond.notify_all()
+        for t in threads:
+            t.join()
+
+
+def _owner(batch: list[tuple[int, np.ndarray]], world: int) -> tuple[int, int] | None:
+    """(calibration, individual) of world ``world`` of a lockstep simulation (one world per individual, the
+    calibrations' batches concatenated in order), or None."""
+    if world < 0:
+        return None
+    for i, v in batch:
+        n = len(np.atleast_2d(v))
+        if world < n:
+            return i, world
+        world -= n
+    return None
 
 
 def ringing_batches(problems: list[RingingProblem], device: str | None

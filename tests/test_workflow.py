@@ -228,3 +228,43 @@ def test_cli_full_workflow_stops_with_exit_3_and_refuses_another_configuration(t
     assert main([*args, "--replicas-max", "4"]) == 2
     assert "holds another run" in capsys.readouterr().err
     assert sorted(p.relative_to(out) for p in out.rglob("*")) == before
+
+
+def test_lockstep_sets_aside_unstable_individuals_as_each_calibration_alone_would():
+    """Three GA calibrations of a closed-form oscillator in lockstep, whose combined "simulation" goes unstable
+    (SimulationError naming the world) when any individual's stiffness exceeds a limit. Reference: each calibration
+    run alone with the same failing evaluator. Records (genes, observables, failures, fitness) agree exactly: the
+    owner of the unstable world sets that individual aside and the others' batches are simulated again."""
+    from test_calibration import UnstableAboveOscillator
+
+    from calibration.ga import calibrate
+    from calibration.paper_workflow import Lockstep
+    from warpdem.errors import SimulationError
+
+    limit = 2000.0
+    problems = [UnstableAboveOscillator(limit, hint=True) for _ in range(3)]
+    for k, p in enumerate(problems):
+        p.targets = {"freq_hz": 5.0 + k, "damping": 0.1 + 0.05 * k}
+    settings = [GASettings(generations=3, population=10, parents=4, seed=s) for s in range(3)]
+
+    def run_batches(batch):
+        values = np.concatenate([np.atleast_2d(v) for _, v in batch])
+        bad = np.flatnonzero(values[:, 0] > limit)
+        if len(bad):
+            raise SimulationError("unstable", cause="speed", world=int(bad[0]))
+        out = []
+        for i, v in batch:
+            out.append(super(UnstableAboveOscillator, problems[i]).evaluate(np.atleast_2d(v)))
+        return out
+
+    def record(r):  # NaN observables compare equal as None
+        return r.genes, {n: None if math.isnan(v) else v for n, v in r.observables.items()}, bool(r.failure), r.fitness
+
+    lock = Lockstep(run_batches, Budget(None))
+    together = lock.run([lambda ev, k=k: calibrate(problems[k], settings[k], evaluator=ev) for k in range(3)])
+    for k in range(3):
+        alone_problem = UnstableAboveOscillator(limit, hint=True)
+        alone_problem.targets = problems[k].targets
+        alone = calibrate(alone_problem, settings[k])
+        assert [record(r) for r in together[k].archive] == [record(r) for r in alone.archive]
+        assert any(r.failure for r in together[k].archive)
