@@ -402,11 +402,13 @@ def square(side: float, z: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 # --------------------------------------------------------------------------------------------------- the scene
-def make_bed(config: ShearBoxConfig, device: str | None = None) -> Bed:
-    """Deposit the sample: the config's assembly in a bin of the box's plan, cut to the sample height."""
+def make_bed(config: ShearBoxConfig, device: str | None = None,
+             progress: Callable[[str, float, float], None] | None = None) -> Bed:
+    """Deposit the sample: the config's assembly in a bin of the box's plan, cut to the sample height.
+    ``progress(phase, simulated time [s], kinetic energy per particle [J])``: see :func:`assemblies.deposit`."""
     side = config.box_side
     return deposit(config.assembly, (side, side, 2.2 * config.sample_height), config.sample_height,
-                   seed=config.seed, device=device, friction_angle=config.deposit_friction_angle)
+                   seed=config.seed, device=device, friction_angle=config.deposit_friction_angle, progress=progress)
 
 
 @dataclass
@@ -594,7 +596,7 @@ def run_shear_boxes(configs: Sequence[ShearBoxConfig], device: str | None = None
     _check_batch(configs)
     cfg = configs[0]
     if bed is None:
-        bed = make_bed(cfg, device)
+        bed = make_bed(cfg, device, progress and (lambda phase, t, _ke: progress(f"deposit {phase}", t, 3.0)))
     t0 = time.perf_counter()
     b, overrides, rig = build(configs, bed)
     n_worlds = sum(len(c.normal_stresses) for c in configs)

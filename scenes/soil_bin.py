@@ -602,17 +602,19 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
 
 def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,
               progress: object | None = None, viewer: object | None = None,
-              checkpoint_dir: str | Path | None = None) -> dict[str, object]:
+              checkpoint_dir: str | Path | None = None,
+              deposit_progress: object | None = None) -> dict[str, object]:
     """The bed, the rigid runs (if 0 in springs) and the passive runs (one simulation each, one world per speed or
     configuration). With 0 in ``springs`` the rigid tool runs at every distinct speed of the configurations
     (:meth:`SoilBinConfig.rigid_speeds`, as worlds of one simulation) and every passive row's reduction is against
     the rigid run at its own speed (:func:`pair_reductions`); the table has one rigid row per speed.
     ``viewer`` (see :func:`run_soil_bin`) streams the passive run (or the rigid one if there is none).
     ``checkpoint_dir``: each run checkpoints into a subfolder (``rigid``, ``passive``) and resumes from it after a
-    kill; a finished run's subfolder is removed."""
+    kill; a finished run's subfolder is removed. ``deposit_progress``: the deposition's progress callback
+    (:func:`scenes.assemblies.deposit`) when the bed is made."""
     import shutil
 
-    bed = bed_for(config, device=device, cache_dir=cache_dir)
+    bed = bed_for(config, device=device, cache_dir=cache_dir, progress=deposit_progress)
     runs = {}
     passive = [n for n in config.springs if n != 0]
     rigid_speeds = config.rigid_speeds()

@@ -146,3 +146,26 @@ def test_a_diagnosis_of_one_configuration_is_refused_before_its_folder_is_made(t
     assert err == ["warpdem diagnose: error: the diagnosis holds each configuration out in turn and fits the rest: "
                    "it needs at least 2 configurations, the data have 1"]
     assert not out.exists()
+
+
+def test_progress_shows_elapsed_and_time_left_and_quiet_silences_it(capsys) -> None:
+    """A stage's line carries its percentage, elapsed time and an estimate of the time left (elapsed x left/done);
+    a new stage ends the previous line; --quiet writes nothing."""
+    import time
+
+    from warpdem import cli
+
+    cli._BAR.update(quiet=False, label=None)
+    cli._bar("stage one", 0.0, 4.0)
+    time.sleep(0.2)
+    cli._bar("stage one", 1.0, 4.0)
+    cli._bar("stage two", 1.0, 2.0)
+    cli._bar("stage two", 2.0, 2.0)
+    err = capsys.readouterr().err
+    lines = err.split("\n")
+    assert "stage one" in lines[0] and " 25 %" in lines[0] and "s left" in lines[0]
+    assert "stage two" in lines[1] and "100 %" in lines[1] and err.endswith("\n")
+    cli._BAR.update(quiet=True, label=None)
+    cli._bar("stage three", 1.0, 2.0)
+    assert capsys.readouterr().err == ""
+    cli._BAR.update(quiet=False, label=None)

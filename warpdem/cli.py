@@ -129,24 +129,37 @@ def run_demo(args: argparse.Namespace) -> int:
     return 0
 
 
-_BAR: dict[str, object] = {}  # the bar being drawn: label, start time, last percentage
+_BAR: dict[str, object] = {"quiet": False}  # the bar being drawn: label, start time, last percentage
 
 
-def _bar(label: str, done: int, total: int) -> None:
-    """Progress bar on stderr for a labelled phase; the line ends when the phase is done."""
+def _bar(label: str, done: float, total: float) -> None:
+    """Progress on stderr for a labelled stage: a bar, the percentage, the elapsed time and an estimate of the time
+    left; the line ends when the stage is done or the next one starts. Silent with ``--quiet``."""
     state = _BAR
+    if state["quiet"]:
+        return
     if state.get("label") != label:
+        if state.get("label") is not None:
+            sys.stderr.write("\n")
         state.update(label=label, start=time.time(), last=-1)
-    pct = int(100 * done / max(total, 1))
-    if pct == state["last"] and done != total:
+    frac = min(max(done / total, 0.0), 1.0) if total > 0 else 1.0
+    pct = int(100 * frac)
+    if pct == state["last"] and done < total:
         return
     state["last"] = pct
-    bar = "#" * (30 * done // max(total, 1))
-    sys.stderr.write(f"\r{label:<28} [{bar:<30}] {pct:3d} %  {time.time() - state['start']:6.1f} s")
+    elapsed = time.time() - state["start"]
+    left = f"{elapsed * (1 - frac) / frac:6.0f} s left" if 0 < frac < 1 else " " * 13
+    sys.stderr.write(f"\r{label:<30} [{'#' * int(30 * frac):<30}] {pct:3d} %  {elapsed:6.0f} s  {left}")
     if done >= total:
         sys.stderr.write("\n")
         state["label"] = None
     sys.stderr.flush()
+
+
+def _deposit_bar(label: str, max_time: float = 3.0) -> Callable[[str, float, float], None]:
+    """A deposition's progress (phase, simulated time [s], kinetic energy per particle [J]) as a bar over its
+    longest simulated time; it usually ends earlier, when the bed is at rest."""
+    return lambda phase, t, _ke: _bar(f"{label} ({phase})", t, max_time)
 
 
 def _write_config(out: Path, command: str, device: str, **fields: object) -> None:
@@ -318,7 +331,8 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
 
     _write_config(out, "soil-bin", device, config=asdict(cfg), preset=sb.SCALES[args.scale])
     study = sb.run_study(cfg, device=device, cache_dir=out / "beds", progress=lambda d, n: _bar("soil bin", d, n),
-                         viewer=viewer, checkpoint_dir=out / "checkpoints")
+                         viewer=viewer, checkpoint_dir=out / "checkpoints",
+                         deposit_progress=_deposit_bar("deposition"))
     (out / "summary.json").write_text(json.dumps(sb.json_safe(study["table"]), indent=2))
     for r in study["table"]:
         name = "rigid" if r["springs"] == 0 else f"{r['springs']} springs"
@@ -387,7 +401,7 @@ def run_shear_box_cmd(args: argparse.Namespace) -> int:
     out = _claim(args, args.out)
     cfg = shear_box.preset(args.scale, args.assembly, seed=args.seed)
     _write_config(out, "shear-box", device, config=str(cfg))
-    res = shear_box.run_shear_box(cfg, device)
+    res = shear_box.run_shear_box(cfg, device, progress=lambda ph, d, n: _bar(f"shear box: {ph}", d, n))
     (out / "summary.json").write_text(json.dumps(res.to_dict(), indent=2, default=float))
     print(res.table())
     return 0
@@ -528,6 +542,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="warpdem", description="DEM of soil-tool interaction on NVIDIA Warp")
     parser.add_argument("--version", action="version", version=f"warpdem {__version__}")
     parser.add_argument("--verbose", action="store_true", help="keep Warp's banner and kernel-load lines")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars (results and errors still print)")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_DefaultsParser)
 
     def common(p: argparse.ArgumentParser, out: str, scale: bool = True) -> None:
@@ -660,6 +675,7 @@ def main(argv: list[str] | None = None) -> int:
     args.argv = list(sys.argv[1:] if argv is None else argv)
     if not args.verbose:
         _quiet_warp()
+    _BAR["quiet"] = args.quiet
     commands = {"diagnose": run_diagnose_cmd, "demo": run_demo, "reproduce": run_reproduce, "ringing": run_ringing_cmd,
                 "soil-bin": run_soil_bin_cmd,
                 "speed-sweep": run_speed_sweep_cmd, "shear-box": run_shear_box_cmd, "calibrate": run_calibrate_cmd}
