@@ -3,8 +3,10 @@
 Stages, each writing its result into the run folder when it ends:
 
 1. ``ringing_linear`` and ``ringing_paper``: the ringing calibration of all eight spring configurations (PyGAD with
-   the paper's settings) for the linear spring-dashpot and for the paper's spring spheres. The eight GAs of a model
-   run in lockstep: each generation of all eight is ONE batched simulation (:class:`Lockstep`).
+   the paper's settings) for the linear spring-dashpot and for the paper's spring spheres; the linear model's GA
+   ranks by the larger of its two errors and ends with a batched pattern search (``WorkflowConfig.ringing_fitness``,
+   ``ringing_refine``). The eight GAs of a model run in lockstep: each generation of all eight is ONE batched
+   simulation (:class:`Lockstep`).
 2. ``draught``: the soil's GA calibration against the measured rigid draught at 0.62 m/s (Table 3) on the scale's
    calibration bin (``paper``: the paper's first, 1 m long bin at the paper's particle size).
 3. ``screening``: the accepted sets (or, when none is accepted, the fittest) in the direct shear box; the set

@@ -200,13 +200,22 @@ def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) 
             raise InputError(f"--out {str(out)!r} holds another run ({what}); choose another --out, or pass "
                              "--overwrite to replace it")
         shutil.rmtree(out)
-    elif out.exists() and any(out.iterdir()) and not (adopt and (out / adopt).exists()):
+    elif out.exists() and any(out.iterdir()) and not (adopt and (out / adopt).exists()) and \
+            _command_of(out) != args.command:
         raise InputError(f"--out {str(out)!r} is not empty and holds no warpdem run; choose a new or empty folder")
     out.mkdir(parents=True, exist_ok=True)
     tmp = out / f".{CLAIM}.{uuid.uuid4().hex[:8]}.tmp"
     tmp.write_text(json.dumps(mine, indent=1))
     tmp.replace(claim)
     return out
+
+
+def _command_of(out: Path) -> str | None:
+    """The command that wrote ``out/config.json`` (a folder of a warpdem from before claims), else None."""
+    try:
+        return str(json.loads((out / "config.json").read_text()).get("command", "")).split(" ")[0] or None
+    except (OSError, ValueError, AttributeError):
+        return None
 
 
 def _springs(text: str) -> tuple[int, ...]:
