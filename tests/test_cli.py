@@ -169,3 +169,23 @@ def test_progress_shows_elapsed_and_time_left_and_quiet_silences_it(capsys) -> N
     cli._bar("stage three", 1.0, 2.0)
     assert capsys.readouterr().err == ""
     cli._BAR.update(quiet=False, label=None)
+
+
+def test_internal_errors_are_one_line_unless_debug(monkeypatch, capsys) -> None:
+    """An error that is not the user's (here a command that raises ZeroDivisionError) ends with one line and exit 1;
+    --debug lets the traceback through."""
+    import pytest
+
+    from warpdem import cli
+
+    def broken(args):  # noqa: ANN001
+        return 1 / 0
+
+    monkeypatch.setattr(cli, "run_shear_box_cmd", broken)
+    capsys.readouterr()
+    assert cli.main(["shear-box", "--out", "unused"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["warpdem shear-box: internal error: ZeroDivisionError: division by zero (run with --debug for the "
+                   "traceback)"]
+    with pytest.raises(ZeroDivisionError):
+        cli.main(["--debug", "shear-box", "--out", "unused"])

@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, SimulationError
 
 
 def _progress(label: str) -> object:
@@ -552,6 +552,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--version", action="version", version=f"warpdem {__version__}")
     parser.add_argument("--verbose", action="store_true", help="keep Warp's banner and kernel-load lines")
     parser.add_argument("--quiet", action="store_true", help="no progress bars (results and errors still print)")
+    parser.add_argument("--debug", action="store_true", help="show the traceback of an internal error")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_DefaultsParser)
 
     def common(p: argparse.ArgumentParser, out: str, scale: bool = True) -> None:
@@ -690,9 +691,18 @@ def main(argv: list[str] | None = None) -> int:
                 "speed-sweep": run_speed_sweep_cmd, "shear-box": run_shear_box_cmd, "calibrate": run_calibrate_cmd}
     try:
         return commands[args.command](args)
-    except InputError as e:  # a user's bad input: one line naming it, no traceback; internal errors keep theirs
+    except InputError as e:  # a user's bad input: one line naming it, no traceback
         print(f"warpdem {args.command}: error: {e}", file=sys.stderr)
         return 2
+    except SimulationError as e:  # a run that went unstable: where and why, in one line
+        print(f"warpdem {args.command}: simulation stopped: {e}", file=sys.stderr)
+        return 1
+    except Exception as e:  # noqa: BLE001 - an internal error: one line, the traceback with --debug
+        if args.debug:
+            raise
+        print(f"warpdem {args.command}: internal error: {type(e).__name__}: {e} (run with --debug for the "
+              "traceback)", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":
