@@ -76,6 +76,7 @@ import time
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -647,3 +648,60 @@ if __name__ == "__main__":  # pragma: no cover - a manual run: python -m scenes.
     for res in run_shear_boxes([base.cohesionless(), base.replace(label="cohesive")],
                                args[2] if len(args) > 2 else None):
         print(res.table())
+
+
+# --------------------------------------------------------------------------------------------------- report
+def write_report(result: ShearBoxResult, out: str | Path) -> Path:
+    """Write ``out``/report.md, series.npz (every curve) and fig_shear_box.png (shear stress against displacement
+    per normal stress; the peaks and their Mohr-Coulomb line beside the laboratory's at its moisture)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    c_lab, phi_lab = lab_strength()
+    series = {}
+    for k, c in enumerate(result.curves):
+        series.update({f"displacement_{k}": c.displacement, f"shear_stress_{k}": c.shear_stress,
+                       f"vertical_displacement_{k}": c.vertical_displacement})
+    np.savez_compressed(out / "series.npz", normal_stress_plane=result.normal_stress, **series)
+    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 4))
+    for c in result.curves:
+        a.plot(1e3 * c.displacement, 1e-3 * c.shear_stress, lw=0.8,
+               label=f"{1e-3 * c.normal_stress_plane:.1f} kPa")
+    a.set_xlabel("shear displacement [mm]")
+    a.set_ylabel("shear stress [kPa]")
+    a.legend(title="normal stress", fontsize=7)
+    s = np.linspace(0.0, 1.1 * result.normal_stress.max(), 50)
+    b.plot(1e-3 * result.normal_stress, 1e-3 * result.peak_shear_stress, "o", label="warpdem peaks")
+    b.plot(1e-3 * s, 1e-3 * (result.fit.cohesion + s * np.tan(np.radians(result.fit.friction_angle_deg))), "-",
+           label=f"warpdem: c {result.fit.cohesion / 1e3:.2f} kPa, phi {result.fit.friction_angle_deg:.1f} deg")
+    b.plot(1e-3 * s, c_lab + 1e-3 * s * np.tan(np.radians(phi_lab)), "k--",
+           label=f"laboratory: c {c_lab:.1f} kPa, phi {phi_lab:.1f} deg")
+    b.set_xlabel("normal stress on the plane [kPa]")
+    b.set_ylabel("peak shear stress [kPa]")
+    b.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "fig_shear_box.png", dpi=110)
+    plt.close(fig)
+    d_c, d_phi = result.fit.cohesion / 1e3 - c_lab, result.fit.friction_angle_deg - phi_lab
+    text = [
+        "# warpdem shear box", "", "```", result.table(), "```", "",
+        f"The laboratory's direct shear box at {LAB_MOISTURE} % moisture (section 2.3): c = {c_lab:.1f} kPa, "
+        f"phi = {phi_lab:.1f} deg. This sample's Mohr-Coulomb fit of its {len(result.curves)} peaks: "
+        f"c = {result.fit.cohesion / 1e3:.2f} kPa ({d_c:+.2f} kPa), phi = {result.fit.friction_angle_deg:.1f} deg "
+        f"({d_phi:+.1f} deg), R^2 = {result.fit.r2:.4f}: the sample's cohesion is "
+        f"{result.fit.cohesion / 1e3 / c_lab:.2f} times the laboratory's and its friction angle "
+        f"{'within' if abs(d_phi) <= 2 else 'more than'} 2 deg of it. With {len(result.curves)} normal stresses "
+        f"the fit has {len(result.curves) - 2} degree(s) of freedom: R^2 says how straight the peaks lie, not how "
+        "certain c and phi are. The cohesion comes from the bonds set on the contacts when shearing starts (none "
+        "on new contacts, `scenes.paper.COHESION_ON_NEW_CONTACTS`).",
+        "", "Series: `series.npz` (per normal stress k: displacement_k [m], shear_stress_k [Pa], "
+        "vertical_displacement_k [m]). Parameters: `config.json`, `summary.json`.", "",
+        "![shear box](fig_shear_box.png)", ""]
+    path = out / "report.md"
+    tmp = out / ".report.md.tmp"
+    tmp.write_text("\n".join(text))
+    tmp.replace(path)
+    return path

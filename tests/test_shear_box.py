@@ -132,3 +132,20 @@ def test_config_validation() -> None:
         cfg.replace(box_side=0.05)
     with pytest.raises(ValueError, match="same shear_rate"):
         sb.run_shear_boxes([cfg, cfg.replace(shear_rate=0.1)])
+
+
+def test_report_keeps_every_curve_and_states_the_fit(results: dict, tmp_path) -> None:
+    """write_report: series.npz holds every curve as run (the same arrays), and report.md states the fit's c and phi
+    and the laboratory's (section 2.3), which the peaks' own Mohr-Coulomb fit gives again from the saved series."""
+    wet = results["wet"]
+    sb.write_report(wet, tmp_path)
+    text = (tmp_path / "report.md").read_text()
+    with np.load(tmp_path / "series.npz") as d:
+        for k, c in enumerate(wet.curves):
+            np.testing.assert_array_equal(d[f"shear_stress_{k}"], c.shear_stress)
+            np.testing.assert_array_equal(d[f"displacement_{k}"], c.displacement)
+        np.testing.assert_array_equal(d["normal_stress_plane"], wet.normal_stress)
+    assert f"c = {wet.fit.cohesion / 1e3:.2f} kPa" in text and f"phi = {wet.fit.friction_angle_deg:.1f} deg" in text
+    c_lab, phi_lab = sb.lab_strength()
+    assert f"c = {c_lab:.1f} kPa, phi = {phi_lab:.1f} deg" in text
+    assert (tmp_path / "fig_shear_box.png").stat().st_size > 10_000

@@ -412,7 +412,9 @@ def run_shear_box_cmd(args: argparse.Namespace) -> int:
     _write_config(out, "shear-box", device, config=str(cfg))
     res = shear_box.run_shear_box(cfg, device, progress=lambda ph, d, n: _bar(f"shear box: {ph}", d, n))
     (out / "summary.json").write_text(json.dumps(res.to_dict(), indent=2, default=float))
+    report = shear_box.write_report(res, out)
     print(res.table())
+    print(f"report: {report}")
     return 0
 
 
