@@ -16,7 +16,7 @@ from calibration.genes import GASettings, Gene, with_ranges
 from calibration.problems import DRAUGHT_GENES, DraughtProblem, RingingProblem, draught_target
 from calibration.screening import distance, lab_strength, screen
 from scenes import ringing
-from warpdem.errors import SimulationError
+from warpdem.errors import InputError, SimulationError
 
 
 class Oscillator:
@@ -271,3 +271,12 @@ def test_calibrate_command_writes_a_table_2_report(tmp_path) -> None:
     assert len(archive) == res["n_simulated"] >= 4
     assert max(r.fitness for r in archive) == pytest.approx(best["fitness"])
     assert (out / "convergence.png").stat().st_size > 0 and "| index |" in (out / "report.md").read_text()
+
+
+def test_a_gene_range_that_collapses_the_time_step_is_refused_before_it_runs() -> None:
+    """Spring spheres up to E = 1e20 Pa would need dt ~ 1e-11 s (critical step ~ sqrt(m / k), k ~ E r): 1e11 steps per
+    ringing simulation. The problem refuses it when its time step is first asked for, naming the gene corner, the
+    time step and the step count, instead of hanging."""
+    p = RingingProblem(springs=16, spring_model="paper", genes={"young": (1e6, 1e20)})
+    with pytest.raises(InputError, match=r"young 1e\+20.*needs dt = .* steps per simulation"):
+        _ = p.dt
