@@ -149,57 +149,88 @@ def report(out: Path, config: dict, ring: dict[str, ringing.RingingResult], stud
               "(parametric sweep, load position) is warpdem's, not the paper's CAD: see scenes/ringing.py.", "",
               "![ringing](fig06_ringing.png)", ""]
     if study is not None:
-        t3 = paper.table("soil_bin_measured")
-        t7 = paper.table("soil_bin_dem")
-        a = config["soil_bin"]["assembly"]
-        col = {"A": "a", "B": "b", "C": "c"}[a]
-        lines += [f"## Soil bin, assembly {a} ({study['bed'].n_particles} particles, porosity "
-                  f"{study['bed'].porosity:.3f}, initial coordination {study['bed'].coordination:.2f}; paper: "
-                  f"{ {'A': 4.88, 'B': 9.63, 'C': 9.55}[a]})", "",
-                  "| springs | speed [m/s] | draught ± SE [N] | std [N] | rigid reference ± SE [N] | "
-                  "reduction ± SE [%] | displacement [mm] | lab draught [N] | lab red. [%] | lab disp. [mm] | "
-                  f"paper DEM {a} 1 m bin [N] | red. [%] | "
-                  "paper DEM C final 2 m bin [N] | red. [%] |",
-                  "|---" * 14 + "|"]
-
-        def pm(v: float | None, e: float | None, digits: int = 4) -> str:
-            return "–" if v is None or not math.isfinite(v) else f"{_fmt(v, digits)} ± {_fmt(e, 2)}"
-
-        for r in study["table"]:
-            n, v = r["springs"], r["speed"]
-            i7 = np.nonzero(t7["springs"] == n)[0][0]
-            paper_dem = [_fmt(t7[f"{c}_mean_n"][i7], 4) for c in (col, "c_final")]
-            paper_red = [_fmt(t7[f"{c}_red_pct"][i7], 2) for c in (col, "c_final")]
-            if n:
-                i3 = np.nonzero(t3["springs"] == n)[0][0]
-                lab = (t3["passive_draught_mean_n"][i3], t3["reduction_pct"][i3], t3["displacement_mean_mm"][i3])
-            else:
-                # Table 3's rigid runs at this speed (each passive run was paired with a rigid run of its own)
-                same = np.abs(t3["speed_mean_m_s"] - v) < 5e-3
-                lab = (float(np.mean(t3["rigid_draught_mean_n"][same])) if same.any() else math.nan, math.nan,
-                       math.nan)
-                if abs(v - speed_sweep.TABLE7_RIGID_SPEED) > 5e-3:
-                    paper_dem = paper_red = ["–", "–"]
-            ref = "–" if not n else (f"{pm(r['rigid_reference_draught'], r['rigid_reference_sem'])} "
-                                     f"({_fmt(r['rigid_reference_speed'])} m/s)"
-                                     if r["rigid_reference_draught"] is not None else "none at this speed")
-            lines.append("| " + " | ".join([
-                "rigid" if n == 0 else str(n), _fmt(v), pm(r["draught_mean"], r["draught_sem"]),
-                _fmt(r["draught_std"]), ref, pm(r["reduction_pct"], r["reduction_sem"], 2) if n else "–",
-                _fmt(1e3 * r["displacement_mean"]) if n else "–", _fmt(lab[0], 4), _fmt(lab[1], 2), _fmt(lab[2]),
-                paper_dem[0], paper_red[0], paper_dem[1], paper_red[1]]) + " |")
-        lines += ["", f"Steady state after {study['steady_travel']} m of travel; SE: standard error of a steady "
-                  "mean from the record's autocorrelation; a reduction's SE propagates both means' (taken as "
-                  "independent). Every reduction is against warpdem's rigid run at the configuration's own speed, "
-                  "as the laboratory paired its runs (Table 3); lab rigid draught: Table 3's rigid runs at that "
-                  "speed. The paper's DEM (Table 7) took every reduction against one rigid run at 0.68 m/s; its "
-                  f"columns are assembly {a} in the 1 m bin and the paper's final model (assembly C, 2 m bin, "
-                  "corrected geometry). `warpdem speed-sweep` measures the rigid draught against speed and "
-                  "re-pairs Table 7 at equal speeds.", ""]
-        lines += [f"![{p}]({p})" for p in plots]
+        lines += soil_bin_section(config["soil_bin"]["assembly"], study, plots)
     text = "\n".join(lines) + "\n"
     (out / "report.md").write_text(text)
     return text
+
+
+def soil_bin_section(assembly: str, study: dict, plots: list[str]) -> list[str]:
+    """The soil-bin part of a report: the table beside Tables 3 and 7, what the numbers are, the figures."""
+    lines: list[str] = []
+    t3 = paper.table("soil_bin_measured")
+    t7 = paper.table("soil_bin_dem")
+    a = assembly
+    col = {"A": "a", "B": "b", "C": "c"}[a]
+    lines += [f"## Soil bin, assembly {a} ({study['bed'].n_particles} particles, porosity "
+              f"{study['bed'].porosity:.3f}, initial coordination {study['bed'].coordination:.2f}; paper: "
+              f"{ {'A': 4.88, 'B': 9.63, 'C': 9.55}[a]})", "",
+              "| springs | speed [m/s] | draught ± SE [N] | std [N] | rigid reference ± SE [N] | "
+              "reduction ± SE [%] | displacement [mm] | lab draught [N] | lab red. [%] | lab disp. [mm] | "
+              f"paper DEM {a} 1 m bin [N] | red. [%] | "
+              "paper DEM C final 2 m bin [N] | red. [%] |",
+              "|---" * 14 + "|"]
+
+    def pm(v: float | None, e: float | None, digits: int = 4) -> str:
+        return "–" if v is None or not math.isfinite(v) else f"{_fmt(v, digits)} ± {_fmt(e, 2)}"
+
+    for r in study["table"]:
+        n, v = r["springs"], r["speed"]
+        i7 = np.nonzero(t7["springs"] == n)[0][0]
+        paper_dem = [_fmt(t7[f"{c}_mean_n"][i7], 4) for c in (col, "c_final")]
+        paper_red = [_fmt(t7[f"{c}_red_pct"][i7], 2) for c in (col, "c_final")]
+        if n:
+            i3 = np.nonzero(t3["springs"] == n)[0][0]
+            lab = (t3["passive_draught_mean_n"][i3], t3["reduction_pct"][i3], t3["displacement_mean_mm"][i3])
+        else:
+            # Table 3's rigid runs at this speed (each passive run was paired with a rigid run of its own)
+            same = np.abs(t3["speed_mean_m_s"] - v) < 5e-3
+            lab = (float(np.mean(t3["rigid_draught_mean_n"][same])) if same.any() else math.nan, math.nan,
+                   math.nan)
+            if abs(v - speed_sweep.TABLE7_RIGID_SPEED) > 5e-3:
+                paper_dem = paper_red = ["–", "–"]
+        ref = "–" if not n else (f"{pm(r['rigid_reference_draught'], r['rigid_reference_sem'])} "
+                                 f"({_fmt(r['rigid_reference_speed'])} m/s)"
+                                 if r["rigid_reference_draught"] is not None else "none at this speed")
+        lines.append("| " + " | ".join([
+            "rigid" if n == 0 else str(n), _fmt(v), pm(r["draught_mean"], r["draught_sem"]),
+            _fmt(r["draught_std"]), ref, pm(r["reduction_pct"], r["reduction_sem"], 2) if n else "–",
+            _fmt(1e3 * r["displacement_mean"]) if n else "–", _fmt(lab[0], 4), _fmt(lab[1], 2), _fmt(lab[2]),
+            paper_dem[0], paper_red[0], paper_dem[1], paper_red[1]]) + " |")
+    lines += ["", f"Steady state after {study['steady_travel']} m of travel; SE: standard error of a steady "
+              "mean from the record's autocorrelation; a reduction's SE propagates both means' (taken as "
+              "independent). Every reduction is against warpdem's rigid run at the configuration's own speed, "
+              "as the laboratory paired its runs (Table 3); lab rigid draught: Table 3's rigid runs at that "
+              "speed. The paper's DEM (Table 7) took every reduction against one rigid run at 0.68 m/s; its "
+              f"columns are assembly {a} in the 1 m bin and the paper's final model (assembly C, 2 m bin, "
+              "corrected geometry). `warpdem speed-sweep` measures the rigid draught against speed and "
+              "re-pairs Table 7 at equal speeds.", ""]
+    lines += [f"![{p}]({p})" for p in plots]
+    return lines
+
+
+def write_soil_bin_report(out: Path, config: dict, study: dict, device: str) -> Path:
+    """``warpdem soil-bin``'s results: report.md (the table with standard errors beside the paper's, the figures),
+    series.npz (every run's time series) and Figs. 16-19-like plots, written into ``out``."""
+    out = Path(out)
+    plots = plot_soil_bin(study, out)
+    arrays = {}
+    for name, run in study["runs"].items():
+        arrays[f"{name}_time"] = run.time
+        arrays[f"{name}_travel"] = run.travel
+        arrays[f"{name}_springs"] = np.asarray(run.springs)
+        for k, v in run.series.items():
+            arrays[f"{name}_{k}"] = v
+    np.savez_compressed(out / "series.npz", **arrays)
+    lines = [f"# warpdem soil bin — scale `{config['scale']}`, assembly {config['assembly']}, on `{device}`", "",
+             "Configuration: `config.json`; rows: `summary.json`; time series: `series.npz` (per run: time [s], "
+             "travel [m], springs, then draught [N], displacement [m], kinetic energies [J] per world).", ""]
+    lines += soil_bin_section(config["assembly"], study, plots)
+    path = out / "report.md"
+    tmp = out / ".report.md.tmp"
+    tmp.write_text("\n".join(lines) + "\n")
+    tmp.replace(path)
+    return path
 
 
 def reproduce(out: str | Path, *, scale: str = "cpu", device: str | None = None, assembly: str = "C",
@@ -226,7 +257,6 @@ def reproduce(out: str | Path, *, scale: str = "cpu", device: str | None = None,
     if soil:
         study = sb.run_study(sb_cfg, device=device, cache_dir=out / "beds", checkpoint_dir=out / "checkpoints",
                              progress=progress and (lambda d, n: progress("soil bin", d, n)))
-        study["steady_travel"] = sb_cfg.steady_travel or sb.SCALES[scale]["steady_travel"]
         arrays = {}
         for name, run in study["runs"].items():
             arrays[f"{name}/time"] = run.time

@@ -603,7 +603,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
 def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,
               progress: object | None = None, viewer: object | None = None,
               checkpoint_dir: str | Path | None = None,
-              deposit_progress: object | None = None) -> dict[str, object]:
+              deposit_progress: object | None = None, bed: Bed | None = None) -> dict[str, object]:
     """The bed, the rigid runs (if 0 in springs) and the passive runs (one simulation each, one world per speed or
     configuration). With 0 in ``springs`` the rigid tool runs at every distinct speed of the configurations
     (:meth:`SoilBinConfig.rigid_speeds`, as worlds of one simulation) and every passive row's reduction is against
@@ -611,10 +611,11 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
     ``viewer`` (see :func:`run_soil_bin`) streams the passive run (or the rigid one if there is none).
     ``checkpoint_dir``: each run checkpoints into a subfolder (``rigid``, ``passive``) and resumes from it after a
     kill; a finished run's subfolder is removed. ``deposit_progress``: the deposition's progress callback
-    (:func:`scenes.assemblies.deposit`) when the bed is made."""
+    (:func:`scenes.assemblies.deposit`) when the bed is made. ``bed``: use this bed instead (e.g. one already made).
+    Returns {"bed", "runs": name -> SoilBinRun, "table": rows, "steady_travel": [m]}."""
     import shutil
 
-    bed = bed_for(config, device=device, cache_dir=cache_dir, progress=deposit_progress)
+    bed = bed or bed_for(config, device=device, cache_dir=cache_dir, progress=deposit_progress)
     runs = {}
     passive = [n for n in config.springs if n != 0]
     rigid_speeds = config.rigid_speeds()
@@ -630,4 +631,5 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
         if folder is not None:
             shutil.rmtree(folder, ignore_errors=True)
     rows = pair_reductions([r for run in runs.values() for r in run.steady])
-    return {"bed": bed, "runs": runs, "table": rows}
+    return {"bed": bed, "runs": runs, "table": rows,
+            "steady_travel": config.steady_travel or config.preset["steady_travel"]}

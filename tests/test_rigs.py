@@ -242,3 +242,21 @@ def test_a_preloaded_stack_holds_the_tool_on_its_stop(ci_bed) -> None:
     assert -2 * on_stop <= held.min() and held.max() <= 0.0, (held.min(), held.max())
     assert -on_stop <= run.steady[1]["displacement_mean"] <= 0.0
     assert run.steady[0]["displacement_mean"] > 1e-3
+
+
+def test_soil_bin_report_keeps_every_series_and_row(ci_bed, tmp_path) -> None:
+    """write_soil_bin_report (what `warpdem soil-bin` writes): series.npz holds every run's series as run, and
+    report.md has one row per table row with its draught and standard error as the study computed them."""
+    from scenes.reproduce import write_soil_bin_report
+
+    cfg = sb.SoilBinConfig(scale="ci", assembly="A", springs=(0, 16), travel=0.1, steady_travel=0.05)
+    study = sb.run_study(cfg, device=DEVICE, bed=ci_bed)
+    path = write_soil_bin_report(tmp_path, {"scale": "ci", "assembly": "A"}, study, DEVICE)
+    text = path.read_text()
+    with np.load(tmp_path / "series.npz") as d:
+        for name, run in study["runs"].items():
+            np.testing.assert_array_equal(d[f"{name}_draught"], run.series["draught"])
+            np.testing.assert_array_equal(d[f"{name}_time"], run.time)
+    for r in study["table"]:
+        assert f"{r['draught_mean']:.4g} ± {r['draught_sem']:.2g}" in text
+    assert (tmp_path / "fig16_draught_displacement.png").exists()

@@ -344,6 +344,9 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
                          viewer=viewer, checkpoint_dir=out / "checkpoints",
                          deposit_progress=_deposit_bar("deposition"))
     (out / "summary.json").write_text(json.dumps(sb.json_safe(study["table"]), indent=2))
+    from scenes.reproduce import write_soil_bin_report
+
+    report = write_soil_bin_report(out, {"scale": args.scale, "assembly": args.assembly}, study, device)
     for r in study["table"]:
         name = "rigid" if r["springs"] == 0 else f"{r['springs']} springs"
         line = (f"{name:>10} at {r['speed']:.2f} m/s: draught {r['draught_mean']:.1f} N (SE {r['draught_sem']:.1f}, "
@@ -354,6 +357,7 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
                 line += (f", reduction {r['reduction_pct']:+.1f} % (SE {r['reduction_sem']:.1f}) against the rigid "
                          f"run at {r['rigid_reference_speed']:.2f} m/s")
         print(line)
+    print(f"report: {report}")
     return 0
 
 
