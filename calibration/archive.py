@@ -11,21 +11,18 @@ stored observables when the targets differ.
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from warpdem.files import write_text_atomic
+
 
 def write_json_atomic(path: str | Path, data: object) -> None:
     """Write JSON through a temporary file and a rename: a run killed while writing leaves the old file intact."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(data, indent=1))
-    os.replace(tmp, path)
+    write_text_atomic(path, json.dumps(data, indent=1))
 
 
 @dataclass

@@ -45,6 +45,7 @@ from scenes import soil_bin as sb
 from scenes.reproduce import versions
 from scenes.ringing import RingingConfig, build_ringing, run_ringing
 from warpdem.errors import BudgetExhausted, InputError, SimulationError
+from warpdem.files import write_atomic
 
 from .archive import write_json_atomic
 from .ga import accepted_records, calibrate
@@ -467,9 +468,7 @@ class Workflow:
         if (done := self._done("screening.json")) is not None:
             return done
         key = "screening"
-        t = json.loads(self._path("timings.json").read_text()).get(key, 0.0) if self._path(
-            "timings.json").exists() else 0.0
-        budget.require(t, "the shear-box screening")
+        budget.require(self._timing(key), "the shear-box screening")
         self.log(f"shear-box screening of {len(draught['candidates'])} sets ({SCREEN_SCALE[self.config.scale]})")
         t0 = time.perf_counter()
         rows = screen([c["genes"] for c in draught["candidates"]], self.config.assembly,
@@ -506,7 +505,7 @@ class Workflow:
             return done
         c = self.config
         ckpt = self.out / "checkpoints" / job["name"]
-        timing = f"job_{job['kind'] == 'rigid' and 'rigid' or 'passive'}_{len(job['springs'])}"
+        timing = f"job_{'rigid' if job['kind'] == 'rigid' else 'passive'}_{len(job['springs'])}"
         # a job that has not started must fit whole (its checkpoint would not outlive a lost machine); one that
         # has, saves its checkpoint at the deadline
         budget.require(30.0 if ckpt.exists() else self._timing(timing, 30.0), f"soil-bin job {job['name']}")
@@ -535,10 +534,7 @@ class Workflow:
         if job["replica"] == 0:  # the series of one bed for the figures
             keep = {"time": run.time, "travel": run.travel,
                     **{k: run.series[k] for k in ("draught", "displacement", "ke_tool", "ke_soil")}}
-            tmp = path.with_suffix(".tmp.npz")
-            path.parent.mkdir(parents=True, exist_ok=True)
-            np.savez_compressed(tmp, **keep)
-            tmp.replace(path.with_suffix(".npz"))
+            write_atomic(path.with_suffix(".npz"), lambda tmp: np.savez_compressed(tmp, **keep))
         out = {**job, "bed": fp, "rows": sb.json_safe(run.steady), "dt": run.dt, "steps": run.steps,
                "spheres": run.n_spheres, "particles": run.n_particles, "wall_s": time.perf_counter() - t0,
                "device": self.device, "versions": versions()}

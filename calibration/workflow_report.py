@@ -11,6 +11,7 @@ import numpy as np
 
 from scenes import paper
 from scenes.soil_bin import SCALES
+from warpdem.files import write_text_atomic
 
 from .paper_workflow import CALIBRATION_SCALE, SCREEN_SCALE, VARIANTS, WorkflowConfig
 
@@ -239,7 +240,5 @@ def write_workflow_report(out: Path, config: WorkflowConfig, summary: dict, *, d
 
 def _write(out: Path, lines: list[str]) -> Path:
     path = out / "report.md"
-    tmp = path.with_suffix(".md.tmp")
-    tmp.write_text("\n".join(lines) + "\n")
-    tmp.replace(path)
+    write_text_atomic(path, "\n".join(lines) + "\n")
     return path

@@ -19,9 +19,7 @@ to its depth (particles whose centre lies above it are removed) and settles agai
 from __future__ import annotations
 
 import math
-import os
 import time
-import uuid
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -29,6 +27,7 @@ import numpy as np
 
 import warpdem as wd
 from warpdem.errors import InputError
+from warpdem.files import write_atomic
 from warpdem.mass import quats_to_matrices
 
 from . import paper
@@ -114,16 +113,10 @@ class Bed:
     def save(self, path: str | Path) -> None:
         """Write the bed to ``path`` (.npz) atomically: a temporary file of a unique name, then renamed, so that
         a killed run never leaves a truncated bed and two runs never write into one file."""
-        path = Path(path)
-        tmp = path.with_name(f".{path.stem}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp.npz")
-        try:
-            np.savez_compressed(tmp, centres=self.centres, radii=self.radii, particle=self.particle,
-                                bin_size=np.array(self.bin_size), depth=self.depth, porosity=self.porosity,
-                                coordination=self.coordination, seed=self.seed, wall_s=self.wall_s,
-                                spec=np.array(str(asdict(self.spec))))
-            os.replace(tmp, path)
-        finally:
-            tmp.unlink(missing_ok=True)
+        write_atomic(path, lambda tmp: np.savez_compressed(
+            tmp, centres=self.centres, radii=self.radii, particle=self.particle, bin_size=np.array(self.bin_size),
+            depth=self.depth, porosity=self.porosity, coordination=self.coordination, seed=self.seed,
+            wall_s=self.wall_s, spec=np.array(str(asdict(self.spec)))))
 
     @staticmethod
     def load(path: str | Path) -> Bed:

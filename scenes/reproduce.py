@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from warpdem import analysis
+from warpdem.files import write_text_atomic
 
 from . import paper, ringing, speed_sweep
 from . import soil_bin as sb
@@ -227,9 +228,7 @@ def write_soil_bin_report(out: Path, config: dict, study: dict, device: str) -> 
              "travel [m], springs, then draught [N], displacement [m], kinetic energies [J] per world).", ""]
     lines += soil_bin_section(config["assembly"], study, plots)
     path = out / "report.md"
-    tmp = out / ".report.md.tmp"
-    tmp.write_text("\n".join(lines) + "\n")
-    tmp.replace(path)
+    write_text_atomic(path, "\n".join(lines) + "\n")
     return path
 
 

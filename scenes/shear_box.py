@@ -82,6 +82,7 @@ import numpy as np
 
 import warpdem as wd
 from warpdem.analysis import MohrCoulomb, mohr_coulomb
+from warpdem.files import write_text_atomic
 
 from . import paper
 from .assemblies import AssemblySpec, Bed, deposit
@@ -701,7 +702,5 @@ def write_report(result: ShearBoxResult, out: str | Path) -> Path:
         "vertical_displacement_k [m]). Parameters: `config.json`, `summary.json`.", "",
         "![shear box](fig_shear_box.png)", ""]
     path = out / "report.md"
-    tmp = out / ".report.md.tmp"
-    tmp.write_text("\n".join(text))
-    tmp.replace(path)
+    write_text_atomic(path, "\n".join(text))
     return path

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import os
-import uuid
 import zipfile
 import zlib
 
@@ -23,6 +22,7 @@ import numpy as np
 import warp as wp
 
 from .errors import InputError
+from .files import write_atomic
 
 _FORMAT = 3  # 2: five energy slots (driven work), mutable model arrays; 3: manifest with checksums
 _SIM_ARRAYS = ("energy", "counters", "build_pos", "mesh_build_pos", "mesh_build_quat", "cohesion_now", "fault",
@@ -54,13 +54,7 @@ def save(sim: object, path: str | os.PathLike) -> None:
         for k, v in lst.numpy().items():
             data[f"{name}/{k}"] = v
     data["manifest"] = np.array(json.dumps({k: _entry(v) for k, v in data.items()}))
-    tmp = f"{path}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp.npz"
-    try:
-        np.savez_compressed(tmp, **data)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    write_atomic(path, lambda tmp: np.savez_compressed(tmp, **data))
 
 
 def _entry(v: np.ndarray) -> list:
@@ -108,15 +102,14 @@ def _check(sim: object, data: dict[str, np.ndarray], where: str) -> None:
         raise InputError(f"{where}: field 'time' is {float(data['time'])!r} s; it must be finite and >= 0")
     if int(data["step"]) < 0:
         raise InputError(f"{where}: field 'step' is {int(data['step'])}; it must be >= 0")
-    state = sim.state.numpy()
-    for k, v in state.items():
-        got = expect("state/" + k, v.shape)
+    for k in sim.state.ARRAYS:
+        got = expect("state/" + k, _host_shape(getattr(sim.state, k)))
         if got.dtype.kind == "f" and not np.all(np.isfinite(got)):
             raise InputError(f"{where}: field 'state/{k}' holds NaN or inf")
     for k in _SIM_ARRAYS:
-        expect("sim/" + k, getattr(sim, k).numpy().shape)
+        expect("sim/" + k, _host_shape(getattr(sim, k)))
     for k in _MODEL_ARRAYS:
-        expect("model/" + k, getattr(sim.model, k).numpy().shape)
+        expect("model/" + k, _host_shape(getattr(sim.model, k)))
     m = sim.model
     for name, partners in (("ss", (m.n_spheres,)), ("st", (m.n_meshes, _max_faces(sim)))):
         expect(f"{name}/capacity", ())
@@ -132,6 +125,11 @@ def _check(sim: object, data: dict[str, np.ndarray], where: str) -> None:
             if len(used) and (keys[used].min() < 0 or keys[used].max() >= n):
                 raise InputError(f"{where}: {name}/{key} names partners outside [0, {n})")
         expect(f"{name}/hist", (cap,))
+
+
+def _host_shape(a: wp.array) -> tuple[int, ...]:
+    """The shape ``a.numpy()`` would have (vector and matrix elements add their own axes), without the copy."""
+    return tuple(a.shape) + tuple(getattr(a.dtype, "_shape_", ()))
 
 
 def _max_faces(sim: object) -> int:

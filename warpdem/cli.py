@@ -36,13 +36,13 @@ import math
 import platform
 import sys
 import time
-import uuid
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from .errors import InputError, SimulationError
+from .files import write_text_atomic
 
 
 def _progress(label: str) -> object:
@@ -204,10 +204,7 @@ def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) 
     elif out.exists() and any(out.iterdir()) and not (adopt and (out / adopt).exists()) and \
             _command_of(out) != args.command:
         raise InputError(f"--out {str(out)!r} is not empty and holds no warpdem run; choose a new or empty folder")
-    out.mkdir(parents=True, exist_ok=True)
-    tmp = out / f".{CLAIM}.{uuid.uuid4().hex[:8]}.tmp"
-    tmp.write_text(json.dumps(mine, indent=1))
-    tmp.replace(claim)
+    write_text_atomic(claim, json.dumps(mine, indent=1))
     return out
 
 
@@ -220,7 +217,9 @@ def _command_of(out: Path) -> str | None:
 
 
 def _springs(text: str) -> tuple[int, ...]:
-    allowed = (0, 4, 8, 12, 16, 20, 24, 28, 32)  # rigid and the paper's eight configurations
+    from scenes.paper import SPRING_COUNTS
+
+    allowed = (0, *SPRING_COUNTS)  # rigid and the paper's eight configurations
     try:
         v = tuple(int(x) for x in text.split(",") if x.strip())
     except ValueError:
@@ -268,9 +267,6 @@ def run_workflow(args: argparse.Namespace) -> int:
     if args.springs is not None and 0 in args.springs:
         raise InputError(f"--springs of the full workflow lists passive configurations (the rigid runs are always "
                          f"made), got {','.join(map(str, args.springs))}")
-    for name in ("generations", "population", "parents"):
-        if getattr(args, name) < 1:
-            raise InputError(f"--{name} must be >= 1, got {getattr(args, name)}")
     if args.population < args.parents:
         raise InputError(f"--population ({args.population}) must be at least --parents ({args.parents})")
     ga = GASettings(generations=args.generations, population=args.population, parents=args.parents, seed=args.seed)
