@@ -526,6 +526,8 @@ class Workflow:
         fp, old = self._bed_fingerprint(f"replica_{job['replica']}", bed)
         if old is not None:
             self._set_aside(job["replica"], old)
+        if not ckpt.exists():  # depositing the bed may have taken minutes: the job must still fit whole
+            budget.require(self._timing(timing, 30.0), f"soil-bin job {job['name']}")
         self.log(f"soil-bin job {job['name']}: {n} worlds, springs {job['springs']}, speeds {job['speeds']} m/s")
         t0 = time.perf_counter()
         resumed = ckpt.exists()
