@@ -506,9 +506,6 @@ class Workflow:
         c = self.config
         ckpt = self.out / "checkpoints" / job["name"]
         timing = f"job_{'rigid' if job['kind'] == 'rigid' else 'passive'}_{len(job['springs'])}"
-        # a job that has not started must fit whole (its checkpoint would not outlive a lost machine); one that
-        # has, saves its checkpoint at the deadline
-        budget.require(30.0 if ckpt.exists() else self._timing(timing, 30.0), f"soil-bin job {job['name']}")
         cfg = sb.SoilBinConfig(scale=c.scale, assembly=c.assembly, springs=tuple(job["springs"]),
                                speed=tuple(job["speeds"]), support_offset=job["kind"] == "offset",
                                travel=c.travel, steady_travel=c.steady_travel, seed=c.seed + job["replica"],
@@ -526,8 +523,10 @@ class Workflow:
         fp, old = self._bed_fingerprint(f"replica_{job['replica']}", bed)
         if old is not None:
             self._set_aside(job["replica"], old)
-        if not ckpt.exists():  # depositing the bed may have taken minutes: the job must still fit whole
-            budget.require(self._timing(timing, 30.0), f"soil-bin job {job['name']}")
+        # a job that has not started must fit whole (its checkpoint would not outlive a lost machine); one that
+        # has, saves its checkpoint at the deadline. Checked once the bed is ready: depositing it may take minutes
+        # (the bed stays in beds/ for the next call)
+        budget.require(30.0 if ckpt.exists() else self._timing(timing, 30.0), f"soil-bin job {job['name']}")
         self.log(f"soil-bin job {job['name']}: {n} worlds, springs {job['springs']}, speeds {job['speeds']} m/s")
         t0 = time.perf_counter()
         resumed = ckpt.exists()

@@ -1,4 +1,4 @@
-# Table 3 paper-scale workflow on the GPU machine, out of the synced tree (not committed)
+# One GPU call of this run (see README.md "Continuing"): the workflow runs in /root/t3, out of the synced tree
 R=/root/t3
 if [ ! -f $R/workflow.json ]; then mkdir -p $R && cp -r docs/runs/table3-paper-h100/. $R/; fi
 if [ -d docs/runs/table3-paper-h100/beds ]; then mkdir -p $R/beds && cp -n docs/runs/table3-paper-h100/beds/*.npz $R/beds/ 2>/dev/null; fi
