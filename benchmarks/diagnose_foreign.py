@@ -21,8 +21,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the in
 
 from test_diagnosis_foreign import description, hinged_beam_records  # noqa: E402
 
+from calibration.cli import main as cli  # noqa: E402
 from calibration.synthetic import _write  # noqa: E402
-from warpdem.cli import main as cli  # noqa: E402
 
 SPRINGS = (4, 8, 12, 16, 20, 24, 28, 32)
 

@@ -27,7 +27,6 @@ from scenes import paper
 from scenes.ringing import RingingConfig, build_ringing, run_ringing
 from scenes.soil_bin import SCALES, SoilBinConfig, bed_for, run_soil_bin
 from warpdem import analysis
-from warpdem.errors import InputError
 
 from .genes import FITNESS_MODES, Gene, with_ranges
 
@@ -57,11 +56,6 @@ eta_roll = eta_twist."""
 def _magnitude(sim: float, target: float) -> float:
     """|sim - target| / target (eqs. 8, 9), NaN when the simulation gave no value."""
     return float(analysis.relative_error(sim, target)) if math.isfinite(sim) else math.nan
-
-
-MAX_STEPS = 5e7
-"""steps per simulation beyond which a problem is refused before it runs (at ~1e4 steps/s for a small rig on a CPU,
-more than a day per batch): a gene range whose stiffest corner collapses the time step."""
 
 
 def _capped(fitness: Callable[..., float], *errors: float) -> float:
@@ -132,11 +126,9 @@ class RingingProblem:
             rig = build_ringing(self._config(top, None))
             model, _ = rig.builder.finalize("cpu", n_worlds=1, overrides=rig.overrides)
             dt = 0.5 * wd.critical_timestep(model)
-            steps = (self.settle_time + self.ring_time) / dt
-            if steps > MAX_STEPS:
-                corner = ", ".join(f"{g.name} {g.high:g}" for g in self.gene_list)
-                raise InputError(f"the gene ranges' stiffest rig ({corner}) needs dt = {dt:.3g} s: {steps:.3g} steps "
-                                 f"per simulation, more than {MAX_STEPS:.0e}; lower the upper bounds")
+            corner = ", ".join(f"{g.name} {g.high:g}" for g in self.gene_list)
+            wd.check_step_count("ringing calibration", self.settle_time + self.ring_time, dt,
+                                f"the gene ranges' stiffest rig ({corner}); lower the upper bounds")
             self._dt = dt
         return self._dt
 

@@ -237,6 +237,7 @@ def deposit(spec: AssemblySpec, bin_size: tuple[float, float, float], depth: flo
         b.set_local_damping("soil", damping)
         model, state = b.finalize(device)
         dt = 0.3 * wd.pwave_timestep(model)
+        wd.check_step_count("deposition", max_time, dt, "0.3 x the P-wave step (Young's moduli, particle size)")
         sim = wd.Simulation(model, state, dt=dt)
         n_particles = bed.n_particles
         chunk = max(1, int(0.02 / dt))

@@ -409,6 +409,8 @@ def run_ringing(config: RingingConfig | None = None, *, device: str | None = Non
     rig = build_ringing(cfg, tool)
     model, state = rig.builder.finalize(device, n_worlds=len(cfg.springs), overrides=rig.overrides)
     dt = cfg.dt or min(0.5 * wd.critical_timestep(model), 0.5 / cfg.sample_rate)  # at least two steps a sample
+    wd.check_step_count("ringing run", cfg.settle_time + cfg.ring_time, dt,
+                        "cfg.dt" if cfg.dt else "0.5 x the critical step (spring stiffness, Young's moduli)")
     sim = wd.Simulation(model, state, dt=dt)
     t0 = time.perf_counter()
     sensor = wd.observers.body_point("sweep_lower", rig.tool.sensor_point)

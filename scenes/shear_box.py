@@ -604,6 +604,8 @@ def run_shear_boxes(configs: Sequence[ShearBoxConfig], device: str | None = None
     n_worlds = sum(len(c.normal_stresses) for c in configs)
     model, state = b.finalize(device, n_worlds=n_worlds, overrides=overrides)
     dt = cfg.dt_factor * wd.pwave_timestep(model)
+    wd.check_step_count("shear box", cfg.consolidation_time[1] + cfg.shear_displacement * cfg.box_side / cfg.shear_rate,
+                        dt, f"dt_factor {cfg.dt_factor:g} x the P-wave step (Young's moduli, particle size)")
     sim = wd.Simulation(model, state, dt=dt, always_use_moment_law=True,
                         cohesion_on_new_contacts=cfg.cohesion_on_new_contacts)
     probe = _Probe(sim)

@@ -33,7 +33,7 @@ import numpy as np
 
 import warpdem as wd
 from warpdem import analysis
-from warpdem.errors import BudgetExhausted
+from warpdem.errors import BudgetExhausted, InputError
 
 from . import paper
 from .assemblies import AssemblySpec, Bed, bin_mesh, deposit
@@ -129,6 +129,17 @@ class SoilBinConfig:
             raise ValueError(f"member_radius must be in (0, 0.05) m, got {self.member_radius!r}")
         if not 0 < self.working_depth < SCALES[self.scale]["bed_depth"]:
             raise ValueError(f"working_depth must be in (0, bed depth), got {self.working_depth!r}")
+        for name in ("travel", "steady_travel", "dt"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise InputError(f"{name} must be finite and > 0 (or None for the scale's), got {v!r}")
+        if not (math.isfinite(self.sample_rate) and self.sample_rate > 0):
+            raise InputError(f"sample_rate must be finite and > 0 Hz, got {self.sample_rate!r}")
+        travel = self.travel or self.preset["travel"]
+        steady = self.steady_travel or self.preset["steady_travel"]
+        if steady >= travel:
+            raise InputError(f"steady_travel ({steady!r} m) must be shorter than travel ({travel!r} m): the steady "
+                             f"state is averaged between them")
 
     @property
     def preset(self) -> dict:
@@ -332,14 +343,12 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
         offsets = [1e-3 * r["support_offset_mm"] if config.support_offset else 0.0 for r in rows]
         if config.spring_model == "linear":
             length = 0.1
-            # the anchor sits the offset (+ = against travel) behind the spring's unloaded place, so the spring
-            # starts stretched by the offset and pulls the tool back by it. One anchor position per world is
-            # impossible (geometry is shared): the anchor sits at the mean offset and each world's rest length
-            # makes up the rest, rest = length - (offset - mean offset), a stretch of exactly its own offset
-            mean_off = float(np.mean(offsets))
-            anchor = s - (0.0, length + mean_off, 0.0)
-            carriage = b.add_rigid_body(anchor, name="carriage", velocity=v0)
-            b.add_spring("spring", carriage, anchor, b.body_names["sweep_lower"], s, stiffness=1.0,
+            # each world's anchor sits its offset (+ = against travel) behind the spring's unloaded place, so the
+            # spring starts stretched by the offset and pulls the tool back by it; the carriage itself sits at the
+            # unloaded place in every world, so that a world's geometry does not depend on the others of its batch
+            carriage_pos = s - (0.0, length, 0.0)
+            carriage = b.add_rigid_body(carriage_pos, name="carriage", velocity=v0)
+            b.add_spring("spring", carriage, carriage_pos, b.body_names["sweep_lower"], s, stiffness=1.0,
                          rest_length=length)
             k = knobs.get("stiffness", np.array([r["stiffness_n_per_m"] for r in rows]))
             if "dashpot" in knobs:
@@ -351,7 +360,7 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
                 "body:carriage:velocity": [(0.0, sp, 0.0) for sp in speeds],
                 "spring:spring:stiffness": k_eff,
                 "spring:spring:damping": dashpot,
-                "spring:spring:rest_length": length - (np.array(offsets) - mean_off),
+                "spring:spring:point_a": [carriage_pos - (0.0, off, 0.0) for off in offsets],
             })
             if "progressive" in knobs:
                 overrides["spring:spring:progressive"] = knobs["progressive"]
@@ -449,6 +458,18 @@ class RunCheckpoint:
                 old.unlink()
 
 
+def default_dt(model: wd.Model, spring_model: str, rigid: bool) -> float:
+    """The run's time step [s]: 0.3 x the P-wave step and 0.5 x the spring step of the model; for the paper's spring
+    spheres, no more than 0.3 x the P-wave step of the stiffest of Table 2's eight, so that every mix of passive
+    configurations in a batch runs at one step (a world's result then does not depend on its batch mates)."""
+    dt = min(0.3 * wd.pwave_timestep(model), 0.5 * wd.critical_timestep(model))
+    if spring_model == "paper" and not rigid:
+        sp = paper.SPRING_SPHERE
+        young = max(paper.ringing_row(n)["dem_spring_young_pa"] for n in paper.SPRING_COUNTS)
+        dt = min(dt, 0.3 * sp["radius"] / math.sqrt(young / sp["density"]))
+    return dt
+
+
 def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device: str | None = None,
                  tool: SweepTool | None = None, progress: object | None = None,
                  viewer: object | None = None, soil_overrides: dict[str, object] | None = None,
@@ -489,9 +510,12 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     knob_arrays = _check_knobs(knobs, len(springs), rigid, config.spring_model)
     tool = place_tool(bed, config.working_depth, tool) if place or tool is None else tool
     model, state, info = _build(config, bed, tool, springs, speeds, device, soil_overrides, knob_arrays)
-    dt = config.dt or min(0.3 * wd.pwave_timestep(model), 0.5 * wd.critical_timestep(model))
+    dt = config.dt or default_dt(model, config.spring_model, rigid)
     p = config.preset
     travel = config.travel or p["travel"]
+    wd.check_step_count("soil-bin run", config.settle_time + travel / min(speeds), dt,
+                        "config.dt" if config.dt else "the Young's moduli and particle size (0.3 x the P-wave step) "
+                        "and the springs' stiffness (0.5 x their step)")
     lo = np.array([-bed.bin_size[0], -0.5, -0.5])
     hi = np.array([bed.bin_size[0], bed.bin_size[1] + travel + 1.0, 2.0])
     sim = wd.Simulation(model, state, dt=dt, always_use_moment_law=True, bounds=(lo, hi),

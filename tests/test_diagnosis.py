@@ -78,7 +78,7 @@ def test_noise_only_data_get_no_cause() -> None:
 def test_hidden_series_compliance_through_the_command(tmp_path: pytest.TempPathFactory) -> None:
     # the same through `warpdem diagnose` on files in the MEASURED format; the fitted series stiffness and dashpot
     # must be the truth's within 10 % (the only scatter left is the 2 % stiffness scatter and the noise)
-    from warpdem.cli import main
+    from calibration.cli import main
 
     synthetic.ringing_data(SPRINGS, {"dashpot": DASHPOT, "series_stiffness": 1e6}, seed=2, device=DEVICE,
                            ring_time=1.5, out=tmp_path / "measured")

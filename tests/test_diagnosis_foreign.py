@@ -189,8 +189,8 @@ def test_rig_toml_next_to_the_data_is_used_by_the_command(tmp_path: pytest.TempP
     # report saying so. A short fit (two rounds, one mechanism): the plumbing, not the physics (tests above).
     import json
 
+    from calibration.cli import main
     from calibration.synthetic import _write
-    from warpdem.cli import main
 
     _write(tmp_path / "m", hinged_beam_records({}, seed=2))
     d = description()
@@ -225,8 +225,8 @@ def test_envelope_law_of_closed_form_decays(law: str, p: float) -> None:
 
 def test_a_bad_rig_file_ends_the_command_with_one_line(tmp_path: pytest.TempPathFactory,
                                                        capsys: pytest.CaptureFixture) -> None:
+    from calibration.cli import main
     from calibration.synthetic import _write
-    from warpdem.cli import main
 
     _write(tmp_path / "m", hinged_beam_records({}, seed=2, ring_time=0.3))
     (tmp_path / "m" / "rig.toml").write_text("spring_lever = -0.3\n")

@@ -125,3 +125,65 @@ def test_an_unstable_world_is_named() -> None:
     with pytest.raises(wd.SimulationError) as e:
         sim.advance(200)
     assert e.value.world == 1 and e.value.body // per == 1 and "(world 1)" in str(e.value)
+
+
+def test_step_count_check_counts_and_refuses() -> None:
+    """Closed form: 1 s at 1e-4 s is 10,000 steps (accepted); 1 s at 1e-8 s is 1e8 > MAX_STEPS = 5e7 (refused before
+    anything runs, naming the step, the count and what sets it); a NaN or zero step is refused."""
+    assert wd.check_step_count("run", 1.0, 1e-4, "x") == 10_000
+    with pytest.raises(wd.InputError, match=r"run: dt = 1e-08 s for 1 s of simulated time is 1e\+08 steps.*set by "
+                                            r"the spring"):
+        wd.check_step_count("run", 1.0, 1e-8, "the spring")
+    for dt in (float("nan"), 0.0):
+        with pytest.raises(wd.InputError, match="time step must be finite and > 0"):
+            wd.check_step_count("run", 1.0, dt, "x")
+
+
+def _tiny_bed():  # noqa: ANN202
+    from scenes.assemblies import AssemblySpec, Bed
+
+    n = 20
+    rng = np.random.default_rng(0)
+    centres = np.column_stack([rng.uniform(-0.2, 0.2, n), rng.uniform(0.05, 0.6, n), rng.uniform(0.03, 0.17, n)])
+    return Bed(AssemblySpec(kind="A", radius=0.02), (0.5, 0.65, 0.45), 0.2, centres, np.full(n, 0.02), np.arange(n))
+
+
+def test_runs_whose_time_step_would_make_them_crawl_are_refused_before_they_start() -> None:
+    """A carriage speed of 1e-9 m/s (0.3 m of travel: 3e8 s of simulated time), a spring-sphere Young's modulus of
+    1e22 Pa (ringing; critical step ~ sqrt(m / (E r)) ~ 1e-11 s) and a deposition given 1e6 s each need far more
+    than MAX_STEPS steps: each is refused with an InputError naming the run, instead of hanging."""
+    from scenes.assemblies import AssemblySpec, deposit
+    from scenes.ringing import RingingConfig, run_ringing
+    from scenes.soil_bin import SoilBinConfig, run_soil_bin
+
+    with pytest.raises(wd.InputError, match=r"soil-bin run: dt = .* steps, more than 5e\+07"):
+        run_soil_bin(SoilBinConfig(scale="ci"), [0], bed=_tiny_bed(), device=DEVICE, speeds=[1e-9])
+    cfg = RingingConfig(springs=(16,), spring_model="paper", spring_young=(1e22,), local_damping=(0.01,))
+    with pytest.raises(wd.InputError, match=r"ringing run: dt = .* steps, more than 5e\+07.*critical step"):
+        run_ringing(cfg, device=DEVICE)
+    with pytest.raises(wd.InputError, match=r"deposition: dt = .* steps, more than 5e\+07"):
+        deposit(AssemblySpec(kind="A", radius=0.02), (0.3, 0.3, 0.3), 0.1, device=DEVICE, max_time=1e6)
+
+
+def test_a_shear_box_whose_shear_would_crawl_is_refused() -> None:
+    """A shear rate of 1e-12 m/s over 15 % of a 0.1 m box is 1.5e10 s of shearing: refused before it starts."""
+    from scenes.shear_box import ShearBoxConfig, run_shear_boxes
+
+    with pytest.raises(wd.InputError, match=r"shear box: dt = .* steps, more than 5e\+07"):
+        run_shear_boxes([ShearBoxConfig(shear_rate=1e-12)], DEVICE, bed=_tiny_bed())
+
+
+@pytest.mark.parametrize("kw,words", [
+    ({"travel": 0.12}, r"steady_travel \(0.15 m\) must be shorter than travel \(0.12 m\)"),
+    ({"travel": -0.3}, "travel must be finite and > 0"),
+    ({"steady_travel": float("nan")}, "steady_travel must be finite and > 0"),
+    ({"dt": 0.0}, "dt must be finite and > 0"),
+    ({"sample_rate": float("inf")}, "sample_rate must be finite and > 0 Hz"),
+])
+def test_a_soil_bin_config_whose_travel_or_sampling_makes_no_sense_is_refused(kw: dict, words: str) -> None:
+    """Refused when the config is made, not after the run: a travel shorter than the steady-state start (ci scale:
+    0.15 m) would run the whole simulation and then find no steady samples."""
+    from scenes.soil_bin import SoilBinConfig
+
+    with pytest.raises(wd.InputError, match=words):
+        SoilBinConfig(scale="ci", **kw)

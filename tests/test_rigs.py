@@ -260,3 +260,24 @@ def test_soil_bin_report_keeps_every_series_and_row(ci_bed, tmp_path) -> None:
     for r in study["table"]:
         assert f"{r['draught_mean']:.4g} ± {r['draught_sem']:.2g}" in text
     assert (tmp_path / "fig16_draught_displacement.png").exists()
+
+
+@pytest.mark.parametrize("spring_model,mates,mate_speeds", [("linear", [32], [0.52]), ("paper", [4], [0.70])])
+def test_a_soil_bin_world_gives_what_it_gives_alone_whatever_its_batch_mates(ci_bed, spring_model: str,
+                                                                           mates: list[int],
+                                                                           mate_speeds: list[float]) -> None:
+    """Reference: the same world (16 springs at 0.68 m/s) run alone. Worlds never interact, every force sum runs
+    in partner order, each world's spring anchor is its own and the time step does not depend on the mix of
+    configurations (the paper's spring spheres run at the stiffest configuration's step, here the 4-spring mate's),
+    so on the CPU the cutting record must be identical to the bit although the soil bin is chaotic (with one anchor
+    shared by the worlds, the rounding of the linear spring's direction made the draughts differ from 0.05 s in).
+    The mate differs in springs, support offset and speed."""
+    cfg = sb.SoilBinConfig(scale="ci", assembly="A", spring_model=spring_model, travel=0.1, steady_travel=0.05)
+    alone = sb.run_soil_bin(cfg, [16], bed=ci_bed, device=DEVICE, speeds=[0.68])
+    batch = sb.run_soil_bin(cfg, [16, *mates], bed=ci_bed, device=DEVICE, speeds=[0.68, *mate_speeds])
+    assert batch.dt == alone.dt
+    k = len(alone.time)
+    for name in ("draught", "displacement"):
+        np.testing.assert_array_equal(batch.series[name][:k, 0], alone.series[name][:, 0])
+    assert np.ptp(alone.series["draught"][:, 0]) > 1.0  # the tool did cut
+    assert not np.array_equal(batch.series["draught"][:k, 1], alone.series["draught"][:, 0])

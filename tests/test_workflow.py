@@ -214,7 +214,7 @@ def test_cli_full_workflow_stops_with_exit_3_and_refuses_another_configuration(t
     """`warpdem reproduce --workflow full --budget S`: when the next piece would not fit (a budget of 1 ms lets the
     first ringing batch start, then none), it stops with exit code 3 and one line; the same folder with another
     configuration is a one-line input error (exit 2) and leaves the folder as it was."""
-    from warpdem.cli import main
+    from calibration.cli import main
 
     out = tmp_path / "wf"
     args = ["reproduce", "--workflow", "full", "--scale", "ci", "--assembly", "A", "--springs", "16,32",

@@ -10,7 +10,7 @@ from .errors import InputError, SimulationError
 from .materials import Material
 from .model import Model, State
 from .simulation import Simulation
-from .timestep import critical_timestep, pwave_timestep, stiffness_timestep
+from .timestep import check_step_count, critical_timestep, pwave_timestep, stiffness_timestep
 
 __all__ = [
     "InputError",
@@ -20,6 +20,7 @@ __all__ = [
     "Simulation",
     "SimulationError",
     "State",
+    "check_step_count",
     "checkpoint",
     "critical_timestep",
     "observers",

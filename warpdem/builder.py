@@ -460,6 +460,8 @@ class ModelBuilder:
                 ``material:<name>:<field>`` (fields: young, poisson, density, friction_angle [deg],
                 normal_cohesion, shear_cohesion, eta_roll, eta_twist, alpha_kr, alpha_ktw),
                 ``spring:<name>:<stiffness|damping|rest_length|preload|progressive|stop_stiffness>``,
+                ``spring:<name>:point_a`` / ``point_b`` (shape (n_worlds, 3) [m]: the attachment point in the world
+                as built, like :meth:`add_spring`'s; e.g. an anchor that sits elsewhere in each world),
                 ``damping:<group>``,
                 ``body:<name>:velocity`` and ``body:<name>:angular_velocity`` (shape (n_worlds, 3); for a hinged
                 body, the pivot's velocity), ``body:<name>:mass`` [kg] (mass and inertia tensor scaled together,
@@ -495,6 +497,9 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
     t["damping"] = np.tile(np.array(b.group_damping, dtype=np.float64), (n_worlds, 1))
     for f in SPRING_FIELDS:
         t["spring_" + f] = np.tile(np.array([getattr(s, f) for s in b.springs], dtype=np.float64), (n_worlds, 1))
+    for end in ("a", "b"):
+        t["spring_point_" + end] = np.tile(np.array([getattr(s, "point_" + end) for s in b.springs]).reshape(-1, 3),
+                                           (n_worlds, 1, 1))
     t["vel"] = np.tile(b.body_array("vel").reshape(nb, 3), (n_worlds, 1, 1))
     t["angvel"] = np.tile(b.body_array("angvel").reshape(nb, 3), (n_worlds, 1, 1))
     t["mass"] = np.tile(b.body_array("mass"), (n_worlds, 1))
@@ -510,6 +515,14 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
             for v in col:  # validate each world's material like a user-built one
                 b.materials[b.material_names[parts[1]]].replace(**{parts[2]: float(v)})
             t[parts[2]][:, b.material_names[parts[1]]] = col
+        elif parts[0] == "spring" and len(parts) == 3 and parts[2] in ("point_a", "point_b"):
+            if parts[1] not in spring_names:
+                raise InputError(f"override {key!r}: unknown spring {parts[1]!r}")
+            spring = b.springs[spring_names[parts[1]]]
+            body = spring.body_a if parts[2] == "point_a" else spring.body_b
+            points = _per_world(key, values, n_worlds, (3,))
+            rot = massprops.quat_to_matrix(b.body_array("quat")[body])
+            t["spring_" + parts[2]][:, spring_names[parts[1]]] = (points - b.body_array("pos")[body]) @ rot
         elif parts[0] == "spring" and len(parts) == 3:
             if parts[1] not in spring_names:
                 raise InputError(f"override {key!r}: unknown spring {parts[1]!r}")
@@ -549,7 +562,8 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
         else:
             raise InputError(
                 f"unknown override {key!r}; expected material:<name>:<field>, spring:<name>:<field>, "
-                "damping:<group> or body:<name>:velocity|angular_velocity|mass|pivot_friction"
+                "spring:<name>:point_a|point_b, damping:<group> or "
+                "body:<name>:velocity|angular_velocity|mass|pivot_friction"
             )
     return t
 
@@ -682,8 +696,8 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         group_damping=arr(t["damping"].reshape(-1).astype(np.float32), wp.float32),
         spring_body_a=arr((np.tile(sa, W) + off).astype(np.int32), wp.int32),
         spring_body_b=arr((np.tile(sb, W) + off).astype(np.int32), wp.int32),
-        spring_point_a=arr(np.tile(np.array([s.point_a for s in b.springs]).reshape(ns_, 3), (W, 1)), wp.vec3f),
-        spring_point_b=arr(np.tile(np.array([s.point_b for s in b.springs]).reshape(ns_, 3), (W, 1)), wp.vec3f),
+        spring_point_a=arr(t["spring_point_a"].reshape(-1, 3), wp.vec3f),
+        spring_point_b=arr(t["spring_point_b"].reshape(-1, 3), wp.vec3f),
         spring_stiffness=arr(t["spring_stiffness"].reshape(-1).astype(np.float32), wp.float32),
         spring_damping=arr(t["spring_damping"].reshape(-1).astype(np.float32), wp.float32),
         spring_rest_length=arr(t["spring_rest_length"].reshape(-1).astype(np.float32), wp.float32),

@@ -129,12 +129,6 @@ def quats_to_matrices(q: np.ndarray) -> np.ndarray:
     )
 
 
-def world_inertia(moments: np.ndarray, quat: np.ndarray) -> np.ndarray:
-    """Inertia tensor in the world frame, R diag(I) R^T [kg m^2], from principal moments and orientation."""
-    r = quat_to_matrix(quat)
-    return r @ np.diag(moments) @ r.T
-
-
 def check_faces(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Validate a triangle mesh's arrays and return them as float64 (nv, 3) and int32 (nf, 3)."""
     vertices = check_points("mesh vertices", vertices)

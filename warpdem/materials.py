@@ -80,22 +80,3 @@ class Material:
     def flags(self) -> int:
         """Bit set: 1 = moment law, 2 = fragile, 4 = cohesive (the device encoding)."""
         return int(self.moment_law) | (int(self.fragile) << 1) | (int(self.cohesive) << 2)
-
-
-def contact_stiffness(m1: Material, r1: float, m2: Material, r2: float) -> tuple[float, float, float, float]:
-    """Yade's contact stiffnesses (kn, ks, kr, ktw) [N/m, N/m, N m/rad, N m/rad] for radii r1, r2 [m].
-
-    kn = 2 E1R1 E2R2/(E1R1 + E2R2); ks likewise with E*R*nu; kr = R1 R2 ks alpha_r; ktw = R1 R2 ks alpha_tw, alphas
-    being harmonic means (0 if either is 0). For a facet, Yade takes r1 = 2 r_sphere.
-    """
-    a1, a2 = m1.young * r1, m2.young * r2
-    kn = 2.0 * a1 * a2 / (a1 + a2)
-    b1, b2 = a1 * m1.poisson, a2 * m2.poisson
-    ks = 2.0 * b1 * b2 / (b1 + b2) if b1 + b2 > 0 else 0.0
-
-    def hmean(x: float, y: float) -> float:
-        return 2.0 * x * y / (x + y) if x > 0 and y > 0 else 0.0
-
-    kr = r1 * r2 * ks * hmean(m1.alpha_kr, m2.alpha_kr)
-    ktw = r1 * r2 * ks * hmean(m1.alpha_ktw, m2.alpha_ktw)
-    return kn, ks, kr, ktw

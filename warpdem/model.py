@@ -161,10 +161,6 @@ class Model:
         """Global index of the named body in a world."""
         return world * self.bodies_per_world + self.names["body"][name]
 
-    def mesh_index(self, name: str, world: int = 0) -> int:
-        """Global index of the named mesh instance in a world."""
-        return world * self.meshes_per_world + self.names["mesh"][name]
-
     def group_index(self, name: str) -> int:
         """Index of the named body group."""
         return self.names["group"][name]

@@ -305,19 +305,6 @@ def coordination_number(group: str | None = None) -> Callable[[object], np.ndarr
     return f
 
 
-def body_wrench(body: str, world: int | None = None) -> Callable[[object], np.ndarray]:
-    """Observer: force [N] and torque about the centre of mass [N m] on a named body in the last step (contacts and
-    springs), shape (n_worlds, 2, 3), or (2, 3) for one world."""
-
-    def f(sim: object) -> np.ndarray:
-        m = sim.model
-        idx = np.arange(m.n_worlds) * m.bodies_per_world + m.names["body"][body]
-        out = np.stack([sim.body_force.numpy()[idx], sim.body_torque.numpy()[idx]], axis=1).astype(np.float64)
-        return out if world is None else out[world]
-
-    return f
-
-
 def mesh_wrench(mesh: str, world: int | None = None) -> Callable[[object], np.ndarray]:
     """Observer: contact force [N] and torque about its body's centre of mass [N m] on one mesh (e.g. the lower half
     of a tool: its force along travel is the draught), shape (n_worlds, 2, 3), or (2, 3) for one world."""

@@ -6,7 +6,13 @@ import math
 
 import numpy as np
 
+from .errors import InputError
 from .model import ALL_DOFS, FLAG_PIVOT, Model
+
+MAX_STEPS = 5e7
+"""steps of one simulation beyond which a run is refused before it starts: at ~1e4 steps/s (a small rig on a CPU)
+more than a day, at paper scale on a GPU weeks. Every run of the paper's study needs fewer than 1e6; more means an
+input (a Young's modulus, a spring stiffness, a particle size) collapsed the time step."""
 
 
 def pwave_timestep(model: Model) -> float:
@@ -94,3 +100,22 @@ def stiffness_timestep(sim: object, safety: float = 0.8) -> float:
     if dt2.size == 0 or not np.isfinite(dt2).any():
         return pwave_timestep(model)
     return float(1.41044 * safety * np.sqrt(np.min(dt2)))
+
+
+def check_step_count(what: str, duration: float, dt: float, cause: str, limit: float = MAX_STEPS) -> int:
+    """Refuse a run of ``duration`` [s] at step ``dt`` [s] that would take more than ``limit`` steps.
+
+    Args:
+        what: the run, for the message ("soil-bin run", "deposition", ...).
+        duration: simulated time [s]. dt: the time step [s] the run would use.
+        cause: what sets ``dt`` (the inputs to change), for the message.
+
+    Returns the number of steps. Raises InputError naming the step, the count and the cause.
+    """
+    if not (math.isfinite(dt) and dt > 0.0):
+        raise InputError(f"{what}: the time step must be finite and > 0 s, got {dt!r} (set by {cause})")
+    steps = duration / dt
+    if not math.isfinite(steps) or steps > limit:
+        raise InputError(f"{what}: dt = {dt:.3g} s for {duration:.3g} s of simulated time is {steps:.3g} steps, more "
+                         f"than {limit:.0e}; the step is set by {cause}")
+    return int(math.ceil(steps))

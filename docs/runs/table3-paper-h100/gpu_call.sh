@@ -2,7 +2,7 @@
 R=/root/t3
 if [ ! -f $R/workflow.json ]; then mkdir -p $R && cp -r docs/runs/table3-paper-h100/. $R/; fi
 if [ -d docs/runs/table3-paper-h100/beds ]; then mkdir -p $R/beds && cp -n docs/runs/table3-paper-h100/beds/*.npz $R/beds/ 2>/dev/null; fi
-python -m warpdem.cli reproduce --workflow full --scale paper --out $R --budget ${1:-540} > $OUT/log.txt 2>&1; echo "rc=$?" >> $OUT/log.txt
+python -m calibration.cli reproduce --workflow full --scale paper --out $R --budget ${1:-540} > $OUT/log.txt 2>&1; echo "rc=$?" >> $OUT/log.txt
 tar czf $OUT/state.tgz -C /root --exclude=t3/checkpoints --exclude=t3/beds t3
 cp $R/beds/bed_paper_*.npz $OUT/ 2>/dev/null
 ls -la $R/beds $R/checkpoints 2>/dev/null | tail -20

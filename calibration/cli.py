@@ -1,4 +1,5 @@
-"""The ``warpdem`` command.
+"""The ``warpdem`` command (application code: it lives in the top layer, so the engine package imports neither
+``scenes`` nor ``calibration``).
 
     warpdem reproduce [--scale ci|cpu|paper] [--device cpu|cuda] [--out DIR] [--assembly A|B|C] [--springs 0,16,32]
     warpdem reproduce --workflow full [--scale] [--assembly] [--budget S] [--replicas-min 3] [--replicas-max 8]
@@ -41,8 +42,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, SimulationError
-from .files import write_text_atomic
+from scenes.paper import SPRING_COUNTS
+from warpdem.errors import InputError, SimulationError
+from warpdem.files import write_text_atomic
 
 
 def _progress(label: str) -> object:
@@ -217,8 +219,6 @@ def _command_of(out: Path) -> str | None:
 
 
 def _springs(text: str) -> tuple[int, ...]:
-    from scenes.paper import SPRING_COUNTS
-
     allowed = (0, *SPRING_COUNTS)  # rigid and the paper's eight configurations
     try:
         v = tuple(int(x) for x in text.split(",") if x.strip())
@@ -231,12 +231,25 @@ def _springs(text: str) -> tuple[int, ...]:
 
 
 def _quiet_warp() -> None:
-    """Warp's banner and kernel-load lines off (``--verbose`` keeps them)."""
+    """Warp's banner and kernel-load lines off (``--verbose`` keeps them), and its native "Could not find or load the
+    NVIDIA CUDA driver" line, which Warp's C++ writes straight to file descriptor 2 while it initialises (the
+    device choice already says cpu on such a machine)."""
+    import os
+
     import warp as wp
 
     wp.config.quiet = True  # Warp < 1.19
     if hasattr(wp, "LOG_ERROR"):
         wp.config.log_level = wp.LOG_ERROR
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            wp.init()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 def _setup(args: argparse.Namespace) -> str:
@@ -327,7 +340,7 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
                            spring_model=args.spring_model or "linear", seed=args.seed)
     viewer = None
     if args.viewer or args.viewer_save:
-        from .viewer import RerunViewer
+        from warpdem.viewer import RerunViewer
 
         lo, hi = (float(v) for v in args.speed_range.split(","))
 
@@ -549,7 +562,7 @@ ASSEMBLY_HELP = "A = single spheres, B = two-sphere clumps, C = the paper's mix 
 
 
 def main(argv: list[str] | None = None) -> int:
-    from . import __version__
+    from warpdem import __version__
 
     parser = argparse.ArgumentParser(prog="warpdem", description="DEM of soil-tool interaction on NVIDIA Warp")
     parser.add_argument("--version", action="version", version=f"warpdem {__version__}")
@@ -640,7 +653,7 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--refine", type=_number(int, ge=0), default=0,
                    help="batched pattern-search iterations after the GA")
     c.add_argument("--gene", type=_gene_range, action="append", help="replace a gene range: NAME=LOW:HIGH (SI)")
-    c.add_argument("--springs", type=int, default=16, choices=(4, 8, 12, 16, 20, 24, 28, 32),
+    c.add_argument("--springs", type=int, default=16, choices=SPRING_COUNTS,
                    help="ringing: spring configuration")
     c.add_argument("--spring-model", choices=("paper", "linear", "twin"), default="paper",
                    help="ringing: spring model")

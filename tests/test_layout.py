@@ -1,0 +1,29 @@
+"""The layers import one way: engine (warpdem) <- scenes <- calibration (design.md). Checked on the source, so a
+lazy import inside a function counts too."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+FORBIDDEN = {"warpdem": {"scenes", "calibration"}, "scenes": {"calibration"}}
+
+
+def _imported_packages(path: Path) -> set[str]:
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            found |= {a.name.split(".")[0] for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found.add(node.module.split(".")[0])
+    return found
+
+
+@pytest.mark.parametrize("package", sorted(FORBIDDEN))
+def test_a_lower_layer_imports_no_upper_one(package: str) -> None:
+    bad = {str(p.relative_to(ROOT)): sorted(_imported_packages(p) & FORBIDDEN[package])
+           for p in sorted((ROOT / package).rglob("*.py"))}
+    assert {k: v for k, v in bad.items() if v} == {}
