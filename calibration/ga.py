@@ -132,7 +132,9 @@ class _Calibration:
             return a + b, {**fa, **{k + half: r for k, r in fb.items()}}
 
     def log_generation(self, stage: str, generation: int, fitness: np.ndarray) -> None:
-        best = self.archive.best()
+        # the best of the records made up to this generation (a resumed refinement replays iterations whose later
+        # records are already archived)
+        best = max((r for r in self.archive if r.generation <= generation), key=lambda r: r.fitness)
         entry = {"stage": stage, "generation": generation, "best_fitness": best.fitness,
                  "population_best": float(np.max(fitness)), "population_median": float(np.median(fitness)),
                  "best_genes": best.genes, "best_errors": best.errors, "simulated": self._batch_count,
@@ -200,7 +202,10 @@ class _Calibration:
         hi = np.array([gn.ga_range[1] for gn in self.genes])
         dirs = (np.array([d for d in itertools.product((-1, 0, 1), repeat=g) if any(d)], dtype=float) if g <= 3
                 else np.vstack([np.eye(g), -np.eye(g)]))
-        best = self.archive.best()
+        # start from the best record made before the refinement: after a kill during it, the archive also holds
+        # refinement records, and starting from those would take another path than the uninterrupted run
+        before = [r for r in self.archive if r.stage != "refine"]
+        best = max(before, key=lambda r: r.fitness)
         x = np.array([gn.to_ga(best.genes[gn.name]) for gn in self.genes], dtype=float)
         step = s.refine_step
         for it in range(s.refine_iterations):

@@ -119,10 +119,11 @@ def test_bad_ga_settings_and_genes_are_named() -> None:
         RingingProblem(springs=15)
 
 
-@pytest.mark.parametrize("kill_at", [1, 3, 5])
+@pytest.mark.parametrize("kill_at", [1, 3, 5, 7, 8])
 def test_killed_calibration_resumes_to_the_same_result(tmp_path, kill_at: int) -> None:
-    # A calibration killed while simulating batch `kill_at` (1 = the initial population) resumes from its last
-    # saved generation and ends exactly as an uninterrupted run with the same seed: same archive, same best.
+    # A calibration killed while simulating batch `kill_at` (1 = the initial population, 2-5 the GA's generations,
+    # 6-8 the refinement's iterations) resumes from its last saved generation (or replays the refinement from the
+    # archive) and ends exactly as an uninterrupted run with the same seed: same archive, same best.
     settings = GASettings(generations=4, population=8, parents=3, refine_iterations=3, seed=7)
     full = calibrate(Oscillator(), settings, out=tmp_path / "full")
 
