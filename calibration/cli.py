@@ -309,7 +309,7 @@ def run_workflow(args: argparse.Namespace) -> int:
 
 def run_ringing_cmd(args: argparse.Namespace) -> int:
     from scenes import ringing
-    from scenes.reproduce import plot_ringing
+    from scenes.reproduce import write_ringing_report
 
     device = _setup(args)
     out = _claim(args, args.out)
@@ -318,14 +318,15 @@ def run_ringing_cmd(args: argparse.Namespace) -> int:
     for m in ([args.spring_model] if args.spring_model else list(ringing.SPRING_MODELS)):
         cfg = ringing.RingingConfig(springs=springs, spring_model=m)
         res[m] = ringing.run_ringing(cfg, device=device, progress=lambda d, n, ph, m=m: _bar(f"ringing {m} {ph}", d, n))
-    plot_ringing(res, out / "fig06_ringing.png")
     table = {m: r.table() for m, r in res.items()}
     _write_config(out, "ringing", device, config={m: r.config for m, r in res.items()})
-    (out / "summary.json").write_text(json.dumps(table, indent=2))
+    write_text_atomic(out / "summary.json", json.dumps(table, indent=2))
+    report = write_ringing_report(out, res, device)
     for m, rows in table.items():
         for r in rows:
             print(f"{m:7s} {r['springs']:2d} springs: {r['freq_hz']:.3f} Hz (lab {r['measured_freq_hz']:.3f}), "
                   f"zeta {r['damping']:.4f} (lab {r['measured_damping']:.4f})")
+    print(f"report: {report}")
     return 0
 
 

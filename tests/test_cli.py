@@ -190,3 +190,28 @@ def test_internal_errors_are_one_line_unless_debug(monkeypatch, capsys) -> None:
                    "traceback)"]
     with pytest.raises(ZeroDivisionError):
         cli.main(["--debug", "shear-box", "--out", "unused"])
+
+
+def test_ringing_writes_a_report_whose_numbers_are_the_runs(tmp_path) -> None:
+    """`warpdem ringing` writes report.md, series.npz, summary.json and the figure. Reference for the report's
+    numbers: the run's own summary.json and Table 2 (scenes/data); the stiffness factor it states follows from the
+    linear oscillator's f ~ sqrt(k) with the same mass, (f_lab / f)^2."""
+    import json
+
+    import numpy as np
+
+    r = _run("--quiet", "ringing", "--spring-model", "linear", "--springs", "4,32", "--device", "cpu",
+             "--out", str(tmp_path / "r"))
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "r"
+    rows = json.loads((out / "summary.json").read_text())["linear"]
+    text = (out / "report.md").read_text()
+    for row in rows:
+        assert f"| {row['springs']} | {row['measured_freq_hz']:.4g} |" in text
+        assert f"| {row['freq_hz']:.4g} | {row['damping']:.3g} |" in text
+    factor = np.median([(x["measured_freq_hz"] / x["freq_hz"]) ** 2 for x in rows])
+    assert f"about {factor:.2g} x the DIN 2093 stiffness" in text
+    series = np.load(out / "series.npz")
+    assert series["linear_displacement"].shape == (len(series["linear_time"]), 2)
+    assert list(series["linear_springs"]) == [4, 32]
+    assert (out / "fig06_ringing.png").stat().st_size > 0
