@@ -215,3 +215,29 @@ def test_ringing_writes_a_report_whose_numbers_are_the_runs(tmp_path) -> None:
     assert series["linear_displacement"].shape == (len(series["linear_time"]), 2)
     assert list(series["linear_springs"]) == [4, 32]
     assert (out / "fig06_ringing.png").stat().st_size > 0
+
+
+def test_demo_writes_a_report_with_the_draughts_standard_error(tmp_path) -> None:
+    """`warpdem demo` writes report.md and demo_cut.png beside its series. Reference for the numbers: the series
+    itself (mean and standard deviation of the second half recomputed with numpy; the standard error as the
+    standard deviation over the square root of the effective sample count the summary states)."""
+    import json
+    import math
+
+    import numpy as np
+    import pytest
+
+    out = tmp_path / "d"
+    r = _run("--quiet", "demo", "--particles", "300", "--deposit-time", "0.2", "--cut", "0.02", "--device", "cpu",
+             "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    s = json.loads((out / "summary.json").read_text())
+    d = np.load(out / "timeseries.npz")["draught_n"].reshape(-1)
+    half = d[len(d) // 2:]
+    assert s["draught_mean_n"] == pytest.approx(half.mean(), rel=1e-12)
+    assert s["draught_std_n"] == pytest.approx(half.std(), rel=1e-12)
+    assert 1 <= s["draught_n_eff"] <= len(half)
+    assert s["draught_sem_n"] == pytest.approx(half.std() / math.sqrt(s["draught_n_eff"]), rel=1e-12)
+    text = (out / "report.md").read_text()
+    assert f"draught {s['draught_mean_n']:.2f} ± {s['draught_sem_n']:.2f} N (standard error" in text
+    assert "![cut](demo_cut.png)" in text and (out / "demo_cut.png").stat().st_size > 0
