@@ -349,7 +349,7 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
     _write_config(out, "soil-bin", device, config=asdict(cfg), preset=sb.SCALES[args.scale])
     study = sb.run_study(cfg, device=device, cache_dir=out / "beds", progress=lambda d, n: _bar("soil bin", d, n),
                          viewer=viewer, checkpoint_dir=out / "checkpoints",
-                         deposit_progress=_deposit_bar("deposition"))
+                         deposit_progress=_deposit_bar("deposition"), vtk_every=args.vtk, vtk_dir=out / "vtk")
     (out / "summary.json").write_text(json.dumps(sb.json_safe(study["table"]), indent=2))
     from scenes.reproduce import write_soil_bin_report
 
@@ -623,6 +623,8 @@ def main(argv: list[str] | None = None) -> int:
     s.add_argument("--viewer-save", default=None, help="write a Rerun recording (.rrd) instead of / as well")
     s.add_argument("--speed-range", default="0.2,0.7", help="particle speed colour range [m/s] (Fig. 15: 0.2,0.7)")
     s.add_argument("--hide-outside-range", action="store_true", help="show only particles inside the speed range")
+    s.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
+                   help="write ParaView (VTK) frames of every run into OUT/vtk/<run>/ at every EVERY-th record")
     v = sub.add_parser("speed-sweep", help="rigid draught against speed (one world per speed) and the paper's "
                        "Table 7 reductions re-paired with a rigid run at each configuration's speed")
     common(v, "results/speed_sweep")

@@ -34,6 +34,7 @@ import numpy as np
 import warpdem as wd
 from warpdem import analysis
 from warpdem.errors import BudgetExhausted, InputError
+from warpdem.vtk import VtkWriter
 
 from . import paper
 from .assemblies import AssemblySpec, Bed, bin_mesh, deposit
@@ -475,7 +476,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
                  viewer: object | None = None, soil_overrides: dict[str, object] | None = None,
                  speeds: list[float] | None = None, knobs: dict[str, object] | None = None,
                  checkpoint: str | Path | None = None, checkpoint_every: float = 60.0,
-                 deadline: float | None = None, place: bool = True) -> SoilBinRun:
+                 deadline: float | None = None, place: bool = True, vtk: tuple[object, int] | None = None
+                 ) -> SoilBinRun:
     """One simulation: rigid tools (every entry of ``springs`` 0) or passive configurations, one world each.
 
     ``tool``: the sweep (default :func:`scenes.sweep.build_sweep`), put on the bed's surface by :func:`place_tool`
@@ -486,6 +488,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
 
     ``viewer``: an optional warpdem.viewer.RerunViewer factory ``f(sim) -> viewer`` streamed at every record with
     the draught, displacement and kinetic energies.
+    ``vtk``: (a :class:`warpdem.vtk.VtkWriter`, every): ParaView frames of every world at every ``every``-th record.
     ``soil_overrides``: per-world soil material fields, field -> (n_worlds,) values (e.g. ``friction_angle`` [deg],
     ``normal_cohesion`` [Pa]): a calibration population as worlds of one simulation.
     ``checkpoint``: a folder (see :class:`RunCheckpoint`) written every ``checkpoint_every`` seconds of wall time
@@ -556,6 +559,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
         off = np.asarray(info["support_offset_m"])
         sim.set_body_velocity("support", carriage_vel - np.outer(off / (ramp * dt), (0.0, 1.0, 0.0)))
 
+    if vtk is not None:
+        observers["vtk"] = vtk[0].as_observer(int(vtk[1]))
     view = viewer(sim) if viewer is not None else None
     if view is not None:
         observers["viewer"] = view.as_observer({k: observers[k] for k in ("draught", "displacement", "ke_tool",
@@ -581,6 +586,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
             k = min(chunk, end - done) if ck is not None else end - done
             part = sim.run(k, record_every=every, observers=observers,
                            progress=(lambda d, n, base=done: progress(base + d, n_steps)) if progress else None)
+            part.pop("vtk", None)  # frames are files, not series
             parts.append(part if not parts else {kk: v[1:] for kk, v in part.items()})  # drop the repeated record
             done += k
             if done == ramp:  # the support has reached its offset: it rides with the carriage
@@ -600,6 +606,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     if view is not None:
         view.close()
         observers.pop("viewer")
+    observers.pop("vtk", None)
     t = out["time"]
     trav = np.minimum(t[:, None] * speeds_a[None, :], travel)
     series = {k: np.asarray(out[k]) for k in observers}
@@ -625,7 +632,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
 
 
 def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,
-              progress: object | None = None, viewer: object | None = None,
+              progress: object | None = None, viewer: object | None = None, vtk_every: int | None = None,
+              vtk_dir: str | Path | None = None,
               checkpoint_dir: str | Path | None = None,
               deposit_progress: object | None = None, bed: Bed | None = None) -> dict[str, object]:
     """The bed, the rigid runs (if 0 in springs) and the passive runs (one simulation each, one world per speed or
@@ -633,6 +641,7 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
     (:meth:`SoilBinConfig.rigid_speeds`, as worlds of one simulation) and every passive row's reduction is against
     the rigid run at its own speed (:func:`pair_reductions`); the table has one rigid row per speed.
     ``viewer`` (see :func:`run_soil_bin`) streams the passive run (or the rigid one if there is none).
+    ``vtk_every``: ParaView frames of every run at every ``vtk_every``-th record, into ``vtk_dir``/<run name>.
     ``checkpoint_dir``: each run checkpoints into a subfolder (``rigid``, ``passive``) and resumes from it after a
     kill; a finished run's subfolder is removed. ``deposit_progress``: the deposition's progress callback
     (:func:`scenes.assemblies.deposit`) when the bed is made. ``bed``: use this bed instead (e.g. one already made).
@@ -651,7 +660,8 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
     for name, springs, speeds in groups:
         folder = Path(checkpoint_dir) / name if checkpoint_dir is not None else None
         runs[name] = run_soil_bin(config, springs, bed=bed, device=device, progress=progress, speeds=speeds,
-                                  viewer=viewer if name == streamed else None, checkpoint=folder)
+                                  viewer=viewer if name == streamed else None, checkpoint=folder,
+                                  vtk=(VtkWriter(Path(vtk_dir) / name), vtk_every) if vtk_every else None)
         if folder is not None:
             shutil.rmtree(folder, ignore_errors=True)
     rows = pair_reductions([r for run in runs.values() for r in run.steady])
