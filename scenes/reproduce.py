@@ -256,8 +256,41 @@ def soil_bin_section(assembly: str, study: dict, plots: list[str]) -> list[str]:
               f"columns are assembly {a} in the 1 m bin and the paper's final model (assembly C, 2 m bin, "
               "corrected geometry). `warpdem speed-sweep` measures the rigid draught against speed and "
               "re-pairs Table 7 at equal speeds.", ""]
+    lines += soil_bin_meaning(study["table"], t3)
     lines += [f"![{p}]({p})" for p in plots]
     return lines
+
+
+def soil_bin_meaning(rows: list[dict], t3: dict) -> list[str]:
+    """A "what this means" paragraph generated from the soil-bin rows and Table 3 (the laboratory's)."""
+    out = ["What this means:", ""]
+    rigid = [r for r in rows if r["springs"] == 0]
+    ratios = []
+    for r in rigid:
+        same = np.abs(t3["speed_mean_m_s"] - r["speed"]) < 5e-3
+        if same.any():
+            ratios.append(r["draught_mean"] / float(np.mean(t3["rigid_draught_mean_n"][same])))
+    if ratios:
+        out.append(f"- The rigid draught is {100 * min(ratios):.0f}-{100 * max(ratios):.0f} % of the laboratory's at "
+                   "the same speeds: below 100 % the simulated soil is weaker than the bin's (the draught "
+                   "calibration, `warpdem calibrate draught`, fits its strength).")
+    passive = [r for r in rows if r["springs"] and r["reduction_pct"] is not None
+               and math.isfinite(r["reduction_pct"])]
+    if passive:
+        unclear = [r for r in passive if abs(r["reduction_pct"]) < 2 * (r["reduction_sem"] or math.inf)]
+        right = [r for r in passive
+                 if np.sign(r["reduction_pct"]) == np.sign(t3["reduction_pct"][t3["springs"] == r["springs"]][0])]
+        out.append(f"- {len(unclear)} of {len(passive)} reductions are within two standard errors of zero, so this "
+                   f"run cannot tell their sign; {len(right)} of {len(passive)} have the laboratory's sign. "
+                   "A longer travel or more beds (`warpdem reproduce --workflow full` runs replicas) narrows them.")
+        disp = [1e3 * r["displacement_mean"] for r in passive]
+        lab = [float(t3["displacement_mean_mm"][t3["springs"] == r["springs"]][0]) for r in passive]
+        text = (f"- The passive tool's mean displacement is {min(disp):.2g} to {max(disp):.2g} mm against the "
+                f"laboratory's {min(lab):.2g} to {max(lab):.2g} mm for the same configurations")
+        if max(abs(d) for d in disp) < 0.5 * min(lab):
+            text += ": a tool that moves much less than the laboratory's cannot change the draught as much"
+        out.append(text + ".")
+    return out + [""]
 
 
 def write_soil_bin_report(out: Path, config: dict, study: dict, device: str) -> Path:

@@ -241,3 +241,23 @@ def test_demo_writes_a_report_with_the_draughts_standard_error(tmp_path) -> None
     text = (out / "report.md").read_text()
     assert f"draught {s['draught_mean_n']:.2f} ± {s['draught_sem_n']:.2f} N (standard error" in text
     assert "![cut](demo_cut.png)" in text and (out / "demo_cut.png").stat().st_size > 0
+
+
+def test_the_soil_bin_reports_what_this_means_from_its_numbers() -> None:
+    """Reference: Table 3 (the laboratory's; scenes/data) and hand arithmetic on two rigid and two passive rows:
+    201.1 / 337.0 N and 195.9 / 335.8 N are 60 % and 58 % of the laboratory's rigid draughts at 0.68 and 0.52 m/s;
+    both reductions lie within two SEs of zero; -0.55 % (16 springs) has not the laboratory's sign (+7.0 %), -2.0 %
+    (32 springs) has (-5.5 %); 2.9 mm is more than half the laboratory's smallest 4.75 mm, so no "much less"."""
+    from scenes import paper
+    from scenes.reproduce import soil_bin_meaning
+
+    rows = [{"springs": 0, "speed": 0.68, "draught_mean": 201.1}, {"springs": 0, "speed": 0.52, "draught_mean": 195.9},
+            {"springs": 16, "speed": 0.68, "draught_mean": 202.2, "reduction_pct": -0.55, "reduction_sem": 9.6,
+             "displacement_mean": 2.86e-3},
+            {"springs": 32, "speed": 0.52, "draught_mean": 199.8, "reduction_pct": -2.0, "reduction_sem": 16.0,
+             "displacement_mean": -0.718e-3}]
+    text = "\n".join(soil_bin_meaning(rows, paper.table("soil_bin_measured")))
+    assert "The rigid draught is 58-60 % of the laboratory's" in text
+    assert "2 of 2 reductions are within two standard errors of zero" in text
+    assert "1 of 2 have the laboratory's sign" in text
+    assert "against the laboratory's 4.8 to 12 mm" in text and "moves much less" not in text
