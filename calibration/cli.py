@@ -340,7 +340,7 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
     if args.viewer or args.viewer_save:
         from warpdem.viewer import RerunViewer
 
-        lo, hi = (float(v) for v in args.speed_range.split(","))
+        lo, hi = args.speed_range
 
         def viewer(sim: object) -> RerunViewer:
             return RerunViewer(sim, spawn=args.viewer, save_path=args.viewer_save, speed_range=(lo, hi),
@@ -393,6 +393,16 @@ def _speeds(text: str) -> tuple[float, ...]:
     if not v or not all(math.isfinite(x) and x > 0 for x in v):
         raise argparse.ArgumentTypeError(f"must be one or more speeds > 0 [m/s], got {text!r}")
     return v
+
+
+def _speed_range(text: str) -> tuple[float, float]:
+    try:
+        lo, hi = (float(x) for x in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be LO,HI in m/s, got {text!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 <= lo < hi):
+        raise argparse.ArgumentTypeError(f"must be LO,HI with 0 <= LO < HI m/s, got {text!r}")
+    return lo, hi
 
 
 def _number(cast: type, *, gt: float | None = None, ge: float | None = None, lt: float | None = None,
@@ -621,7 +631,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="passive tool's springs: linear spring-dashpot (default) or the paper's spring spheres")
     s.add_argument("--viewer", action="store_true", help="stream to the Rerun viewer")
     s.add_argument("--viewer-save", default=None, help="write a Rerun recording (.rrd) instead of / as well")
-    s.add_argument("--speed-range", default="0.2,0.7", help="particle speed colour range [m/s] (Fig. 15: 0.2,0.7)")
+    s.add_argument("--speed-range", type=_speed_range, default=(0.2, 0.7),
+                   help="particle speed colour range LO,HI [m/s] (Fig. 15: 0.2,0.7)")
     s.add_argument("--hide-outside-range", action="store_true", help="show only particles inside the speed range")
     s.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
                    help="write ParaView (VTK) frames of every run into OUT/vtk/<run>/ at every EVERY-th record")
