@@ -172,7 +172,7 @@ def _write_config(out: Path, command: str, device: str, **fields: object) -> Non
 CLAIM = ".warpdem-run.json"
 """The file that marks a results folder as one run's: the command and every parameter that makes the run (not the
 device: a run may continue on another one, and output options such as --quiet do not count)."""
-_NOT_IDENTITY = {"argv", "out", "verbose", "quiet", "debug", "overwrite", "budget", "no_resume", "device"}
+_NOT_IDENTITY = {"argv", "out", "verbose", "quiet", "debug", "overwrite", "budget", "no_resume", "device", "vtk"}
 
 
 def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) -> Path:
