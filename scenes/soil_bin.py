@@ -224,13 +224,20 @@ def json_safe(value: object) -> object:
     return value
 
 
+def bed_path(config: SoilBinConfig, cache_dir: str | Path) -> Path:
+    """Where :func:`bed_for` keeps the bed of a config (scale, assembly, member radius, seed) in ``cache_dir``."""
+    p = config.preset
+    spec = AssemblySpec(kind=config.assembly, radius=config.member_radius or p["radius"])
+    key = hashlib.sha1(json.dumps([asdict(spec), p["bin"], p["bed_depth"], config.seed]).encode()).hexdigest()[:12]
+    return Path(cache_dir) / f"bed_{config.scale}_{config.assembly}_{key}.npz"
+
+
 def bed_for(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,
             progress: object | None = None) -> Bed:
     """The deposited bed for a config (scale, assembly, seed), read from ``cache_dir`` if it was made before."""
     p = config.preset
     spec = AssemblySpec(kind=config.assembly, radius=config.member_radius or p["radius"])
-    key = hashlib.sha1(json.dumps([asdict(spec), p["bin"], p["bed_depth"], config.seed]).encode()).hexdigest()[:12]
-    path = Path(cache_dir) / f"bed_{config.scale}_{config.assembly}_{key}.npz" if cache_dir else None
+    path = bed_path(config, cache_dir) if cache_dir else None
     if path is not None and path.exists():
         return Bed.load(path)
     bed = deposit(spec, p["bin"], p["bed_depth"], seed=config.seed, device=device, progress=progress)

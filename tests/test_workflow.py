@@ -268,3 +268,27 @@ def test_lockstep_sets_aside_unstable_individuals_as_each_calibration_alone_woul
         alone = calibrate(alone_problem, settings[k])
         assert [record(r) for r in together[k].archive] == [record(r) for r in alone.archive]
         assert any(r.failure for r in together[k].archive)
+
+
+def test_a_bed_deposition_must_fit_the_budget_whole(tmp_path):
+    """A Table 3 job whose bed is not deposited yet first asks the budget for the deposition, sized by the last
+    deposition's recorded wall time (timings.json), and stops before it when that does not fit: no bed file is
+    started (a deposition cannot be checkpointed)."""
+
+    class _Asked(Budget):
+        def __init__(self) -> None:
+            super().__init__(None)
+            self.asked: list[tuple[float, str]] = []
+
+        def require(self, seconds: float, what: str) -> None:
+            self.asked.append((seconds, what))
+            raise BudgetExhausted(f"test stop before {what}")
+
+    wf = Workflow(tmp_path, _config())
+    (tmp_path / "timings.json").write_text(json.dumps({"deposit": 123.0}))
+    budget = _Asked()
+    soil = {"friction_angle": 30.0, "normal_cohesion": 100.0, "eta_roll": 0.1}
+    with pytest.raises(BudgetExhausted, match="depositing replica 0's bed"):
+        wf.run_job(wf.jobs(0)[0], soil, None, budget)
+    assert budget.asked == [(123.0, "depositing replica 0's bed")]
+    assert not (tmp_path / "beds").exists() or not list((tmp_path / "beds").glob("*.npz"))
