@@ -102,10 +102,14 @@ def run_demo(args: argparse.Namespace) -> int:
     sim2 = wd.Simulation(model2, state2, dt=dt, cohesion_on_new_contacts=True)
     steps = int(args.cut / args.speed / dt)
     draught = wd.observers.mesh_wrench("blade", world=0)
-    ts = sim2.run(steps, record_every=max(steps // 200, 1),
-                  observers={"draught_n": lambda s: -draught(s)[0, 0], "kinetic_energy_j": wd.observers.kinetic_energy,
-                             "coordination": wd.observers.coordination_number("soil")},
-                  progress=_progress("cutting"))
+    observers = {"draught_n": lambda s: -draught(s)[0, 0], "kinetic_energy_j": wd.observers.kinetic_energy,
+                 "coordination": wd.observers.coordination_number("soil")}
+    if args.vtk:
+        from warpdem.vtk import VtkWriter
+
+        observers["vtk"] = VtkWriter(out / "vtk").as_observer(args.vtk)
+    ts = sim2.run(steps, record_every=max(steps // 200, 1), observers=observers, progress=_progress("cutting"))
+    ts.pop("vtk", None)
     wall = time.time() - t0
     half = len(ts["time"]) // 2
     summary = {
@@ -653,6 +657,8 @@ def main(argv: list[str] | None = None) -> int:
     d.add_argument("--depth", type=_number(float, gt=0, unit="m"), default=0.03, help="cutting depth [m]")
     d.add_argument("--cut", type=_number(float, gt=0, unit="m"), default=0.06, help="cut length [m]")
     d.add_argument("--out", default="results/demo", help="results folder")
+    d.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
+                   help="write ParaView (VTK) frames of the cut into OUT/vtk/ at every EVERY-th record (200 in all)")
     c = sub.add_parser("calibrate", help="GA calibration (ringing rig or draught), populations as batched worlds")
     c.add_argument("kind", choices=("ringing", "draught"))
     c.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")

@@ -94,6 +94,7 @@ BAD = [
     ("demo --deposit-time -1", "argument --deposit-time: must be > 0 s"),
     ("demo --particles 0", "argument --particles: must be >= 1"),
     ("demo --speed inf", "argument --speed: must be > 0 m/s, got 'inf'"),
+    ("demo --vtk -2", "argument --vtk: must be >= 1"),
     ("ringing --springs ,", "argument --springs: must list one or more of"),
     ("ringing --springs 16,x", "argument --springs: must be comma-separated spring counts"),
     ("soil-bin --springs 0,17", "argument --springs: must list one or more of"),
@@ -232,7 +233,7 @@ def test_demo_writes_a_report_with_the_draughts_standard_error(tmp_path) -> None
 
     out = tmp_path / "d"
     r = _run("--quiet", "demo", "--particles", "300", "--deposit-time", "0.2", "--cut", "0.02", "--device", "cpu",
-             "--out", str(out))
+             "--vtk", "50", "--out", str(out))
     assert r.returncode == 0, r.stderr
     s = json.loads((out / "summary.json").read_text())
     d = np.load(out / "timeseries.npz")["draught_n"].reshape(-1)
@@ -244,6 +245,13 @@ def test_demo_writes_a_report_with_the_draughts_standard_error(tmp_path) -> None
     text = (out / "report.md").read_text()
     assert f"draught {s['draught_mean_n']:.2f} ± {s['draught_sem_n']:.2f} N (standard error" in text
     assert "![cut](demo_cut.png)" in text and (out / "demo_cut.png").stat().st_size > 0
+    # ParaView frames of the cut at every 50th record: the spheres of the bed, the blade's triangles
+    import meshio
+
+    frames = sorted((out / "vtk").glob("spheres_*.vtu"))
+    assert len(frames) == (len(d) - 1) // 50 + 1
+    assert len(meshio.read(frames[-1]).points) == s["particles"]
+    assert len(meshio.read(str(frames[-1]).replace("spheres_", "meshes_")).cells_dict["triangle"]) > 0
 
 
 def test_the_soil_bin_reports_what_this_means_from_its_numbers() -> None:
