@@ -17,16 +17,11 @@ P-wave step. With ``--yade`` the same bed (the same clumps, the same material) r
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import shutil
-import subprocess
 import sys
-import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
+from throughput import emit, run_yade_script, timed_run  # benchmarks/throughput.py, beside this script
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -90,18 +85,8 @@ def run_warpdem(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: 
     b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
     b.add_material("soil", wd.Material(**MAT))
     Bed(AssemblySpec(kind="C"), (1.0, 1.0, 1.0), 0.1, pos, rad, particle).add_to(b, "soil")
-    t0 = time.time()
-    model, state = b.finalize(device)
-    sim = wd.Simulation(model, state, dt=0.3 * wd.pwave_timestep(model), always_use_moment_law=True,
-                        graph_steps=min(200, steps))
-    sim.set_cohesion_now()
-    setup = time.time() - t0
-    sim.advance(warmup)
-    wp.synchronize_device(device)
-    t = time.time()
-    sim.advance(steps)
-    wp.synchronize_device(device)
-    wall = time.time() - t
+    sim, setup, wall = timed_run(b, device, steps, warmup)
+    model = sim.model
     contacts = int(wd.observers.contact_count(sim).sum()) if len(rad) <= 100_000 else -1
     return {"engine": "warpdem", "scene": scene, "device": str(model.device), "spheres": len(rad),
             "particles": int(len(np.unique(particle))), "steps": steps, "wall_s": wall,
@@ -136,18 +121,7 @@ json.dump({"engine": "yade -j2", "scene": "deposited bed C", "spheres": len(pos)
 
 
 def run_yade(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, steps: int, warmup: int) -> dict | None:
-    if shutil.which("yade") is None:
-        return None
-    with tempfile.TemporaryDirectory() as d:
-        files = {k: os.path.join(d, f"{k}.npy") for k in ("pos", "rad", "part")}
-        for k, v in zip(files, (pos, rad, particle), strict=True):
-            np.save(files[k], v)
-        cfg = {**files, "steps": steps, "warmup": warmup, "out": os.path.join(d, "out.json")}
-        json.dump(cfg, open(os.path.join(d, "cfg.json"), "w"))
-        script = os.path.join(d, "bench.py")
-        open(script, "w").write(f"CFG = {os.path.join(d, 'cfg.json')!r}\n" + YADE_SCRIPT)
-        subprocess.run(["yade", "-n", "-j2", "-x", script], check=True, capture_output=True)
-        return json.load(open(cfg["out"]))
+    return run_yade_script(YADE_SCRIPT, {"pos": pos, "rad": rad, "part": particle}, steps, warmup)
 
 
 def main() -> None:
@@ -171,17 +145,7 @@ def main() -> None:
         steps = args.steps or int(np.clip((2e8 if "cuda" in args.device else 4e6) / len(rad), 100, 4000))
         scene = "deposited bed C" + (", Morton order" if args.sorted else "")
         res = [run_warpdem(pos, rad, part, args.device, steps, warmup=min(200, steps), scene=scene)]
-        if args.yade:
-            y = run_yade(pos, rad, part, steps, warmup=20)
-            if y:
-                res.append(y)
-                res[0]["ratio_to_yade"] = res[0]["particle_steps_per_s"] / y["particle_steps_per_s"]
-        for r in res:
-            print(json.dumps(r))
-            sys.stdout.flush()
-            if args.json:
-                with open(args.json, "a") as f:
-                    f.write(json.dumps(r) + "\n")
+        emit(res, run_yade(pos, rad, part, steps, warmup=20) if args.yade else None, args.json)
 
 
 if __name__ == "__main__":

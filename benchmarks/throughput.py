@@ -40,6 +40,27 @@ def lattice(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return pos, rad
 
 
+def timed_run(builder: object, device: str, steps: int, warmup: int) -> tuple[object, float, float]:
+    """Build ``builder``'s scene on ``device``, bond every contact at the first step (moment law on, no damping,
+    dt = 0.3 x the P-wave step), run ``warmup`` steps, then time ``steps``: (simulation, setup [s], wall [s])."""
+    import warp as wp
+
+    import warpdem as wd
+
+    t0 = time.time()
+    model, state = builder.finalize(device)
+    sim = wd.Simulation(model, state, dt=0.3 * wd.pwave_timestep(model), always_use_moment_law=True,
+                        graph_steps=min(200, steps))
+    sim.set_cohesion_now()
+    setup = time.time() - t0
+    sim.advance(warmup)
+    wp.synchronize_device(device)
+    t = time.time()
+    sim.advance(steps)
+    wp.synchronize_device(device)
+    return sim, setup, time.time() - t
+
+
 def run_warpdem(n: int, device: str, steps: int, warmup: int) -> dict:
     import warp as wp
 
@@ -50,18 +71,8 @@ def run_warpdem(n: int, device: str, steps: int, warmup: int) -> dict:
     b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
     b.add_material("soil", wd.Material(**MAT))
     b.add_spheres(pos, rad, "soil")
-    t0 = time.time()
-    model, state = b.finalize(device)
-    sim = wd.Simulation(model, state, dt=0.3 * wd.pwave_timestep(model), always_use_moment_law=True,
-                        graph_steps=min(200, steps))
-    sim.set_cohesion_now()
-    setup = time.time() - t0
-    sim.advance(warmup)
-    wp.synchronize_device(device)
-    t = time.time()
-    sim.advance(steps)
-    wp.synchronize_device(device)
-    wall = time.time() - t
+    sim, setup, wall = timed_run(b, device, steps, warmup)
+    model = sim.model
     counts = sim.ss.count.numpy()
     contacts = int(wd.observers.contact_count(sim).sum()) if n <= 100_000 else int(counts.sum())
     return {"engine": "warpdem", "device": str(model.device), "spheres": len(pos), "steps": steps,
@@ -90,20 +101,40 @@ json.dump({"engine": "yade -j2", "spheres": len(pos), "steps": cfg["steps"], "wa
 """
 
 
-def run_yade(n: int, steps: int, warmup: int) -> dict | None:
+def run_yade_script(script: str, arrays: dict[str, np.ndarray], steps: int, warmup: int) -> dict | None:
+    """Run a Yade benchmark script (``yade -n -j2``; None without Yade). The script reads ``CFG``, a JSON file
+    naming each array's .npy file under its key, ``steps``, ``warmup`` and ``out``, and writes its result there."""
     if shutil.which("yade") is None:
         return None
-    pos, rad = lattice(n)
     with tempfile.TemporaryDirectory() as d:
-        np.save(os.path.join(d, "pos.npy"), pos)
-        np.save(os.path.join(d, "rad.npy"), rad)
-        cfg = {"pos": os.path.join(d, "pos.npy"), "rad": os.path.join(d, "rad.npy"), "steps": steps,
-               "warmup": warmup, "out": os.path.join(d, "out.json")}
+        cfg = {"steps": steps, "warmup": warmup, "out": os.path.join(d, "out.json")}
+        for name, a in arrays.items():
+            cfg[name] = os.path.join(d, f"{name}.npy")
+            np.save(cfg[name], a)
         json.dump(cfg, open(os.path.join(d, "cfg.json"), "w"))
-        script = os.path.join(d, "bench.py")
-        open(script, "w").write(f"CFG = {os.path.join(d, 'cfg.json')!r}\n" + YADE_SCRIPT)
-        subprocess.run(["yade", "-n", "-j2", "-x", script], check=True, capture_output=True)
+        path = os.path.join(d, "bench.py")
+        open(path, "w").write(f"CFG = {os.path.join(d, 'cfg.json')!r}\n" + script)
+        subprocess.run(["yade", "-n", "-j2", "-x", path], check=True, capture_output=True)
         return json.load(open(cfg["out"]))
+
+
+def run_yade(n: int, steps: int, warmup: int) -> dict | None:
+    pos, rad = lattice(n)
+    return run_yade_script(YADE_SCRIPT, {"pos": pos, "rad": rad}, steps, warmup)
+
+
+def emit(res: list[dict], yade: dict | None, json_path: str | None) -> None:
+    """Print warpdem's result (res[0], with its ratio to Yade's when ``yade`` is given) and Yade's, one JSON line
+    each, appending them to ``json_path`` if given."""
+    if yade:
+        res.append(yade)
+        res[0]["ratio_to_yade"] = res[0]["particle_steps_per_s"] / yade["particle_steps_per_s"]
+    for r in res:
+        print(json.dumps(r))
+        sys.stdout.flush()
+        if json_path:
+            with open(json_path, "a") as f:
+                f.write(json.dumps(r) + "\n")
 
 
 def main() -> None:
@@ -117,17 +148,7 @@ def main() -> None:
     for n in args.sizes:
         steps = args.steps or int(np.clip(2e8 / n if "cuda" in args.device else 4e6 / n, 100, 4000))
         res = [run_warpdem(n, args.device, steps, warmup=min(200, steps))]
-        if args.yade:
-            y = run_yade(n, steps, warmup=20)
-            if y:
-                res.append(y)
-                res[0]["ratio_to_yade"] = res[0]["particle_steps_per_s"] / y["particle_steps_per_s"]
-        for r in res:
-            print(json.dumps(r))
-            sys.stdout.flush()
-            if args.json:
-                with open(args.json, "a") as f:
-                    f.write(json.dumps(r) + "\n")
+        emit(res, run_yade(n, steps, warmup=20) if args.yade else None, args.json)
 
 
 if __name__ == "__main__":
