@@ -519,14 +519,13 @@ class Workflow:
             by_n = {r["springs"]: r for r in ring["rows"]}
             knobs = {"stiffness": [by_n[s]["stiffness"] for s in job["springs"]],
                      "dashpot": [by_n[s]["dashpot_n_s_per_m"] for s in job["springs"]]}
-        if not sb.bed_path(cfg, self.out / "beds").exists():
-            # a deposition must fit whole too (at paper scale minutes: it cannot be checkpointed)
+        deposits = not sb.bed_path(cfg, self.out / "beds").exists()
+        if deposits:  # a deposition must fit whole too (at paper scale minutes: it cannot be checkpointed)
             budget.require(self._timing("deposit"), f"depositing replica {job['replica']}'s bed")
-            t0 = time.perf_counter()
-            bed = sb.bed_for(cfg, device=self.device, cache_dir=self.out / "beds")
+        t0 = time.perf_counter()
+        bed = sb.bed_for(cfg, device=self.device, cache_dir=self.out / "beds")
+        if deposits:
             self._timed("deposit", time.perf_counter() - t0)
-        else:
-            bed = sb.bed_for(cfg, device=self.device, cache_dir=self.out / "beds")
         fp, old = self._bed_fingerprint(f"replica_{job['replica']}", bed)
         if old is not None:
             self._set_aside(job["replica"], old)

@@ -13,8 +13,6 @@ and a writer opened on a folder that holds frames continues its index (a resumed
 
 from __future__ import annotations
 
-import os
-import tempfile
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from pathlib import Path
@@ -22,18 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .files import write_atomic
 from .mass import quats_to_matrices
-
-
-def _write_atomic(path: Path, write: Callable[[str], None]) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 class VtkWriter:
@@ -89,7 +77,7 @@ class VtkWriter:
         }
         spheres = meshio.Mesh(pos, [("vertex", np.arange(n, dtype=np.int64).reshape(-1, 1))], point_data=point_data)
         path = self.folder / f"spheres_{step:09d}.vtu"
-        _write_atomic(path, lambda p: meshio.write(p, spheres, file_format="vtu"))
+        write_atomic(path, lambda p: meshio.write(p, spheres, file_format="vtu"))
 
         body_pos = sim.state.body_pos.numpy()
         rot = quats_to_matrices(sim.state.body_quat.numpy())
@@ -111,7 +99,7 @@ class VtkWriter:
                                  cell_data={"mesh": [np.concatenate(mesh_id)], "world": [np.concatenate(world_id)]})
         else:
             meshes = meshio.Mesh(np.zeros((0, 3)), [("triangle", np.zeros((0, 3), np.int64))])
-        _write_atomic(self.folder / f"meshes_{step:09d}.vtu", lambda p: meshio.write(p, meshes, file_format="vtu"))
+        write_atomic(self.folder / f"meshes_{step:09d}.vtu", lambda p: meshio.write(p, meshes, file_format="vtu"))
 
         self.frames = [f for f in self.frames if f[1] != step] + [(float(sim.state.time), step)]
         self.frames.sort(key=lambda f: f[1])
@@ -120,7 +108,7 @@ class VtkWriter:
             coll = ET.SubElement(root, "Collection")
             for t, s in self.frames:
                 ET.SubElement(coll, "DataSet", timestep=repr(t), part="0", file=f"{part}_{s:09d}.vtu")
-            _write_atomic(self.folder / f"{part}.pvd", lambda p, root=root: ET.ElementTree(root).write(p))
+            write_atomic(self.folder / f"{part}.pvd", lambda p, root=root: ET.ElementTree(root).write(p))
         return path
 
     def as_observer(self, every: int = 1) -> Callable[[object], np.ndarray]:
