@@ -150,11 +150,11 @@ class Bed:
         sph = starts[single & sel]
         if len(sph):
             b.add_spheres(self.centres[sph], self.radii[sph], material, group=group)
-        order = [sph]
-        for s, e in zip(starts[~single & sel], ends[~single & sel], strict=True):
-            b.add_clump(self.centres[s:e], self.radii[s:e], material, group=group)
-            order.append(np.arange(s, e))
-        return np.concatenate(order).astype(np.int64)
+        s, e = starts[~single & sel], ends[~single & sel]
+        members = np.repeat(s, e - s) + np.arange(int((e - s).sum())) - np.repeat(np.cumsum(e - s) - (e - s), e - s)
+        if len(s):
+            b.add_clumps(self.centres[members], self.radii[members], e - s, material, group=group)
+        return np.concatenate([sph, members]).astype(np.int64)
 
 
 def bin_mesh(size: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:

@@ -57,6 +57,10 @@ def test_bad_bodies_and_meshes() -> None:
         b.add_sphere((0, 0, 0), 0.01, "m", blocked="xq")
     with pytest.raises(wd.InputError, match="gravity must be finite"):
         wd.ModelBuilder(gravity=(0, 0, np.nan))
+    with pytest.raises(wd.InputError, match=r"clump sizes must be >= 1 and sum to the 3 members, got sum 4"):
+        b.add_clumps(np.zeros((3, 3)), [0.01] * 3, [2, 2], "m")
+    with pytest.raises(wd.InputError, match=r"clump sizes .* min 0"):
+        b.add_clumps(np.zeros((3, 3)), [0.01] * 3, [3, 0], "m")
 
 
 def test_bad_mesh_file(tmp_path) -> None:

@@ -279,15 +279,63 @@ class ModelBuilder:
             raise InputError(f"clump radii must have shape ({len(centres)},), got {radii.shape}")
         check_positive("clump radius", radii)
         mat = self._material(material)
-        m, com, inertia = massprops.clump_mass(centres, radii, np.full(len(radii), self.materials[mat].density))
-        moments, quat = massprops.principal_axes(inertia)
-        rot = massprops.quat_to_matrix(quat)
-        body = self._add_body(com, quat, m, moments, mat, group, blocked, velocity, angular_velocity, name)
+        m, com, moments, quat, offsets = self._clump_frames(centres, radii, np.array([len(radii)]), mat)
+        body = self._add_body(com[0], quat[0], m[0], moments[0], mat, group, blocked, velocity, angular_velocity,
+                              name)
         self.sphere_body.append(np.full(len(radii), body, dtype=np.int32))
-        self.sphere_offset.append((centres - com) @ rot)
+        self.sphere_offset.append(offsets)
         self.sphere_radius.append(radii)
         self.sphere_material.append(np.full(len(radii), mat, dtype=np.int32))
         return body
+
+    def _clump_frames(self, centres: np.ndarray, radii: np.ndarray, sizes: np.ndarray, mat: int
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Clumps' masses (c,), centres of mass (c, 3), principal moments (c, 3), quaternions (c, 4) and the member
+        offsets in their principal frames (n, 3): one code path for one clump and for many, so both give the same
+        bits (an elongated clump's two equal moments leave its frame to rounding)."""
+        m, com, inertia = massprops.clumps_mass(centres, radii, np.full(len(radii), self.materials[mat].density), sizes)
+        moments, quat = massprops.principal_axes_many(inertia)
+        rot = massprops.quats_to_matrices(quat)
+        owner = np.repeat(np.arange(len(sizes)), sizes)
+        return m, com, moments, quat, np.einsum("ni,nij->nj", centres - com[owner], rot[owner])
+
+    def add_clumps(
+        self,
+        centres: object,
+        radii: object,
+        sizes: object,
+        material: str | int,
+        *,
+        group: str = "default",
+    ) -> np.ndarray:
+        """Add many clumps at rest at once: what :meth:`add_clump` does for each, vectorised.
+
+        centres: member centres [m] (n, 3), clump after clump; radii [m] (n,); sizes: members per clump (c,),
+        each >= 1, summing to n. Returns the body indices (c,).
+        """
+        centres = check_points("clump centres", centres)
+        radii = np.asarray(radii, dtype=np.float64).reshape(-1)
+        sizes = np.asarray(sizes, dtype=np.int64).reshape(-1)
+        if radii.shape != (len(centres),):
+            raise InputError(f"clump radii must have shape ({len(centres)},), got {radii.shape}")
+        if len(sizes) and (sizes.min() < 1 or sizes.sum() != len(centres)):
+            raise InputError(f"clump sizes must be >= 1 and sum to the {len(centres)} members, got sum "
+                             f"{int(sizes.sum())}, min {int(sizes.min())}")
+        check_positive("clump radius", radii)
+        mat = self._material(material)
+        m, com, moments, quat, offsets = self._clump_frames(centres, radii, sizes, mat)
+        c = len(sizes)
+        first = self._n_bodies
+        self._push_bodies(
+            pos=com, quat=quat, vel=np.zeros((c, 3)), angvel=np.zeros((c, 3)), mass=m, inertia=moments,
+            density_material=np.full(c, mat), group=np.full(c, self._group(group)), blocked=np.full(c, dof_mask("")),
+            pivot=np.full((c, 3), np.nan),
+        )
+        self.sphere_body.append((first + np.repeat(np.arange(c), sizes)).astype(np.int32))
+        self.sphere_offset.append(offsets)
+        self.sphere_radius.append(radii)
+        self.sphere_material.append(np.full(len(radii), mat, dtype=np.int32))
+        return np.arange(first, first + c, dtype=np.int32)
 
     def add_rigid_body(
         self,

@@ -29,13 +29,46 @@ def clump_mass(centres: np.ndarray, radii: np.ndarray, densities: np.ndarray) ->
     Returns:
         (mass [kg], centre of mass [m] shape (3,), inertia tensor about the centre of mass [kg m^2] shape (3, 3)).
     """
+    radii = np.asarray(radii, dtype=np.float64).reshape(-1)
+    mass, com, inertia = clumps_mass(centres, radii, np.asarray(densities, dtype=np.float64), np.array([len(radii)]))
+    return float(mass[0]), com[0], inertia[0]
+
+
+def clumps_mass(centres: np.ndarray, radii: np.ndarray, densities: np.ndarray, sizes: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`clump_mass` of many clumps at once (a clump's members summed one after the other, as Yade does).
+
+    Args:
+        centres: member centres [m], shape (n, 3), clump after clump. radii: [m] (n,). densities: [kg/m^3] (n,).
+        sizes: members per clump (c,), summing to n.
+
+    Returns:
+        (masses [kg] (c,), centres of mass [m] (c, 3), inertia tensors about them [kg m^2] (c, 3, 3)).
+    """
     centres = np.asarray(centres, dtype=np.float64)
+    sizes = np.asarray(sizes, dtype=np.int64)
+    first = np.r_[0, np.cumsum(sizes)[:-1]]
     masses = densities * 4.0 / 3.0 * np.pi * radii**3
-    mass = float(masses.sum())
-    com = (masses[:, None] * centres).sum(axis=0) / mass
-    inertia = np.zeros((3, 3))
-    for c, m, r in zip(centres - com, masses, radii, strict=True):
-        inertia += 0.4 * m * r**2 * np.eye(3) + m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+    mass = np.empty(len(sizes))
+    com = np.empty((len(sizes), 3))
+    inertia = np.empty((len(sizes), 3, 3))
+    eye = np.eye(3)
+    for k in np.unique(sizes):  # the clumps of k members as (c_k, k) blocks
+        rows = np.flatnonzero(sizes == k)
+        idx = first[rows][:, None] + np.arange(k)
+        m, r, x = masses[idx], radii[idx], centres[idx]
+        total, moment = m[:, 0].copy(), m[:, 0, None] * x[:, 0]
+        for j in range(1, k):
+            total += m[:, j]
+            moment += m[:, j, None] * x[:, j]
+        c = x - (moment / total[:, None])[:, None, :]
+        acc = np.zeros((len(rows), 3, 3))
+        for j in range(k):
+            cj, mj = c[:, j], m[:, j, None, None]
+            dot = np.einsum("ij,ij->i", cj, cj)[:, None, None]
+            own = (0.4 * m[:, j] * r[:, j] ** 2)[:, None, None] * eye
+            acc += own + mj * (dot * eye - cj[:, :, None] * cj[:, None, :])
+        mass[rows], com[rows], inertia[rows] = total, moment / total[:, None], acc
     return mass, com, inertia
 
 
@@ -80,6 +113,51 @@ def principal_axes(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if np.linalg.det(axes) < 0:
         axes[:, 2] *= -1.0
     return moments, matrix_to_quat(axes)
+
+
+def principal_axes_many(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`principal_axes` of many tensors (c, 3, 3): principal moments [kg m^2] (c, 3), quaternions (c, 4)."""
+    inertia = np.asarray(inertia, dtype=np.float64)
+    check_finite("inertia", inertia)
+    moments, axes = np.linalg.eigh(inertia)
+    check_positive("inertia principal moments", moments)
+    bad = moments[:, 0] + moments[:, 1] < moments[:, 2] - 1e-9 * moments.max(axis=1)
+    if bad.any():
+        raise InputError(f"inertia principal moments {moments[bad][0].tolist()} violate I1 + I2 >= I3")
+    flip = np.linalg.det(axes) < 0
+    axes[flip, :, 2] *= -1.0
+    return moments, matrices_to_quats(axes)
+
+
+def matrices_to_quats(m: np.ndarray) -> np.ndarray:
+    """:func:`matrix_to_quat` of many rotation matrices (c, 3, 3): quaternions (x, y, z, w) (c, 4)."""
+    m = np.asarray(m, dtype=np.float64)
+    t = np.trace(m, axis1=1, axis2=2)
+    q = np.empty((len(m), 4))
+    d0, d1, d2 = m[:, 0, 0], m[:, 1, 1], m[:, 2, 2]
+    cases = [t > 0, (d0 > d1) & (d0 > d2), d1 > d2, np.ones(len(m), bool)]
+    done = np.zeros(len(m), bool)
+    for case, sel in enumerate(cases):
+        i = np.flatnonzero(sel & ~done)
+        done[i] = True
+        a = m[i]
+        if case == 0:
+            s = 0.5 / np.sqrt(t[i] + 1.0)
+            q[i] = np.stack([(a[:, 2, 1] - a[:, 1, 2]) * s, (a[:, 0, 2] - a[:, 2, 0]) * s,
+                             (a[:, 1, 0] - a[:, 0, 1]) * s, 0.25 / s], axis=1)
+        elif case == 1:
+            s = 2.0 * np.sqrt(1.0 + a[:, 0, 0] - a[:, 1, 1] - a[:, 2, 2])
+            q[i] = np.stack([0.25 * s, (a[:, 0, 1] + a[:, 1, 0]) / s, (a[:, 0, 2] + a[:, 2, 0]) / s,
+                             (a[:, 2, 1] - a[:, 1, 2]) / s], axis=1)
+        elif case == 2:
+            s = 2.0 * np.sqrt(1.0 + a[:, 1, 1] - a[:, 0, 0] - a[:, 2, 2])
+            q[i] = np.stack([(a[:, 0, 1] + a[:, 1, 0]) / s, 0.25 * s, (a[:, 1, 2] + a[:, 2, 1]) / s,
+                             (a[:, 0, 2] - a[:, 2, 0]) / s], axis=1)
+        else:
+            s = 2.0 * np.sqrt(1.0 + a[:, 2, 2] - a[:, 0, 0] - a[:, 1, 1])
+            q[i] = np.stack([(a[:, 0, 2] + a[:, 2, 0]) / s, (a[:, 1, 2] + a[:, 2, 1]) / s, 0.25 * s,
+                             (a[:, 1, 0] - a[:, 0, 1]) / s], axis=1)
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
 
 
 def matrix_to_quat(m: np.ndarray) -> np.ndarray:
