@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import warp as wp
 
+from .accumulate import add_wrench, vec3l
 from .broadphase import sphere_in_body_frame
 from .contact_law import (
     ACTIVE,
@@ -98,9 +99,11 @@ def sphere_sphere_kernel(
     cohesion_now: wp.array(dtype=int),
     # Data in/out:
     hist: wp.array(dtype=Hist),
-    # Data out:
-    body_force: wp.array(dtype=wp.vec3f),
-    body_torque: wp.array(dtype=wp.vec3f),
+    # Data out (fixed-point sums, accumulate.py):
+    force_acc: wp.array(dtype=vec3l),
+    torque_acc: wp.array(dtype=vec3l),
+    force_scale: wp.array(dtype=wp.float64),
+    torque_scale: wp.array(dtype=wp.float64),
     energy: wp.array(dtype=wp.float64),
 ):
     i = wp.tid()
@@ -147,14 +150,12 @@ def sphere_sphere_kernel(
         arm_j = sphere_arm[j] - (r2 - 0.5 * un) * n
         f_i += out.force
         t_i += wp.cross(arm_i, out.force) - out.moment
-        bj = sphere_body[j]
-        wp.atomic_add(body_force, bj, -out.force)
-        wp.atomic_add(body_torque, bj, wp.cross(arm_j, -out.force) + out.moment)
+        add_wrench(force_acc, torque_acc, force_scale, torque_scale, sphere_body[j], -out.force,
+                   wp.cross(arm_j, -out.force) + out.moment)
         if opts.track_energy != 0:
             wp.atomic_add(energy, w * N_ENERGY + E_SLIDING, wp.float64(out.dissip_slide))
             wp.atomic_add(energy, w * N_ENERGY + E_ROLLING, wp.float64(out.dissip_roll))
-    wp.atomic_add(body_force, bi, f_i)
-    wp.atomic_add(body_torque, bi, t_i)
+    add_wrench(force_acc, torque_acc, force_scale, torque_scale, bi, f_i, t_i)
 
 
 # ----------------------------------------------------------------------------- sphere-triangle
@@ -283,11 +284,15 @@ def sphere_triangle_kernel(
     cohesion_now: wp.array(dtype=int),
     # Data in/out:
     hist: wp.array(dtype=Hist),
-    # Data out:
-    body_force: wp.array(dtype=wp.vec3f),
-    body_torque: wp.array(dtype=wp.vec3f),
-    mesh_force: wp.array(dtype=wp.vec3f),
-    mesh_torque: wp.array(dtype=wp.vec3f),
+    # Data out (fixed-point sums, accumulate.py):
+    force_acc: wp.array(dtype=vec3l),
+    torque_acc: wp.array(dtype=vec3l),
+    force_scale: wp.array(dtype=wp.float64),
+    torque_scale: wp.array(dtype=wp.float64),
+    mesh_force_acc: wp.array(dtype=vec3l),
+    mesh_torque_acc: wp.array(dtype=vec3l),
+    mesh_force_scale: wp.array(dtype=wp.float64),
+    mesh_torque_scale: wp.array(dtype=wp.float64),
     energy: wp.array(dtype=wp.float64),
 ):
     i = wp.tid()
@@ -347,10 +352,8 @@ def sphere_triangle_kernel(
         if out.alive == 0:
             continue
         tm = wp.cross(arm_m, out.force) - out.moment
-        wp.atomic_add(body_force, b, out.force)
-        wp.atomic_add(body_torque, b, tm)
-        wp.atomic_add(mesh_force, m, out.force)
-        wp.atomic_add(mesh_torque, m, tm)
+        add_wrench(force_acc, torque_acc, force_scale, torque_scale, b, out.force, tm)
+        add_wrench(mesh_force_acc, mesh_torque_acc, mesh_force_scale, mesh_torque_scale, m, out.force, tm)
         f_s -= out.force
         t_s += wp.cross(sphere_arm[i] + arm_s, -out.force) + out.moment
         if opts.track_energy != 0:
@@ -364,8 +367,7 @@ def sphere_triangle_kernel(
         if suppressed(k, g, k0, k1, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
                       body_quat) == 1:
             hist[k] = empty_hist()
-    wp.atomic_add(body_force, sphere_body[i], f_s)
-    wp.atomic_add(body_torque, sphere_body[i], t_s)
+    add_wrench(force_acc, torque_acc, force_scale, torque_scale, sphere_body[i], f_s, t_s)
 
 
 # ----------------------------------------------------------------------------- elastic energy (observer)

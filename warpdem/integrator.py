@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import warp as wp
 
+from .accumulate import add_wrench, vec3l
 from .contacts import E_DAMPING, E_DRIVEN, E_SPRING_DAMPER, N_ENERGY
 from .model import ALL_DOFS, FLAG_ASPHERICAL, FLAG_PIVOT, ROT_DOFS
 
@@ -337,9 +338,11 @@ def spring_kernel(
     body_quat: wp.array(dtype=wp.quatd),
     body_vel: wp.array(dtype=wp.vec3d),
     body_angvel: wp.array(dtype=wp.vec3d),
-    # Data out:
-    body_force: wp.array(dtype=wp.vec3f),
-    body_torque: wp.array(dtype=wp.vec3f),
+    # Data out (fixed-point sums, accumulate.py):
+    force_acc: wp.array(dtype=vec3l),
+    torque_acc: wp.array(dtype=vec3l),
+    force_scale: wp.array(dtype=wp.float64),
+    torque_scale: wp.array(dtype=wp.float64),
     spring_force: wp.array(dtype=float),
     energy: wp.array(dtype=wp.float64),
 ):
@@ -364,9 +367,7 @@ def spring_kernel(
         f = f + stop_stiffness[s] * u_len
     spring_force[s] = f
     fa = f * u
-    wp.atomic_add(body_force, a, fa)
-    wp.atomic_add(body_torque, a, wp.cross(wp.vec3f(ra), fa))
-    wp.atomic_add(body_force, b, -fa)
-    wp.atomic_add(body_torque, b, wp.cross(wp.vec3f(rb), -fa))
+    add_wrench(force_acc, torque_acc, force_scale, torque_scale, a, fa, wp.cross(wp.vec3f(ra), fa))
+    add_wrench(force_acc, torque_acc, force_scale, torque_scale, b, -fa, wp.cross(wp.vec3f(rb), -fa))
     if track_energy != 0:
         wp.atomic_add(energy, body_world[a] * N_ENERGY + E_SPRING_DAMPER, wp.float64(damping[s] * rate * rate * dt))

@@ -30,44 +30,62 @@ wp.set_module_options({"enable_backward": False})
 ENERGY_TERMS = {"damping": E_DAMPING, "sliding": E_SLIDING, "rolling": E_ROLLING, "spring_damper": E_SPRING_DAMPER}
 
 
+KE_CHUNK = wp.constant(256)
+"""bodies per partial sum of the kinetic energy: each thread adds its chunk's bodies in order and numpy adds the
+chunks, so the sum does not depend on the threads' schedule (the same bits on every run)."""
+
+
 @wp.kernel
 def _kinetic_energy_kernel(
-    body_world: wp.array(dtype=int),
     body_group: wp.array(dtype=int),
     body_mass: wp.array(dtype=wp.float64),
     body_inertia: wp.array(dtype=wp.vec3d),
     body_quat: wp.array(dtype=wp.quatd),
     body_vel: wp.array(dtype=wp.vec3d),
     body_angvel: wp.array(dtype=wp.vec3d),
+    bodies_per_world: int,
+    n_chunks: int,
     n_groups: int,
     out: wp.array(dtype=wp.float64),
 ):
-    """out[(world * n_groups + group) * 2 + {0: translational, 1: rotational}] += energy [J] (paper eq. 6)."""
-    b = wp.tid()
-    m = body_mass[b]
-    if m <= wp.float64(0.0):
-        return
-    slot = (body_world[b] * n_groups + body_group[b]) * 2
-    v = body_vel[b]
-    wp.atomic_add(out, slot, wp.float64(0.5) * m * wp.dot(v, v))
-    w_b = wp.quat_rotate_inv(body_quat[b], body_angvel[b])
-    inertia = body_inertia[b]
-    rot = inertia[0] * w_b[0] * w_b[0] + inertia[1] * w_b[1] * w_b[1] + inertia[2] * w_b[2] * w_b[2]
-    wp.atomic_add(out, slot + 1, wp.float64(0.5) * rot)
+    """out[((world * n_chunks + chunk) * n_groups + group) * 2 + {0: translational, 1: rotational}]: energy [J]
+    (paper eq. 6) of the chunk's bodies of that group, added in body order."""
+    t = wp.tid()
+    g = t % n_groups
+    chunk = (t // n_groups) % n_chunks
+    first = (t // (n_groups * n_chunks)) * bodies_per_world
+    tr = wp.float64(0.0)
+    rot = wp.float64(0.0)
+    for k in range(chunk * KE_CHUNK, wp.min((chunk + 1) * KE_CHUNK, bodies_per_world)):
+        b = first + k
+        m = body_mass[b]
+        if m <= wp.float64(0.0) or body_group[b] != g:
+            continue
+        v = body_vel[b]
+        tr += wp.float64(0.5) * m * wp.dot(v, v)
+        w_b = wp.quat_rotate_inv(body_quat[b], body_angvel[b])
+        inertia = body_inertia[b]
+        rot += wp.float64(0.5) * (inertia[0] * w_b[0] * w_b[0] + inertia[1] * w_b[1] * w_b[1]
+                                  + inertia[2] * w_b[2] * w_b[2])
+    out[2 * t] = tr
+    out[2 * t + 1] = rot
 
 
 def kinetic_energy_table(sim: object) -> np.ndarray:
     """Kinetic energy [J] per world, group and kind, shape (n_worlds, n_groups, 2): [..., 0] translational
     (m v^2 / 2), [..., 1] rotational (omega^T I omega / 2), for bodies with mass (the paper's eq. 6)."""
     m, s = sim.model, sim.state
-    out = wp.zeros(m.n_worlds * m.n_groups * 2, dtype=wp.float64, device=m.device)
-    wp.launch(
-        _kinetic_energy_kernel, m.n_bodies,
-        inputs=[m.body_world, m.body_group, m.body_mass, m.body_inertia, s.body_quat, s.body_vel, s.body_angvel,
-                m.n_groups],
-        outputs=[out], device=m.device,
-    )
-    return out.numpy().reshape(m.n_worlds, m.n_groups, 2)
+    n_chunks = max(1, -(-m.bodies_per_world // KE_CHUNK))
+    n = m.n_worlds * n_chunks * m.n_groups
+    out = wp.zeros(2 * n, dtype=wp.float64, device=m.device)
+    if m.n_bodies:
+        wp.launch(
+            _kinetic_energy_kernel, n,
+            inputs=[m.body_group, m.body_mass, m.body_inertia, s.body_quat, s.body_vel, s.body_angvel,
+                    m.bodies_per_world, n_chunks, m.n_groups],
+            outputs=[out], device=m.device,
+        )
+    return out.numpy().reshape(m.n_worlds, n_chunks, m.n_groups, 2).sum(axis=1)
 
 
 def kinetic_energy(sim: object) -> np.ndarray:

@@ -17,6 +17,7 @@ from collections.abc import Callable
 import numpy as np
 import warp as wp
 
+from . import accumulate
 from . import broadphase as bp
 from .contacts import (
     N_ENERGY,
@@ -165,6 +166,20 @@ class Simulation:
         self.body_torque = wp.zeros(nb, dtype=wp.vec3f, device=dev)
         self.mesh_force = wp.zeros(max(nm, 1), dtype=wp.vec3f, device=dev)
         self.mesh_torque = wp.zeros(max(nm, 1), dtype=wp.vec3f, device=dev)
+        # the sums behind them: fixed-point, so that they do not depend on the order of the threads (accumulate.py)
+        res_f, res_t = accumulate.resolutions(model.body_mass.numpy(), model.body_inertia.numpy(),
+                                              model.body_world.numpy(), model.n_worlds)
+        mesh_body = model.mesh_body.numpy() if nm else np.zeros(1, dtype=np.int64)
+        self._force_scale = wp.array(1.0 / res_f, dtype=wp.float64, device=dev)
+        self._torque_scale = wp.array(1.0 / res_t, dtype=wp.float64, device=dev)
+        self._mesh_force_scale = wp.array(1.0 / res_f[mesh_body] if nb else np.ones(1), dtype=wp.float64,
+                                          device=dev)
+        self._mesh_torque_scale = wp.array(1.0 / res_t[mesh_body] if nb else np.ones(1), dtype=wp.float64,
+                                           device=dev)
+        self._force_acc = wp.zeros(nb, dtype=accumulate.vec3l, device=dev)
+        self._torque_acc = wp.zeros(nb, dtype=accumulate.vec3l, device=dev)
+        self._mesh_force_acc = wp.zeros(max(nm, 1), dtype=accumulate.vec3l, device=dev)
+        self._mesh_torque_acc = wp.zeros(max(nm, 1), dtype=accumulate.vec3l, device=dev)
         self.spring_force = wp.zeros(max(model.n_springs, 1), dtype=float, device=dev)
         self.energy = wp.zeros(model.n_worlds * N_ENERGY, dtype=wp.float64, device=dev)
         self.cohesion_now = wp.zeros(1, dtype=int, device=dev)
@@ -343,17 +358,18 @@ class Simulation:
                 arr.zero_()
 
         ns = m.n_spheres
-        zero(self.body_force)
-        zero(self.body_torque)
-        zero(self.mesh_force)
-        zero(self.mesh_torque)
+        zero(self._force_acc)
+        zero(self._torque_acc)
+        zero(self._mesh_force_acc)
+        zero(self._mesh_torque_acc)
+        acc = [self._force_acc, self._torque_acc, self._force_scale, self._torque_scale]
         if ns:
             launch(
                 sphere_sphere_kernel, ns,
                 inputs=[m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, self.materials,
                         self.options, self.sphere_pos, self.sphere_vel, self.sphere_angvel, self.sphere_arm,
                         self.ss.start, self.ss.count, self.ss.key_a, self.cohesion_now, self.ss.hist],
-                outputs=[self.body_force, self.body_torque, self.energy],
+                outputs=[*acc, self.energy],
                 device=dev,
             )
         if ns and m.n_meshes:
@@ -364,7 +380,8 @@ class Simulation:
                         self.sphere_pos, self.sphere_vel, self.sphere_angvel, self.sphere_arm, s.body_pos,
                         s.body_quat, s.body_vel, s.body_angvel, self.st.start, self.st.count, self.st.key_a,
                         self.st.key_b, self.cohesion_now, self.st.hist],
-                outputs=[self.body_force, self.body_torque, self.mesh_force, self.mesh_torque, self.energy],
+                outputs=[*acc, self._mesh_force_acc, self._mesh_torque_acc, self._mesh_force_scale,
+                         self._mesh_torque_scale, self.energy],
                 device=dev,
             )
         if m.n_springs:
@@ -374,9 +391,16 @@ class Simulation:
                         m.spring_damping, m.spring_rest_length, m.spring_preload, m.spring_progressive,
                         m.spring_stop_stiffness, m.body_world, self.dt,
                         int(self.track_energy), s.body_pos, s.body_quat, s.body_vel, s.body_angvel],
-                outputs=[self.body_force, self.body_torque, self.spring_force, self.energy],
+                outputs=[*acc, self.spring_force, self.energy],
                 device=dev,
             )
+        sums = [(self._force_acc, self._force_scale, self.body_force),
+                (self._torque_acc, self._torque_scale, self.body_torque)] if m.n_bodies else []
+        if m.n_meshes:
+            sums += [(self._mesh_force_acc, self._mesh_force_scale, self.mesh_force),
+                     (self._mesh_torque_acc, self._mesh_torque_scale, self.mesh_torque)]
+        for total, scale, out in sums:
+            launch(accumulate.to_float_kernel, out.shape[0], inputs=[total, scale], outputs=[out], device=dev)
         launch(
             integrate_bodies_kernel, m.n_bodies,
             inputs=[m.body_world, m.body_group, m.body_flags, m.body_mass, m.body_inertia, m.body_pivot,
