@@ -436,7 +436,12 @@ def run_shear_box_cmd(args: argparse.Namespace) -> int:
     out = _claim(args, args.out)
     cfg = shear_box.preset(args.scale, args.assembly, seed=args.seed)
     _write_config(out, "shear-box", device, config=str(cfg))
-    res = shear_box.run_shear_box(cfg, device, progress=lambda ph, d, n: _bar(f"shear box: {ph}", d, n))
+    vtk = None
+    if args.vtk:
+        from warpdem.vtk import VtkWriter
+
+        vtk = (VtkWriter(out / "vtk"), args.vtk)
+    res = shear_box.run_shear_box(cfg, device, progress=lambda ph, d, n: _bar(f"shear box: {ph}", d, n), vtk=vtk)
     (out / "summary.json").write_text(json.dumps(res.to_dict(), indent=2, default=float))
     report = shear_box.write_report(res, out)
     print(res.table())
@@ -553,7 +558,8 @@ class _DefaultsFormatter(argparse.HelpFormatter):
     def _get_help_string(self, action: argparse.Action) -> str:
         text = action.help or ""
         d = action.default
-        if action.option_strings and d not in (None, False, argparse.SUPPRESS) and "default" not in text:
+        shown = d is not None and d is not False and d is not argparse.SUPPRESS  # 0 is a default to show
+        if action.option_strings and shown and "default" not in text:
             text += f" (default: {','.join(map(str, d)) if isinstance(d, tuple | list) else d})"
         return text
 
@@ -570,6 +576,12 @@ class _DefaultsParser(argparse.ArgumentParser):
 
 SCALE_HELP = ("soil-bin size: ci = 0.5 x 0.65 m bin, 20 mm members (tests, seconds); cpu = 0.7 x 1.1 m, 15 mm "
               "(minutes on a CPU); paper = the paper's 1.0 x 2.0 m bin, 7 mm members, about 214,000 spheres (a GPU)")
+SWITCHES = {"--verbose": "keep Warp's banner and kernel-load lines", "--quiet": "no progress bars (results and "
+            "errors still print)", "--debug": "show the traceback of an internal error"}
+"""switches of every command, accepted before or after the command's name."""
+SHEAR_SCALE_HELP = ("particle size in the 100 mm box: ci = 10 particles across (assembly A: about half a minute on 2 "
+                    "CPU cores; C has about 7x the spheres); cpu = 14 across (minutes to an hour on a CPU); paper = "
+                    "20 across (a GPU)")
 ASSEMBLY_HELP = "A = single spheres, B = two-sphere clumps, C = the paper's mix with elongated three-sphere clumps"
 
 
@@ -578,9 +590,8 @@ def main(argv: list[str] | None = None) -> int:
 
     parser = argparse.ArgumentParser(prog="warpdem", description="DEM of soil-tool interaction on NVIDIA Warp")
     parser.add_argument("--version", action="version", version=f"warpdem {__version__}")
-    parser.add_argument("--verbose", action="store_true", help="keep Warp's banner and kernel-load lines")
-    parser.add_argument("--quiet", action="store_true", help="no progress bars (results and errors still print)")
-    parser.add_argument("--debug", action="store_true", help="show the traceback of an internal error")
+    for flag, text in SWITCHES.items():
+        parser.add_argument(flag, action="store_true", help=text)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_DefaultsParser)
 
     def common(p: argparse.ArgumentParser, out: str, scale: bool = True) -> None:
@@ -623,7 +634,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="full: GA parents mating (default: the paper's 7)")
     g = sub.add_parser("ringing", help="ringing test of the eight spring configurations")
     common(g, "results/ringing", scale=False)
-    g.add_argument("--springs", type=_springs, default=None)
+    g.add_argument("--springs", type=_springs, default=None,
+                   help="spring configurations, e.g. 4,16,32 (default: all eight)")
     g.add_argument("--spring-model", choices=("paper", "linear", "twin"), default=None,
                    help="paper: spring spheres on warpdem's hinged rig; linear: DIN 2093 springs; twin: the paper's "
                    "rig as its text builds it (a ball pivot, the load sphere; equals Yade's); default: all three")
@@ -646,10 +658,15 @@ def main(argv: list[str] | None = None) -> int:
     v.add_argument("--speeds", type=_speeds, default=(0.45, 0.50, 0.55, 0.60, 0.65, 0.70, 0.75),
                    help="carriage speeds [m/s] (default 0.45,0.50,...,0.75)")
     x = sub.add_parser("shear-box", help="direct shear box: Mohr-Coulomb cohesion and friction angle")
-    common(x, "results/shear_box")
+    common(x, "results/shear_box", scale=False)
+    x.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"), help=SHEAR_SCALE_HELP)
+    x.add_argument("--assembly", default="C", choices=("A", "B", "C"), help=ASSEMBLY_HELP)
+    x.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
+                   help="write ParaView (VTK) frames of every normal stress's sample into OUT/vtk/ while it is "
+                        "sheared, at its start and at every EVERY-th record")
     d = sub.add_parser("demo", help="deposit a small cohesive bed and cut it with a blade")
     d.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
-    d.add_argument("--particles", type=_number(int, ge=1), default=1500)
+    d.add_argument("--particles", type=_number(int, ge=1), default=1500, help="particles in the bed")
     d.add_argument("--seed", type=_number(int, ge=0), default=0, help="deposition seed")
     d.add_argument("--deposit-time", type=_number(float, gt=0, unit="s"), default=0.5,
                    help="simulated deposition time [s]")
@@ -664,9 +681,9 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
     c.add_argument("--out", default=None, help="results folder (default results/calibrate/<kind>_<springs|assembly>)")
     c.add_argument("--seed", type=_number(int, ge=0), default=0, help="GA seed (and the bed's deposition seed)")
-    c.add_argument("--generations", type=_number(int, ge=1), default=5)
-    c.add_argument("--population", type=_number(int, ge=2), default=20)
-    c.add_argument("--parents", type=_number(int, ge=1), default=7)
+    c.add_argument("--generations", type=_number(int, ge=1), default=5, help="GA generations (the paper's 5)")
+    c.add_argument("--population", type=_number(int, ge=2), default=20, help="GA population (the paper's 20)")
+    c.add_argument("--parents", type=_number(int, ge=1), default=7, help="GA parents mating (the paper's 7)")
     c.add_argument("--refine", type=_number(int, ge=0), default=0,
                    help="batched pattern-search iterations after the GA")
     c.add_argument("--gene", type=_gene_range, action="append", help="replace a gene range: NAME=LOW:HIGH (SI)")
@@ -689,7 +706,7 @@ def main(argv: list[str] | None = None) -> int:
     q = sub.add_parser("diagnose", help="model criticism: residuals, candidate mechanisms, the named cause, its gain")
     q.add_argument("measured", help="MEASURED data (a summary CSV or a folder; calibration.measured), or "
                                     "paper:ringing (Table 2) or paper:soil-bin (Table 3)")
-    q.add_argument("--rig", choices=("ringing", "soil-bin"), required=True)
+    q.add_argument("--rig", choices=("ringing", "soil-bin"), required=True, help="the rig the data come from")
     q.add_argument("--params", default=None, help="JSON: rig settings (ringing: load_force, ring_time, ...; "
                                                   "soil-bin: scale, assembly, travel, cache_dir, ...) and 'fixed': "
                                                   "baseline parameters not to fit (e.g. dashpot)")
@@ -711,6 +728,10 @@ def main(argv: list[str] | None = None) -> int:
                    help="at most N worlds per batched simulation, the checkpoint saved after each (0: one per round)")
     q.add_argument("--no-resume", action="store_true", help="start afresh even if --out holds a checkpoint")
     for p in sub.choices.values():
+        # the global switches are accepted after the command too (default SUPPRESS: absent, they keep the value
+        # given before the command)
+        for flag, text in SWITCHES.items():
+            p.add_argument(flag, action="store_true", default=argparse.SUPPRESS, help=text)
         p.add_argument("--overwrite", action="store_true",
                        help="replace a results folder (--out) that holds another run; without it such a folder is "
                             "refused")

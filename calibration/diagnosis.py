@@ -293,13 +293,18 @@ class _Fitter:
             return
         n_cfg = self.rig.n_configs
         per = max(1, self.settings.batch_worlds // n_cfg) if self.settings.batch_worlds else len(todo)
+        n_batches = -(-len(todo) // per)
+        t_stage = time.perf_counter()
         for start in range(0, len(todo), per):
             batch = todo[start:start + per]
             cases = [Case(j, cand.params(z)) for cand, z in batch for j in range(n_cfg)]
             t0 = time.perf_counter()
             out = self.rig.simulate(cases)
             self.n_sims += len(cases)
-            part = f" (batch {start // per + 1}/{-(-len(todo) // per)})" if per < len(todo) else ""
+            k = start // per + 1
+            spent = time.perf_counter() - t_stage
+            part = (f" (batch {k}/{n_batches}, {spent:.0f} s so far, about {spent / k * (n_batches - k):.0f} s "
+                    "left)") if n_batches > 1 else ""
             self.log(f"  {what}{part}: {len(batch)} parameter sets x {n_cfg} configurations = {len(cases)} worlds, "
                      f"{time.perf_counter() - t0:.1f} s")
             for i, (cand, z) in enumerate(batch):

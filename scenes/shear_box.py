@@ -83,6 +83,7 @@ import numpy as np
 import warpdem as wd
 from warpdem.analysis import MohrCoulomb, mohr_coulomb
 from warpdem.files import write_text_atomic
+from warpdem.vtk import VtkWriter
 
 from . import paper
 from .assemblies import AssemblySpec, Bed, deposit
@@ -560,16 +561,22 @@ def _moving_average(y: np.ndarray, width: int) -> np.ndarray:
 
 
 def _shear(sim: wd.Simulation, probe: _Probe, cfg: ShearBoxConfig,
-           progress: Callable[[str, float, float], None] | None) -> dict[str, np.ndarray]:
-    """Move the lower half at the shear rate; interval means of the forces, (k, n_worlds) arrays."""
+           progress: Callable[[str, float, float], None] | None,
+           vtk: tuple[VtkWriter, int] | None = None) -> dict[str, np.ndarray]:
+    """Move the lower half at the shear rate; interval means of the forces, (k, n_worlds) arrays. ``vtk``: a
+    ParaView frame at the start and at every ``every``-th record."""
     dt = sim.dt
     interval = max(1, int(round(cfg.record_every * cfg.box_side / cfg.shear_rate / dt)))
     n_rec = int(math.ceil(cfg.shear_displacement * cfg.box_side / cfg.shear_rate / dt / interval))
     x0, z0 = probe.position("lower", 0), probe.position("ballast", 2)
     sim.set_body_velocity("lower", (cfg.shear_rate, 0.0, 0.0))
     rec: dict[str, list[np.ndarray]] = {"disp": [], "upper": [], "lower": [], "rise": []}
+    if vtk is not None:
+        vtk[0].write(sim)
     for k in range(n_rec):
         f = probe.advance_mean(interval)
+        if vtk is not None and (k + 1) % vtk[1] == 0:
+            vtk[0].write(sim)
         rec["disp"].append(probe.position("lower", 0) - x0 - 0.5 * interval * dt * cfg.shear_rate)
         rec["upper"].append(f["upper"][:, 0] + f["plate"][:, 0])
         rec["lower"].append(-(f["lower"][:, 0] + f["floor"][:, 0]))
@@ -580,7 +587,8 @@ def _shear(sim: wd.Simulation, probe: _Probe, cfg: ShearBoxConfig,
 
 
 def run_shear_boxes(configs: Sequence[ShearBoxConfig], device: str | None = None, *, bed: Bed | None = None,
-                    progress: Callable[[str, float, float], None] | None = None) -> list[ShearBoxResult]:
+                    progress: Callable[[str, float, float], None] | None = None,
+                    vtk: tuple[VtkWriter, int] | None = None) -> list[ShearBoxResult]:
     """Run several shear box tests of one sample (e.g. with and without cohesion) as one batched simulation, one
     world per (config, normal stress). The configs must agree on everything but the soil's friction angle,
     cohesions, eta_roll, eta_twist and the normal stresses.
@@ -589,6 +597,8 @@ def run_shear_boxes(configs: Sequence[ShearBoxConfig], device: str | None = None
         configs: the tests. device: Warp device (None: Warp's default).
         bed: a deposited sample from :func:`make_bed` (default: deposited now for the first config).
         progress: called as progress(phase, done, total), phase "consolidate" or "shear", times [s].
+        vtk: (a :class:`warpdem.vtk.VtkWriter`, every): ParaView frames of every world while shearing, at its
+            start and at every ``every``-th record.
     Returns:
         One :class:`ShearBoxResult` per config.
     """
@@ -614,7 +624,7 @@ def run_shear_boxes(configs: Sequence[ShearBoxConfig], device: str | None = None
     sim.set_cohesion_now()
     sim.set_local_damping("soil", cfg.shear_damping)
     sim.set_local_damping("plate", cfg.shear_damping)
-    rec = _shear(sim, probe, cfg, progress)
+    rec = _shear(sim, probe, cfg, progress, vtk)
     wall = time.perf_counter() - t0
 
     width = max(1, int(round(cfg.smoothing / cfg.record_every)))
@@ -638,9 +648,9 @@ def run_shear_boxes(configs: Sequence[ShearBoxConfig], device: str | None = None
 
 def run_shear_box(config: ShearBoxConfig, device: str | None = None,
                   progress: Callable[[str, float, float], None] | None = None, *,
-                  bed: Bed | None = None) -> ShearBoxResult:
+                  bed: Bed | None = None, vtk: tuple[VtkWriter, int] | None = None) -> ShearBoxResult:
     """Run one shear box test, all its normal stresses in one batched simulation (see :func:`run_shear_boxes`)."""
-    return run_shear_boxes([config], device, bed=bed, progress=progress)[0]
+    return run_shear_boxes([config], device, bed=bed, progress=progress, vtk=vtk)[0]
 
 
 if __name__ == "__main__":  # pragma: no cover - a manual run: python -m scenes.shear_box [scale] [kind] [device]

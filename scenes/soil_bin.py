@@ -22,6 +22,7 @@ coordination number, and steady-state statistics after ``steady_travel`` of trav
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
@@ -650,7 +651,8 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
     ``viewer`` (see :func:`run_soil_bin`) streams the passive run (or the rigid one if there is none).
     ``vtk_every``: ParaView frames of every run at every ``vtk_every``-th record, into ``vtk_dir``/<run name>.
     ``checkpoint_dir``: each run checkpoints into a subfolder (``rigid``, ``passive``) and resumes from it after a
-    kill; a finished run's subfolder is removed. ``deposit_progress``: the deposition's progress callback
+    kill (a run that had finished is read back, not run again); the subfolders are removed when the study is
+    done. ``deposit_progress``: the deposition's progress callback
     (:func:`scenes.assemblies.deposit`) when the bed is made. ``bed``: use this bed instead (e.g. one already made).
     Returns {"bed", "runs": name -> SoilBinRun, "table": rows, "steady_travel": [m]}."""
     import shutil
@@ -669,8 +671,11 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
         runs[name] = run_soil_bin(config, springs, bed=bed, device=device, progress=progress, speeds=speeds,
                                   viewer=viewer if name == streamed else None, checkpoint=folder,
                                   vtk=(VtkWriter(Path(vtk_dir) / name), vtk_every) if vtk_every else None)
-        if folder is not None:
-            shutil.rmtree(folder, ignore_errors=True)
+    if checkpoint_dir is not None:
+        for name, _, _ in groups:
+            shutil.rmtree(Path(checkpoint_dir) / name, ignore_errors=True)
+        with contextlib.suppress(OSError):  # the folder too, unless something else is in it
+            Path(checkpoint_dir).rmdir()
     rows = pair_reductions([r for run in runs.values() for r in run.steady])
     return {"bed": bed, "runs": runs, "table": rows,
             "steady_travel": config.steady_travel or config.preset["steady_travel"]}

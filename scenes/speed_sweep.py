@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from warpdem.files import write_atomic, write_text_atomic
+
 from . import paper
 from . import soil_bin as sb
 
@@ -177,6 +179,35 @@ def plot(result: dict[str, object], path: Path, title: str) -> None:
     plt.close(fig)
 
 
+def sweep_meaning(line: SpeedLine, table7: list[dict[str, object]]) -> list[str]:
+    """A short "what this means" paragraph generated from the fitted line and the re-paired Table 7 rows (their
+    ``speed`` [m/s] and the laboratory's ``lab_reduction`` [%]); one markdown item per finding."""
+    f68 = line.at(TABLE7_RIGID_SPEED)[0]
+    se_b = math.sqrt(line.cov[1][1])
+    speeds = [float(r["speed"]) for r in table7] or [TABLE7_RIGID_SPEED]
+    v_lo = min(speeds)
+    shift = 100.0 * line.slope * (TABLE7_RIGID_SPEED - v_lo) / f68
+    lab_mean = float(np.mean([abs(float(r["lab_reduction"])) for r in table7])) if table7 else float("nan")
+    out = []
+    if abs(line.slope) < 2.0 * se_b:
+        out.append(f"- The sweep cannot tell the rigid draught's speed dependence from none: the slope "
+                   f"{line.slope:.1f} N s/m is within two standard errors ({se_b:.1f} N s/m) of zero. A longer "
+                   "steady window or a larger bed would narrow it.")
+    else:
+        out.append(f"- The rigid draught {'rises' if line.slope > 0 else 'falls'} with speed: "
+                   f"{100 * line.slope * 0.1 / f68:+.1f} % of F(0.68) per 0.1 m/s (slope {line.slope:.1f} +- "
+                   f"{se_b:.1f} N s/m).")
+    out.append(f"- Pairing a passive run at {v_lo:.2f} m/s with a rigid run at {TABLE7_RIGID_SPEED:.2f} m/s, as "
+               f"Table 7 does, moves its reduction by {shift:+.1f} percentage points on this line; the laboratory's "
+               f"reductions average {lab_mean:.1f} % in magnitude, so the pairing "
+               f"{'matters' if abs(shift) >= 0.25 * lab_mean else 'matters little'} beside them.")
+    if line.chi2_dof > 2.0:
+        out.append(f"- The steady means scatter about the line more than their standard errors allow (reduced chi^2 "
+                   f"{line.chi2_dof:.1f}): either the draught is not linear in speed here or the errors are "
+                   "underestimated; the line's errors were scaled up accordingly.")
+    return out
+
+
 def report(result: dict[str, object], config: sb.SoilBinConfig, device: str, wall: float) -> str:
     """Markdown: the sweep's table, the line, and Table 7 re-paired (signs against the laboratory's)."""
     rows, line, bed, run = result["rows"], result["line"], result["bed"], result["run"]
@@ -217,7 +248,8 @@ def report(result: dict[str, object], config: sb.SoilBinConfig, device: str, wal
         lines.append(f"- {TABLE7_COLUMNS[c]}: paper {sum(r[c]['paper_sign_right'] for r in t7)}, re-paired "
                      f"{sum(r[c]['repaired_sign_right'] for r in t7)}; MAE against Table 3 {mae0:.2f} -> "
                      f"{mae1:.2f} percentage points")
-    lines += ["", "![rigid draught against speed](rigid_speed.png)", ""]
+    lines += ["", "## What this means", "", *sweep_meaning(line, result["table7"]), "",
+              "![rigid draught against speed](rigid_speed.png)", ""]
     return "\n".join(lines)
 
 
@@ -228,11 +260,12 @@ def write(result: dict[str, object], out: Path, config: sb.SoilBinConfig, device
                "line": asdict(result["line"]), "table7": result["table7"],
                "bed": {"particles": bed.n_particles, "spheres": int(len(bed.radii)), "porosity": bed.porosity},
                "run": {"dt": run.dt, "steps": run.steps, "wall_s": run.wall_s}}
-    (out / "summary.json").write_text(json.dumps(sb.json_safe(summary), indent=2))
-    np.savez_compressed(out / "series.npz", time=run.time, travel=run.travel, draught=run.series["draught"],
-                        speeds=np.array(run.speeds))
-    plot(result, out / "rigid_speed.png", f"scale {config.scale}, assembly {config.assembly}, {device}")
-    (out / "report.md").write_text(report(result, config, device, wall))
+    write_text_atomic(out / "summary.json", json.dumps(sb.json_safe(summary), indent=2))
+    write_atomic(out / "series.npz", lambda p: np.savez_compressed(
+        p, time=run.time, travel=run.travel, draught=run.series["draught"], speeds=np.array(run.speeds)))
+    write_atomic(out / "rigid_speed.png", lambda p: plot(
+        result, p, f"scale {config.scale}, assembly {config.assembly}, {device}"))
+    write_text_atomic(out / "report.md", report(result, config, device, wall))
 
 
 def main(out: str | Path, config: sb.SoilBinConfig, speeds: tuple[float, ...] = SWEEP_SPEEDS, *,

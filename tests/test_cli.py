@@ -272,3 +272,62 @@ def test_the_soil_bin_reports_what_this_means_from_its_numbers() -> None:
     assert "2 of 2 reductions are within two standard errors of zero" in text
     assert "1 of 2 have the laboratory's sign" in text
     assert "against the laboratory's 4.8 to 12 mm" in text and "moves much less" not in text
+
+
+class _Killed(BaseException):
+    """A kill: not an Exception, so the command's error handling does not catch it (as with SIGKILL)."""
+
+
+def test_a_killed_soil_bin_command_resumes_to_the_same_result(tmp_path, monkeypatch) -> None:
+    """Reference: the same command run uninterrupted into another folder. `warpdem soil-bin` is killed in each of
+    its stages in turn (the deposition, the rigid run, the passive run) and then run again to the end; CPU runs are
+    deterministic, so the table must be equal to the bit. The runs checkpoint at every chance (0.05 s simulated)
+    instead of every 60 s of wall time, so that each kill finds a checkpoint; nothing else differs from the
+    command. A run that had finished before a kill is read back from its checkpoint, not simulated again."""
+    import functools
+    import json
+
+    import pytest
+
+    from calibration import cli
+    from scenes import soil_bin as sb
+
+    monkeypatch.setattr(sb, "run_soil_bin", functools.partial(sb.run_soil_bin, checkpoint_every=0.0))
+    args = ["--quiet", "soil-bin", "--scale", "ci", "--assembly", "A", "--springs", "0,16", "--device", "cpu"]
+    whole, out = tmp_path / "whole", tmp_path / "killed"
+    assert cli.main([*args, "--out", str(whole)]) == 0
+    seen: list[tuple[str, float]] = []
+
+    def bar(stage: str | None, run: str | None) -> object:
+        """A progress bar that records (label, fraction) and kills past half of a stage (of the passive run: once
+        its checkpoint exists)."""
+        def progress(label: str, done: float, total: float) -> None:
+            seen.append((label, done / total))
+            passive_begun = (out / "checkpoints" / "passive" / "latest.json").exists()
+            if label.startswith(str(stage)) and done / total > 0.5 and passive_begun == (run == "passive"):
+                raise _Killed
+        return progress
+
+    def runs() -> list[float]:
+        """The fraction at which each soil-bin run of the last call started (a run starts where the fraction drops)."""
+        f = [frac for label, frac in seen if label == "soil bin"]
+        return [x for k, x in enumerate(f) if k == 0 or x < f[k - 1]]
+
+    for stage, run in (("deposition", None), ("soil bin", "rigid"), ("soil bin", "passive")):
+        seen.clear()
+        monkeypatch.setattr(cli, "_bar", bar(stage, run))
+        with pytest.raises(_Killed):
+            cli.main([*args, "--out", str(out)])
+        if stage == "deposition":
+            assert not list((out / "beds").glob("*.npz"))  # killed before the bed was saved
+        if run == "rigid":
+            assert (out / "checkpoints" / "rigid" / "latest.json").exists()
+        if run == "passive":  # the rigid run went on from its last checkpoint (0.05 s of a 0.12 s run before the
+            starts = runs()   # kill at half), the passive one from its start
+            assert len(starts) == 2 and starts[0] > 0.4 and starts[1] < 0.1
+    seen.clear()
+    monkeypatch.setattr(cli, "_bar", bar(None, None))
+    assert cli.main([*args, "--out", str(out)]) == 0
+    assert len(runs()) == 1 and runs()[0] > 0.4  # the passive run went on; the finished rigid run was read back
+    assert json.loads((out / "summary.json").read_text()) == json.loads((whole / "summary.json").read_text())
+    assert not (out / "checkpoints").exists()

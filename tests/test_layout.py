@@ -1,5 +1,5 @@
-"""The layers import one way: engine (warpdem) <- scenes <- calibration (design.md). Checked on the source, so a
-lazy import inside a function counts too."""
+"""The layers import one way: engine (warpdem) <- scenes <- calibration (README, "Layout"). Checked on the
+source, so a lazy import inside a function counts too."""
 
 from __future__ import annotations
 

@@ -34,18 +34,21 @@ COHESIONLESS_TOL = 0.25
 
 
 @pytest.fixture(scope="module")
-def results() -> dict[str, object]:
+def results(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
+    from warpdem.vtk import VtkWriter
+
     t0 = time.perf_counter()
     cfg = sb.preset("ci")
     bed = sb.make_bed(cfg, DEVICE)
     t_bed = time.perf_counter() - t0
     wet = cfg.replace(normal_cohesion=COHESION_FACTOR * cfg.normal_cohesion,
                       shear_cohesion=COHESION_FACTOR * cfg.shear_cohesion, label="cohesive")
-    dry, wet = sb.run_shear_boxes([cfg.cohesionless(), wet], DEVICE, bed=bed)
+    vtk = tmp_path_factory.mktemp("vtk")
+    dry, wet = sb.run_shear_boxes([cfg.cohesionless(), wet], DEVICE, bed=bed, vtk=(VtkWriter(vtk), 10))
     print(f"\ndeposition {t_bed:.1f} s, shear box {dry.wall_s:.1f} s")
     print(dry.table())
     print(wet.table())
-    return {"dry": dry, "wet": wet, "bed": bed}
+    return {"dry": dry, "wet": wet, "bed": bed, "vtk": vtk}
 
 
 def test_cohesionless_sample_fits_through_the_origin(results: dict) -> None:
@@ -149,3 +152,26 @@ def test_report_keeps_every_curve_and_states_the_fit(results: dict, tmp_path) ->
     c_lab, phi_lab = sb.lab_strength()
     assert f"c = {c_lab:.1f} kPa, phi = {phi_lab:.1f} deg" in text
     assert (tmp_path / "fig_shear_box.png").stat().st_size > 10_000
+
+
+def test_vtk_frames_show_every_sample_while_it_is_sheared(results: dict) -> None:
+    # Reference: the run's own record count and sizes: a frame at the start of shearing and at every 10th record;
+    # every world's sample (the bed in each of the 2 x 3 worlds) and its box (triangles) in the last frame; the lower
+    # half's triangles moved by the shear displacement between the first and the last frame (its velocity is set).
+    import meshio
+
+    dry = results["dry"]
+    n_rec = len(dry.curves[0].displacement)
+    frames = sorted(results["vtk"].glob("spheres_*.vtu"), key=lambda p: int(p.stem.split("_")[1]))
+    assert len(frames) == 1 + n_rec // 10
+    n_worlds = 2 * len(dry.curves)
+    last = meshio.read(frames[-1])
+    per_world = np.bincount(last.point_data["world"].astype(int), minlength=n_worlds)
+    assert len(per_world) == n_worlds and np.all(per_world == per_world[0])  # every world, the same spheres
+    assert per_world[0] >= len(results["bed"].radii)  # the sample (and any sphere of the rig)
+    mesh0 = meshio.read(str(frames[0]).replace("spheres_", "meshes_"))
+    mesh1 = meshio.read(str(frames[-1]).replace("spheres_", "meshes_"))
+    assert len(mesh1.cells_dict["triangle"]) == len(mesh0.cells_dict["triangle"]) > 0
+    moved = np.abs(mesh1.points[:, 0] - mesh0.points[:, 0]).max()
+    shear = dry.config.shear_rate * (int(frames[-1].stem.split("_")[1]) - int(frames[0].stem.split("_")[1])) * dry.dt
+    assert moved == pytest.approx(shear, rel=1e-3)

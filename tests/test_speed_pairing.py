@@ -184,3 +184,21 @@ def test_diagnosis_names_a_rigid_reference_at_another_speed(one_rigid_speed: flo
     # the fitted reference speed: the line through the analytic rigid runs is exact, so only the noise moves it;
     # 0.3 points of noise on 8 reductions with a lever of ~0.5 % per 0.01 m/s: a few mm/s
     assert fit.candidate.values(fit.z_all)["rigid_speed"] == pytest.approx(0.68, abs=0.01)
+
+
+def test_the_speed_sweep_reports_what_this_means_from_its_numbers() -> None:
+    """Reference: hand arithmetic. Line F = 100 + 150 v N with slope SE 20 N s/m: F(0.68) = 202 N, 100 x 15 / 202 =
+    +7.4 % per 0.1 m/s; pairing 0.52 with 0.68 m/s moves a reduction by 100 x 150 x 0.16 / 202 = +11.9 pp, beside
+    laboratory reductions of mean magnitude (4.9 + 5.52) / 2 = 5.2 %. Line F = 100 + 5 v with slope SE 20: within
+    two SEs of zero; shift 100 x 5 x 0.16 / 103.4 = 0.77 pp, under a quarter of 5.2 %; reduced chi^2 3.5 > 2."""
+    from scenes.speed_sweep import SpeedLine, sweep_meaning
+
+    rows = [{"speed": 0.52, "lab_reduction": -5.52}, {"speed": 0.70, "lab_reduction": 4.9}]
+    text = "\n".join(sweep_meaning(SpeedLine(100.0, 150.0, [[1.0, 0.0], [0.0, 400.0]], 1.0), rows))
+    assert "rises with speed: +7.4 % of F(0.68) per 0.1 m/s" in text
+    assert "moves its reduction by +11.9 percentage points" in text and "average 5.2 %" in text
+    assert "the pairing matters beside" in text and "chi^2" not in text
+    text = "\n".join(sweep_meaning(SpeedLine(100.0, 5.0, [[1.0, 0.0], [0.0, 400.0]], 3.5), rows))
+    assert "cannot tell the rigid draught's speed dependence from none" in text
+    assert "by +0.8 percentage points" in text and "matters little" in text
+    assert "reduced chi^2 3.5" in text
