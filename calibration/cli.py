@@ -259,13 +259,16 @@ def _setup(args: argparse.Namespace) -> str:
 
 def run_reproduce(args: argparse.Namespace) -> int:
     if args.workflow == "full":
+        if args.vtk:
+            raise InputError(f"--vtk {args.vtk}: ParaView frames are written by the quick workflow (and by "
+                             "soil-bin, speed-sweep, shear-box, demo), not by --workflow full")
         return run_workflow(args)
     from scenes.reproduce import reproduce
 
     device = _setup(args)
     _claim(args, args.out)
     summary = reproduce(args.out, scale=args.scale, device=device, assembly=args.assembly,
-                        springs=args.springs or (0, 16, 32), seed=args.seed, progress=_bar)
+                        springs=args.springs or (0, 16, 32), seed=args.seed, progress=_bar, vtk_every=args.vtk)
     print(f"results in {args.out} (report.md), wall time {summary['wall_s']:.0f} s on {device}")
     return 0
 
@@ -381,7 +384,8 @@ def run_speed_sweep_cmd(args: argparse.Namespace) -> int:
     cfg = sb.SoilBinConfig(scale=args.scale, assembly=args.assembly, springs=(0,), seed=args.seed)
     _write_config(out, "speed-sweep", device, speeds=args.speeds, scale=args.scale, assembly=args.assembly,
                   seed=args.seed, preset=sb.SCALES[args.scale])
-    res = speed_sweep.main(out, cfg, args.speeds, device=device, progress=lambda d, n: _bar("rigid sweep", d, n))
+    res = speed_sweep.main(out, cfg, args.speeds, device=device, progress=lambda d, n: _bar("rigid sweep", d, n),
+                           vtk_every=args.vtk)
     for r in res["rows"]:
         print(f"rigid at {r['speed']:.2f} m/s: draught {r['draught_mean']:.1f} N (SE {r['draught_sem']:.1f})")
     line = res["line"]
@@ -608,6 +612,9 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--springs", type=_springs, default=None,
                    help="soil-bin configurations, 0 = rigid (quick: default 0,16,32; full: the passive ones, "
                         "default all eight)")
+    r.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
+                   help="quick: write ParaView (VTK) frames of the soil-bin runs into OUT/vtk/<run>/ at every "
+                        "EVERY-th record")
     r.add_argument("--workflow", choices=("quick", "full"), default="quick",
                    help="quick: ringing with the paper's parameters + soil bin with the paper's GA set 11; full: "
                         "ringing and draught calibrations, shear-box screening, Table 3 with replicas (resumable: "
@@ -657,6 +664,8 @@ def main(argv: list[str] | None = None) -> int:
     common(v, "results/speed_sweep")
     v.add_argument("--speeds", type=_speeds, default=(0.45, 0.50, 0.55, 0.60, 0.65, 0.70, 0.75),
                    help="carriage speeds [m/s] (default 0.45,0.50,...,0.75)")
+    v.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
+                   help="write ParaView (VTK) frames of every speed's world into OUT/vtk/ at every EVERY-th record")
     x = sub.add_parser("shear-box", help="direct shear box: Mohr-Coulomb cohesion and friction angle")
     common(x, "results/shear_box", scale=False)
     x.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"), help=SHEAR_SCALE_HELP)

@@ -70,17 +70,26 @@ def plot_soil_bin(study: dict, out: Path) -> list[str]:
         for w, n in enumerate(run.springs):
             series.append((n, run, w))
     label = {0: "rigid"}
-    # Fig. 16: draught and displacement vs travel
+    t3, t7 = paper.table("soil_bin_measured"), paper.table("soil_bin_dem")
+    # Fig. 16: draught and displacement vs travel, the laboratory's and the paper's final DEM's means as references
     fig, ax = plt.subplots(len(series), 1, figsize=(10, 2.6 * len(series)), sharex=True, squeeze=False)
     for a, (n, run, w) in zip(ax[:, 0], series, strict=True):
         a.plot(run.travel[:, w], run.series["draught"][:, w], lw=0.7, label=f"draught, {label.get(n, f'{n} springs')}")
+        a.axvspan(study["steady_travel"], float(run.travel[:, w].max()), color="0.93", zorder=0, label="steady")
+        i = int(np.argmin(np.abs(t3["speed_mean_m_s"] - run.speeds[w]))) if n == 0 else \
+            int(np.nonzero(t3["springs"] == n)[0][0])
+        a.axhline(t3["passive_draught_mean_n" if n else "rigid_draught_mean_n"][i], color="k", ls="--", lw=0.8,
+                  label="laboratory (Table 3)")
+        a.axhline(t7["c_final_mean_n"][t7["springs"] == n][0], color="C3", ls=":", lw=0.8,
+                  label="paper's final DEM (Table 7)")
         a.set_ylabel("draught [N]")
         if n:
             b = a.twinx()
             b.plot(run.travel[:, w], 1e3 * run.series["displacement"][:, w], color="C2", lw=0.7)
+            b.axhline(t3["displacement_mean_mm"][i], color="C2", ls="--", lw=0.8)
             b.set_ylabel("displacement [mm]", color="C2")
-        a.legend(loc="upper left", fontsize=8)
-    ax[-1, 0].set_xlabel("travel [m]")
+        a.legend(loc="upper left", fontsize=7, ncol=4)
+    ax[-1, 0].set_xlabel("travel [m] (shaded: the steady window averaged; dashed: laboratory means)")
     fig.tight_layout()
     fig.savefig(out / "fig16_draught_displacement.png", dpi=110)
     plt.close(fig)
@@ -317,8 +326,9 @@ def write_soil_bin_report(out: Path, config: dict, study: dict, device: str) -> 
 
 def reproduce(out: str | Path, *, scale: str = "cpu", device: str | None = None, assembly: str = "C",
               springs: tuple[int, ...] = (0, 16, 32), seed: int = 0, progress: object | None = None,
-              soil: bool = True) -> dict:
-    """Run the study and write the results folder; returns the summary."""
+              soil: bool = True, vtk_every: int | None = None) -> dict:
+    """Run the study and write the results folder; returns the summary. ``vtk_every``: ParaView frames of the
+    soil-bin runs at every ``vtk_every``-th record, into OUT/vtk/<run>/."""
     t0 = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -338,7 +348,8 @@ def reproduce(out: str | Path, *, scale: str = "cpu", device: str | None = None,
     study, plots = None, []
     if soil:
         study = sb.run_study(sb_cfg, device=device, cache_dir=out / "beds", checkpoint_dir=out / "checkpoints",
-                             progress=progress and (lambda d, n: progress("soil bin", d, n)))
+                             progress=progress and (lambda d, n: progress("soil bin", d, n)), vtk_every=vtk_every,
+                             vtk_dir=out / "vtk")
         arrays = {}
         for name, run in study["runs"].items():
             arrays[f"{name}/time"] = run.time

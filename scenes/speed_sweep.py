@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from warpdem.files import write_atomic, write_text_atomic
+from warpdem.vtk import VtkWriter
 
 from . import paper
 from . import soil_bin as sb
@@ -112,15 +113,16 @@ def inertial_slope(bed: sb.Bed, v: float, width: float = 0.3, depth: float = pap
 
 def run_sweep(config: sb.SoilBinConfig, speeds: tuple[float, ...] = SWEEP_SPEEDS, *, device: str | None = None,
               cache_dir: str | Path | None = None, checkpoint: str | Path | None = None,
-              progress: object | None = None) -> dict[str, object]:
+              progress: object | None = None, vtk: tuple[object, int] | None = None) -> dict[str, object]:
     """The rigid tool at every speed of ``speeds`` [m/s] as worlds of one simulation on ``config``'s bed. Returns
-    the bed, the run, its steady rows (one per speed), the fitted line and the re-paired Table 7 rows."""
+    the bed, the run, its steady rows (one per speed), the fitted line and the re-paired Table 7 rows. ``vtk``: see
+    :func:`scenes.soil_bin.run_soil_bin`."""
     speeds = tuple(float(v) for v in speeds)
     if len(speeds) < 3 or not all(math.isfinite(v) and v > 0 for v in speeds) or len(set(speeds)) != len(speeds):
         raise ValueError(f"speeds: at least 3 distinct positive speeds [m/s], got {list(speeds)}")
     bed = sb.bed_for(config, device=device, cache_dir=cache_dir)
     run = sb.run_soil_bin(config, [0] * len(speeds), bed=bed, device=device, speeds=list(speeds), progress=progress,
-                          checkpoint=checkpoint)
+                          checkpoint=checkpoint, vtk=vtk)
     rows = run.steady
     line = fit_line(np.array(speeds), np.array([r["draught_mean"] for r in rows]),
                     np.array([r["draught_sem"] for r in rows]))
@@ -269,16 +271,19 @@ def write(result: dict[str, object], out: Path, config: sb.SoilBinConfig, device
 
 
 def main(out: str | Path, config: sb.SoilBinConfig, speeds: tuple[float, ...] = SWEEP_SPEEDS, *,
-         device: str = "cpu", progress: object | None = None) -> dict[str, object]:
+         device: str = "cpu", progress: object | None = None, vtk_every: int | None = None) -> dict[str, object]:
     """Run the sweep into ``out`` (bed cache OUT/beds, checkpoint OUT/checkpoints/rigid_speed, removed when done)
-    and write its files; returns the result of :func:`run_sweep`."""
+    and write its files; returns the result of :func:`run_sweep`. ``vtk_every``: ParaView frames of every world at
+    every ``vtk_every``-th record, into OUT/vtk/."""
     import shutil
 
     t0 = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     ck = out / "checkpoints" / "rigid_speed"
-    result = run_sweep(config, speeds, device=device, cache_dir=out / "beds", checkpoint=ck, progress=progress)
+    vtk = (VtkWriter(out / "vtk"), vtk_every) if vtk_every else None
+    result = run_sweep(config, speeds, device=device, cache_dir=out / "beds", checkpoint=ck, progress=progress,
+                       vtk=vtk)
     write(result, out, config, device, time.perf_counter() - t0)
     shutil.rmtree(ck, ignore_errors=True)
     return result

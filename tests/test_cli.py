@@ -108,6 +108,7 @@ BAD = [
     ("reproduce --workflow full --replicas-min 0", "argument --replicas-min: must be >= 1"),
     ("reproduce --workflow full --target-sem -1", "argument --target-sem: must be > 0"),
     ("reproduce --workflow full --settle-time -0.1", "argument --settle-time: must be >= 0 s"),
+    ("speed-sweep --vtk 0", "argument --vtk: must be >= 1"),
     ("calibrate draught --population 1", "argument --population: must be >= 2"),
     ("calibrate draught --speed 0", "argument --speed: must be > 0 m/s"),
     ("calibrate ringing --springs 17", "argument --springs: invalid choice: 17"),
@@ -331,3 +332,28 @@ def test_a_killed_soil_bin_command_resumes_to_the_same_result(tmp_path, monkeypa
     assert len(runs()) == 1 and runs()[0] > 0.4  # the passive run went on; the finished rigid run was read back
     assert json.loads((out / "summary.json").read_text()) == json.loads((whole / "summary.json").read_text())
     assert not (out / "checkpoints").exists()
+
+
+def test_switches_work_after_the_command_too(tmp_path) -> None:
+    """`--quiet` after the command's name silences the progress bars as it does before it (stderr empty), and
+    `--debug` there keeps its meaning (a bad value still ends with one line and exit code 2)."""
+    out = tmp_path / "r"
+    r = _run("ringing", "--springs", "4", "--spring-model", "linear", "--device", "cpu", "--quiet", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    assert r.stderr.strip() == ""
+    loud = _run("ringing", "--springs", "4", "--spring-model", "linear", "--device", "cpu", "--out",
+                str(tmp_path / "loud"))
+    assert loud.returncode == 0 and "%" in loud.stderr  # without it, a progress bar
+    bad = _run("demo", "--debug", "--particles", "0")
+    assert bad.returncode == 2 and bad.stderr.strip().splitlines() == [
+        "warpdem demo: error: argument --particles: must be >= 1, got '0'"]
+
+
+def test_vtk_with_the_full_workflow_is_refused(capsys) -> None:
+    """The full workflow writes no ParaView frames: asking for them is an error (exit 2, one line), not ignored."""
+    from calibration.cli import main
+
+    assert main(["reproduce", "--workflow", "full", "--vtk", "5", "--out", "unused"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["warpdem reproduce: error: --vtk 5: ParaView frames are written by the quick workflow (and by "
+                   "soil-bin, speed-sweep, shear-box, demo), not by --workflow full"]
