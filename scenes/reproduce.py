@@ -280,9 +280,11 @@ def soil_bin_meaning(rows: list[dict], t3: dict) -> list[str]:
         if same.any():
             ratios.append(r["draught_mean"] / float(np.mean(t3["rigid_draught_mean_n"][same])))
     if ratios:
-        out.append(f"- The rigid draught is {100 * min(ratios):.0f}-{100 * max(ratios):.0f} % of the laboratory's at "
-                   "the same speeds: below 100 % the simulated soil is weaker than the bin's (the draught "
-                   "calibration, `warpdem calibrate draught`, fits its strength).")
+        lo, hi = f"{100 * min(ratios):.0f}", f"{100 * max(ratios):.0f}"
+        verdict = ("the simulated soil is weaker than the bin's" if max(ratios) < 1 else
+                   "the simulated soil is stronger than the bin's" if min(ratios) > 1 else "about the bin's strength")
+        out.append(f"- The rigid draught is {lo if lo == hi else lo + '-' + hi} % of the laboratory's at the same "
+                   f"speeds: {verdict} (the draught calibration, `warpdem calibrate draught`, fits its strength).")
     passive = [r for r in rows if r["springs"] and r["reduction_pct"] is not None
                and math.isfinite(r["reduction_pct"])]
     if passive:
