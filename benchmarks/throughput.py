@@ -73,7 +73,7 @@ def run_warpdem(n: int, device: str, steps: int, warmup: int) -> dict:
     b.add_spheres(pos, rad, "soil")
     sim, setup, wall = timed_run(b, device, steps, warmup)
     model = sim.model
-    counts = sim.ss.count.numpy()
+    counts = sim.data.ss.count.numpy()
     contacts = int(wd.observers.contact_count(sim).sum()) if n <= 100_000 else int(counts.sum())
     return {"engine": "warpdem", "device": str(model.device), "spheres": len(pos), "steps": steps,
             "wall_s": wall, "particle_steps_per_s": len(pos) * steps / wall, "setup_s": setup,

@@ -85,7 +85,7 @@ def run_demo(args: argparse.Namespace) -> int:
     steps = int(args.deposit_time / dt)
     dep = sim.run(steps, record_every=max(steps // 50, 1), observers={"kinetic_energy": wd.observers.kinetic_energy},
                   progress=_progress("deposition"))
-    z = sim.sphere_pos.numpy()[:, 2]
+    z = sim.data.sphere_pos.numpy()[:, 2]
     r = model.host["sphere_radius"]
     top = float(np.percentile(z + r, 95))
     solid = float(np.sum(4 / 3 * np.pi * r**3))

@@ -66,7 +66,7 @@ def deposit(device: str, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     model, state = b.finalize(device)
     sim = wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model))
     sim.advance(int(0.25 / sim.dt))                                           # 0.25 s of settling
-    return sim.sphere_pos.numpy(), model.host["sphere_radius"]
+    return sim.data.sphere_pos.numpy(), model.host["sphere_radius"]
 
 
 def cutting_scene(device: str, centres: np.ndarray, radii: np.ndarray, angles: list[float]

@@ -251,7 +251,7 @@ def deposit(spec: AssemblySpec, bin_size: tuple[float, float, float], depth: flo
             if steps * dt > 0.1 and ke / n_particles < ke_per_particle:
                 break
         centres = np.empty_like(bed.centres)
-        centres[order] = sim.sphere_pos.numpy()
+        centres[order] = sim.data.sphere_pos.numpy()
         if phase == "fill":
             centre_z = np.bincount(bed.particle, weights=centres[:, 2]) / np.bincount(bed.particle)
             keep = centre_z <= depth

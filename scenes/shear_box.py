@@ -491,7 +491,7 @@ class _Probe:
         acc = {k: np.zeros((len(i), 3)) for k, i in self.mesh_idx.items()}
         for _ in range(n):
             self.sim.advance(1)
-            f = self.sim.mesh_force.numpy()
+            f = self.sim.data.mesh_force.numpy()
             for k, i in self.mesh_idx.items():
                 acc[k] += f[i]
         return {k: v / n for k, v in acc.items()}

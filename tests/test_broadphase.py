@@ -21,7 +21,7 @@ def build(positions: np.ndarray, radii: np.ndarray, n_worlds: int = 1, mesh: tup
 
 
 def ss_pairs(sim: wd.Simulation) -> set[tuple[int, int]]:
-    ss = sim.ss.numpy()
+    ss = sim.data.ss.numpy()
     return {(i, int(ss["key_a"][k])) for i in range(len(ss["start"]))
             for k in range(ss["start"][i], ss["start"][i] + ss["count"][i])}
 
@@ -36,7 +36,7 @@ def test_sphere_sphere_candidates_equal_brute_force(offset: tuple[float, float, 
     pos = rng.uniform(-0.05, 0.05, (n, 3)) + np.asarray(offset)
     rad = rng.uniform(0.0025, 0.01, n)
     sim, model = build(pos, rad, n_worlds=2)
-    x = sim.sphere_pos.numpy()
+    x = sim.data.sphere_pos.numpy()
     r = model.host["sphere_radius"]
     world = model.host["sphere_world"]
     d = np.linalg.norm(x[:, None, :] - x[None, :, :], axis=2) - r[:, None] - r[None, :]
@@ -60,7 +60,7 @@ def test_sphere_triangle_candidates_equal_brute_force() -> None:
     pos = centre + rng.normal(0, 1, (n, 3)) * 0.05 / np.sqrt(3) * rng.uniform(0.6, 1.4, (n, 1))
     rad = rng.uniform(0.003, 0.008, n)
     sim, model = build(pos, rad, mesh=(verts, faces))
-    st = sim.st.numpy()
+    st = sim.data.st.numpy()
     found = {(i, int(st["key_b"][k])) for i in range(n) for k in range(st["start"][i], st["start"][i] + st["count"][i])}
     tri = verts[faces]
     gap = point_triangle_distance(pos[:, None], tri[None, :, 0], tri[None, :, 1], tri[None, :, 2]) - rad[:, None]
@@ -84,7 +84,7 @@ def test_rebuild_keeps_lists_exact_while_moving() -> None:
     sim = wd.Simulation(model, state, dt=2e-4)
     for _ in range(6):
         sim.advance(15)
-        x = sim.sphere_pos.numpy()
+        x = sim.data.sphere_pos.numpy()
         d = np.linalg.norm(x[:, None] - x[None], axis=2) - rad[:, None] - rad[None, :]
         i, j = np.nonzero(np.triu(d < 0, 1))
         assert {(a, b) for a, b in zip(i.tolist(), j.tolist(), strict=True)} <= ss_pairs(sim)
@@ -111,10 +111,10 @@ def test_mesh_in_body_frame_follows_rotation() -> None:
     local = model.host["mesh_vertices_local"][0]
     verts = local @ quat_to_matrix(q).T + x0
     tri = verts[model.host["mesh_faces"][0]]
-    st = sim.st.numpy()
+    st = sim.data.st.numpy()
     found = {(i, int(st["key_b"][k])) for i in range(300)
              for k in range(st["start"][i], st["start"][i] + st["count"][i])}
-    x = sim.sphere_pos.numpy()
+    x = sim.data.sphere_pos.numpy()
     # the lists are from the last rebuild; every pair in contact now must be listed
     gap = point_triangle_distance(x[:, None], tri[None, :, 0], tri[None, :, 1], tri[None, :, 2]) - 0.01
     touching = {(i, f) for i, f in zip(*np.nonzero(gap < 0), strict=True)}

@@ -36,7 +36,7 @@ def test_two_sphere_normal_impact() -> None:
     forces = []
     for _ in range(1000):
         sim.step()
-        forces.append(sim.body_force.numpy()[1, 0])
+        forces.append(sim.data.body_force.numpy()[1, 0])
     forces = np.asarray(forces)
     t_c = np.pi * np.sqrt(0.5 * MASS / (E * R))
     duration = np.count_nonzero(forces > 0) * dt
@@ -120,7 +120,7 @@ def pulled_pair(fragile: bool, steps: int) -> tuple[np.ndarray, np.ndarray]:
         gap = state.body_pos.numpy()[1, 0] - state.body_pos.numpy()[0, 0]
         sim.step()
         un.append(2 * R - gap)
-        fn.append(-sim.body_force.numpy()[0, 0])  # force on sphere 1 is -Fn n
+        fn.append(-sim.data.body_force.numpy()[0, 0])  # force on sphere 1 is -Fn n
     return np.asarray(un), np.asarray(fn)
 
 
@@ -162,7 +162,7 @@ def test_rolling_resistance_threshold() -> None:
     moments = []
     for _ in range(3000):
         sim.step()
-        moments.append(sim.ss.hist.numpy()[0]["mb"][2])
+        moments.append(sim.data.ss.hist.numpy()[0]["mb"][2])
     moments = np.asarray(moments)
     steps = np.arange(1, len(moments) + 1)
     elastic = kr * w * dt * steps < 0.9 * m_cap
@@ -171,7 +171,7 @@ def test_rolling_resistance_threshold() -> None:
     # Yade applies the moment law to non-cohesive contacts only with always_use_moment_law
     b2 = wd.Simulation(*b.finalize(DEVICE), dt=dt)
     b2.advance(100)
-    assert np.all(b2.ss.hist.numpy()[0]["mb"] == 0.0)
+    assert np.all(b2.data.ss.hist.numpy()[0]["mb"] == 0.0)
 
 
 def test_clump_inertia_matches_trimesh() -> None:

@@ -104,7 +104,7 @@ def test_sphere_rolling_across_mesh_diagonal_has_no_force_jump() -> None:
     fz = []
     for _ in range(4000):  # 4 cm: crosses the diagonal y = x at x = 0
         sim.step()
-        fz.append(sim.body_force.numpy()[1, 2])
+        fz.append(sim.data.body_force.numpy()[1, 2])
     fz = np.asarray(fz)
     assert np.abs(fz / (mass * 9.81) - 1).max() < 1e-3
     assert state.body_pos.numpy()[1, 0] > 0.01
@@ -131,7 +131,7 @@ def test_mesh_plane_rebound_independent_of_tessellation() -> None:
         fmax = 0.0
         for _ in range(1500):
             sim.step()
-            fmax = max(fmax, float(sim.body_force.numpy()[1, 2]))
+            fmax = max(fmax, float(sim.data.body_force.numpy()[1, 2]))
         results.append((fmax, state.body_vel.numpy()[1].copy()))
     assert results[1][0] == pytest.approx(results[0][0], rel=1e-4)
     np.testing.assert_allclose(results[1][1], results[0][1], rtol=0, atol=1e-4 * 0.5)

@@ -108,7 +108,7 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> dict:
     hide = RerunViewer(sim, world=WORLD, speed_range=SPEED_RANGE, hide_outside_range=True, save_path=paths["hide"])
     with RerunViewer(sim, world=WORLD, speed_range=SPEED_RANGE, max_points=5, save_path=paths["sub"]) as sub:
         series = sim.run(STEPS, record_every=EVERY, observers={
-            "pos": lambda s: s.sphere_pos.numpy()[s0:s0 + m.spheres_per_world].copy(),
+            "pos": lambda s: s.data.sphere_pos.numpy()[s0:s0 + m.spheres_per_world].copy(),
             "body_pos": lambda s: s.state.body_pos.numpy()[blade].copy(),
             "body_quat": lambda s: s.state.body_quat.numpy()[blade].copy(),
             "ke": observers.kinetic_energy,
@@ -246,7 +246,7 @@ def test_log_frame_direct_and_speed_colors(tmp_path: object) -> None:
     with RerunViewer(sim, world=0, speed_range=(0.0, 2.0), colormap="gray", save_path=path) as v:
         stats = v.log_frame(sim, {"draught_n": 12.5, "force": [1.0, -2.0, 3.0]})
         v.as_observer({"per_world": lambda s: [4.0, 5.0]}, select_worlds=False)(sim2)
-        pos2 = sim2.sphere_pos.numpy()[: len(inputs["pos"])].copy()
+        pos2 = sim2.data.sphere_pos.numpy()[: len(inputs["pos"])].copy()
     _, frames = read_rrd(path)
     # reference: the values passed to log_frame, at step 0
     assert frames["/plots/draught_n"][0]["Scalars:scalars"] == [12.5]

@@ -37,9 +37,9 @@ def test_frames_hold_the_spheres_and_the_meshes_in_their_current_pose(tmp_path) 
     # the run went on to step 300: compare the step-200 frame with a second run stopped at 200
     sim2, _, _ = _scene()
     sim2.advance(200)
-    np.testing.assert_array_equal(s.points, sim2.sphere_pos.numpy())
+    np.testing.assert_array_equal(s.points, sim2.data.sphere_pos.numpy())
     np.testing.assert_array_equal(s.point_data["radius"], sim2.model.host["sphere_radius"])
-    np.testing.assert_allclose(s.point_data["velocity"], sim2.sphere_vel.numpy(), rtol=0, atol=0)
+    np.testing.assert_allclose(s.point_data["velocity"], sim2.data.sphere_vel.numpy(), rtol=0, atol=0)
     assert list(s.point_data["world"]) == [0] * 6 + [1] * 6
     mesh = meshio.read(tmp_path / "vtk" / "meshes_000000200.vtu")
     t = 200 * DT
@@ -73,7 +73,7 @@ def test_a_writer_on_a_folder_with_frames_continues_its_index_and_one_world_can_
     import meshio
 
     s = meshio.read(tmp_path / "w1" / "spheres_000000050.vtu")
-    np.testing.assert_array_equal(s.points, sim.sphere_pos.numpy()[6:])
+    np.testing.assert_array_equal(s.points, sim.data.sphere_pos.numpy()[6:])
     with pytest.raises(wd.InputError, match="world must be in"):
         VtkWriter(tmp_path / "w5", world=5).write(sim)
     with pytest.raises(wd.InputError, match="every must be an integer >= 1"):

@@ -42,7 +42,7 @@ def test_world_in_batch_equals_solo_run() -> None:
     solo.advance(1500)
     nb = model.bodies_per_world
     np.testing.assert_array_equal(state.body_pos.numpy()[2 * nb : 3 * nb], state1.body_pos.numpy())
-    np.testing.assert_array_equal(batch.body_force.numpy()[2 * nb : 3 * nb], solo.body_force.numpy())
+    np.testing.assert_array_equal(batch.data.body_force.numpy()[2 * nb : 3 * nb], solo.data.body_force.numpy())
     # and the worlds really differ (the parameters reached the kernels)
     assert not np.allclose(state.body_pos.numpy()[:nb], state.body_pos.numpy()[nb : 2 * nb])
 
@@ -58,7 +58,7 @@ def test_same_packing_at_origin_and_2m_gives_same_forces() -> None:
         sim = wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True)
         sim.advance(4000)
         assert wd.observers.contact_count(sim).sum() > 5
-        results.append((sim.body_force.numpy().astype(np.float64), state.body_pos.numpy() - offset))
+        results.append((sim.data.body_force.numpy().astype(np.float64), state.body_pos.numpy() - offset))
     f0, f1 = results[0][0], results[1][0]
     scale = np.abs(f0).max()
     assert scale > 0

@@ -183,7 +183,7 @@ def _pair_run(prefix: str, unp_max: float | None = None, stop_at_break: bool = F
     while s < n_steps:
         sim.step()
         s += 1
-        e = _entry(sim.ss, 0, 1)
+        e = _entry(sim.data.ss, 0, 1)
         active = e is not None and (e["flags"] & 1) != 0
         if active:
             seen = True
@@ -194,7 +194,7 @@ def _pair_run(prefix: str, unp_max: float | None = None, stop_at_break: bool = F
             if stop_at_break:
                 break
         if s in rec_index:
-            f, t = sim.body_force.numpy().astype(np.float64), sim.body_torque.numpy().astype(np.float64)
+            f, t = sim.data.body_force.numpy().astype(np.float64), sim.data.body_torque.numpy().astype(np.float64)
             out["f0"].append(f[0])
             out["f1"].append(f[1])
             out["t0"].append(t[0])
@@ -438,10 +438,10 @@ def _slide_run(prefix: str) -> dict:
             s += 1
         out["pos"].append(state.body_pos.numpy()[sid].copy())
         out["vel"].append(state.body_vel.numpy()[sid].copy())
-        out["force"].append(sim.body_force.numpy()[sid].astype(np.float64))
+        out["force"].append(sim.data.body_force.numpy()[sid].astype(np.float64))
         ex = []
         for j in range(len(d["facet_vertices"])):
-            e = _entry(sim.st, 0, j)
+            e = _entry(sim.data.st, 0, j)
             ex.append(e is not None and (e["flags"] & 1) != 0)
         out["exists"].append(ex)
         if "table" not in out and any(ex):
@@ -557,11 +557,11 @@ def test_clump_mass_and_inertia() -> None:
     np.testing.assert_allclose(
         world_i, rot_y @ np.diag(d["clump_inertia"]) @ rot_y.T, rtol=0, atol=1e-9 * d["clump_inertia"].max()
     )
-    off_w = sim.sphere_arm.numpy().astype(np.float64)  # member offsets R p_i in the world frame
+    off_w = sim.data.sphere_arm.numpy().astype(np.float64)  # member offsets R p_i in the world frame
     off_y = d["member_local_pos"] @ rot_y.T
     tol = 2 * _ulp32(np.abs(off_y).max())
     np.testing.assert_allclose(off_w, off_y, rtol=0, atol=tol)
-    np.testing.assert_allclose(sim.sphere_pos.numpy(), d["member_pos0"], rtol=0, atol=tol)
+    np.testing.assert_allclose(sim.data.sphere_pos.numpy(), d["member_pos0"], rtol=0, atol=tol)
     np.testing.assert_allclose(
         state["body_angmom"][cid], d["clump_angmom0"], rtol=1e-12, atol=1e-12 * np.abs(d["clump_angmom0"]).max()
     )
@@ -580,7 +580,7 @@ def _clump_run(prefix: str) -> dict:
         st = sim.state.numpy()
         for k, key in (("pos", "body_pos"), ("vel", "body_vel"), ("angvel", "body_angvel"), ("angmom", "body_angmom")):
             out[k].append(st[key][cid].copy())
-        out["member_pos"].append(sim.sphere_pos.numpy().copy())
+        out["member_pos"].append(sim.data.sphere_pos.numpy().copy())
         out["n_contacts"].append(int(obs.contact_count(sim)[0].sum()))
         out["ke"].append(float(obs.kinetic_energy(sim)[0]))
     return {k: np.asarray(v) for k, v in out.items()}
@@ -751,7 +751,7 @@ def _packing_run(jitter: float = 0.0, seed: int = 0) -> dict:
         cc = obs.contact_count(sim)[0]
         out["n_ss"].append(int(cc[0]))
         out["n_sf"].append(int(cc[1]))
-        ss = sim.ss.numpy()
+        ss = sim.data.ss.numpy()
         rows = [np.arange(a, a + c) for a, c in zip(ss["start"], ss["count"], strict=True)]
         idx = np.concatenate(rows).astype(np.int64)
         out["n_coh"].append(int(((ss["hist"]["flags"][idx] & 3) == 3).sum()))  # active and cohesive
@@ -759,7 +759,7 @@ def _packing_run(jitter: float = 0.0, seed: int = 0) -> dict:
         out["ke"].append(float(obs.kinetic_energy(sim)[0]))
         # floor facets lie in z = 0 with normal +z: the sum of their contacts' normal forces is -F_z on them (edge
         # contacts on the floor are tilted by < 0.05 rad, cos > 0.999; shear forces are horizontal)
-        out["floor"].append(-float(sim.mesh_force.numpy()[floor, 2].sum()))
+        out["floor"].append(-float(sim.data.mesh_force.numpy()[floor, 2].sum()))
     return {k: np.asarray(v) for k, v in out.items()}
 
 

@@ -45,11 +45,11 @@ def save(sim: object, path: str | os.PathLike) -> None:
     data["step"] = np.array(sim.state.step)
     data["dt"] = np.array(sim.dt)
     for k in _SIM_ARRAYS:
-        data["sim/" + k] = getattr(sim, k).numpy()
+        data["sim/" + k] = getattr(sim.data, k).numpy()
     for k in _MODEL_ARRAYS:
         data["model/" + k] = getattr(sim.model, k).numpy()
     for name in ("ss", "st"):
-        lst = getattr(sim, name)
+        lst = getattr(sim.data, name)
         data[f"{name}/capacity"] = np.array(lst.capacity)
         for k, v in lst.numpy().items():
             data[f"{name}/{k}"] = v
@@ -107,7 +107,7 @@ def _check(sim: object, data: dict[str, np.ndarray], where: str) -> None:
         if got.dtype.kind == "f" and not np.all(np.isfinite(got)):
             raise InputError(f"{where}: field 'state/{k}' holds NaN or inf")
     for k in _SIM_ARRAYS:
-        expect("sim/" + k, _host_shape(getattr(sim, k)))
+        expect("sim/" + k, _host_shape(getattr(sim.data, k)))
     for k in _MODEL_ARRAYS:
         expect("model/" + k, _host_shape(getattr(sim.model, k)))
     m = sim.model
@@ -155,11 +155,11 @@ def load(sim: object, path: str | os.PathLike) -> None:
     sim.state.time = float(data["time"])
     sim.state.step = int(data["step"])
     for k in _SIM_ARRAYS:
-        getattr(sim, k).assign(data["sim/" + k])
+        getattr(sim.data, k).assign(data["sim/" + k])
     for k in _MODEL_ARRAYS:
         getattr(sim.model, k).assign(data["model/" + k])
     for name in ("ss", "st"):
-        lst, scratch = getattr(sim, name), getattr(sim, name + "_new")
+        lst, scratch = getattr(sim.data, name), getattr(sim.data, name + "_new")
         cap = int(data[f"{name}/capacity"])
         if cap != lst.capacity:
             lst.grow(cap)

@@ -26,7 +26,7 @@ from .model import ALL_DOFS
 
 wp.set_module_options({"enable_backward": False})
 
-#: names of the accumulated dissipation terms, in the order of Simulation.energy's slots
+#: names of the accumulated dissipation terms, in the order of Simulation.data.energy's slots
 ENERGY_TERMS = {"damping": E_DAMPING, "sliding": E_SLIDING, "rolling": E_ROLLING, "spring_damper": E_SPRING_DAMPER}
 
 
@@ -117,7 +117,7 @@ def spring_elastic_energy(sim: object) -> np.ndarray:
     m = sim.model
     if m.n_springs == 0:
         return np.zeros(m.n_worlds)
-    f = sim.spring_force.numpy().astype(np.float64)
+    f = sim.data.spring_force.numpy().astype(np.float64)
     k = m.spring_stiffness.numpy().astype(np.float64)
     k3 = m.spring_progressive.numpy().astype(np.float64)
     p = m.spring_preload.numpy().astype(np.float64)
@@ -140,16 +140,16 @@ def contact_elastic_energy(sim: object) -> np.ndarray:
     if m.n_spheres:
         wp.launch(
             sphere_sphere_elastic_kernel, m.n_spheres,
-            inputs=[m.sphere_world, m.sphere_material, m.sphere_radius, sim.materials, sim.sphere_pos,
-                    sim.ss.start, sim.ss.count, sim.ss.key_a, sim.ss.hist],
+            inputs=[m.sphere_world, m.sphere_material, m.sphere_radius, sim.materials, sim.data.sphere_pos,
+                    sim.data.ss.start, sim.data.ss.count, sim.data.ss.key_a, sim.data.ss.hist],
             outputs=[out], device=m.device,
         )
     if m.n_spheres and m.n_meshes:
         wp.launch(
             sphere_triangle_elastic_kernel, m.n_spheres,
             inputs=[m.sphere_world, m.sphere_material, m.sphere_radius, m.mesh_body, m.mesh_material,
-                    m.mesh_tri_offset, m.tri_vertices, sim.materials, sim.sphere_pos, s.body_pos, s.body_quat,
-                    sim.st.start, sim.st.count, sim.st.key_a, sim.st.key_b, sim.st.hist],
+                    m.mesh_tri_offset, m.tri_vertices, sim.materials, sim.data.sphere_pos, s.body_pos, s.body_quat,
+                    sim.data.st.start, sim.data.st.count, sim.data.st.key_a, sim.data.st.key_b, sim.data.st.hist],
             outputs=[out], device=m.device,
         )
     return out.numpy()
@@ -157,7 +157,7 @@ def contact_elastic_energy(sim: object) -> np.ndarray:
 
 def dissipated_energy(sim: object) -> dict[str, np.ndarray]:
     """Energy dissipated since the start per world [J], by term (needs ``track_energy=True``)."""
-    e = sim.energy.numpy().reshape(sim.model.n_worlds, -1)
+    e = sim.data.energy.numpy().reshape(sim.model.n_worlds, -1)
     return {name: e[:, slot].copy() for name, slot in ENERGY_TERMS.items()}
 
 
@@ -166,7 +166,7 @@ def driven_work(sim: object) -> np.ndarray:
     ``track_energy=True``): kinematic bodies (against contact and spring forces), imposed velocities of blocked
     degrees of freedom, and carried pivots of hinged bodies (the pivot reaction times the carriage velocity).
     A velocity changed from the host (``Simulation.set_body_velocity``) is outside it."""
-    return sim.energy.numpy().reshape(sim.model.n_worlds, -1)[:, E_DRIVEN].copy()
+    return sim.data.energy.numpy().reshape(sim.model.n_worlds, -1)[:, E_DRIVEN].copy()
 
 
 def energy_balance(sim: object) -> dict[str, np.ndarray]:
@@ -195,7 +195,7 @@ def contact_table(sim: object) -> dict[str, np.ndarray]:
     """Active contacts on the host: body1/body2 (body indices), world, normal (k, 3), radius1/radius2 [m],
     kn/ks [N/m], kr/ktw [N m/rad], kind (0 sphere-sphere, 1 sphere-triangle), sphere indices, shear force [N]."""
     m = sim.model
-    ss = sim.ss.numpy()
+    ss = sim.data.ss.numpy()
     rad = m.host["sphere_radius"]
     rows = {k: [] for k in ("body1", "body2", "world", "normal", "radius1", "radius2", "kind", "sphere", "fs",
                             "material1", "material2")}
@@ -216,7 +216,7 @@ def contact_table(sim: object) -> dict[str, np.ndarray]:
     rows["material1"].append(m.host["sphere_material"][i])
     rows["material2"].append(m.host["sphere_material"][j])
     if m.n_meshes:
-        st = sim.st.numpy()
+        st = sim.data.st.numpy()
         owner = np.repeat(np.arange(m.n_spheres), st["count"])
         idx = _csr_entries(st["start"], st["count"])
         h = st["hist"][idx]
@@ -302,8 +302,8 @@ def _count_active(sim: object, pairs: object, group: int) -> np.ndarray:
 
 def contact_count(sim: object) -> np.ndarray:
     """Number of active contacts per world, shape (n_worlds, 2): [sphere-sphere, sphere-triangle]."""
-    ss = _count_active(sim, sim.ss, -1)
-    st = _count_active(sim, sim.st, -1) if sim.model.n_meshes else np.zeros_like(ss)
+    ss = _count_active(sim, sim.data.ss, -1)
+    st = _count_active(sim, sim.data.st, -1) if sim.model.n_meshes else np.zeros_like(ss)
     return np.stack([ss, st], axis=1)
 
 
@@ -318,7 +318,7 @@ def coordination_number(group: str | None = None) -> Callable[[object], np.ndarr
         g = m.group_index(group) if group is not None else -1
         members = groups == g if group is not None else np.isin(np.arange(m.n_bodies), m.host["sphere_body"])
         n_bodies = np.bincount(m.host["body_world"][members], minlength=m.n_worlds)
-        return 2.0 * _count_active(sim, sim.ss, g) / np.maximum(n_bodies, 1)
+        return 2.0 * _count_active(sim, sim.data.ss, g) / np.maximum(n_bodies, 1)
 
     return f
 
@@ -330,7 +330,7 @@ def mesh_wrench(mesh: str, world: int | None = None) -> Callable[[object], np.nd
     def f(sim: object) -> np.ndarray:
         m = sim.model
         idx = np.arange(m.n_worlds) * m.meshes_per_world + m.names["mesh"][mesh]
-        out = np.stack([sim.mesh_force.numpy()[idx], sim.mesh_torque.numpy()[idx]], axis=1).astype(np.float64)
+        out = np.stack([sim.data.mesh_force.numpy()[idx], sim.data.mesh_torque.numpy()[idx]], axis=1).astype(np.float64)
         return out if world is None else out[world]
 
     return f
@@ -343,7 +343,7 @@ def spring_force(name: str) -> Callable[[object], np.ndarray]:
     def f(sim: object) -> np.ndarray:
         m = sim.model
         idx = np.arange(m.n_worlds) * m.springs_per_world + m.names["spring"][name]
-        return sim.spring_force.numpy()[idx].astype(np.float64)
+        return sim.data.spring_force.numpy()[idx].astype(np.float64)
 
     return f
 

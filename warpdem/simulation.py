@@ -20,12 +20,12 @@ import warp as wp
 from . import accumulate
 from . import broadphase as bp
 from .contacts import (
-    N_ENERGY,
     LawOptions,
     Materials,
     sphere_sphere_kernel,
     sphere_triangle_kernel,
 )
+from .data import NO_FAULT, Data
 from .errors import InputError, SimulationError, check_finite, check_positive
 from .integrator import integrate_bodies_kernel, spring_kernel, update_spheres_kernel
 from .model import FLAG_PIVOT, Model, State
@@ -34,7 +34,6 @@ from .timestep import critical_timestep
 wp.set_module_options({"enable_backward": False})
 
 FAULT_NAMES = {1: "nan", 2: "speed", 3: "escaped"}
-_NO_FAULT = 2**31 - 1
 
 
 @wp.kernel
@@ -155,46 +154,8 @@ class Simulation:
         self.graph_steps = int(graph_steps)
         self._capacity_factor = float(capacity_factor)
         dev = self.device
-        ns, nb, nm = model.n_spheres, model.n_bodies, model.n_meshes
-
-        # per-step work arrays
-        self.sphere_pos = wp.zeros(ns, dtype=wp.vec3d, device=dev)
-        self.sphere_vel = wp.zeros(ns, dtype=wp.vec3f, device=dev)
-        self.sphere_angvel = wp.zeros(ns, dtype=wp.vec3f, device=dev)
-        self.sphere_arm = wp.zeros(ns, dtype=wp.vec3f, device=dev)
-        self.body_force = wp.zeros(nb, dtype=wp.vec3f, device=dev)
-        self.body_torque = wp.zeros(nb, dtype=wp.vec3f, device=dev)
-        self.mesh_force = wp.zeros(max(nm, 1), dtype=wp.vec3f, device=dev)
-        self.mesh_torque = wp.zeros(max(nm, 1), dtype=wp.vec3f, device=dev)
-        # the sums behind them: fixed-point, so that they do not depend on the order of the threads (accumulate.py)
-        res_f, res_t = accumulate.resolutions(model.body_mass.numpy(), model.body_inertia.numpy(),
-                                              model.body_world.numpy(), model.n_worlds)
-        mesh_body = model.mesh_body.numpy() if nm else np.zeros(1, dtype=np.int64)
-        self._force_scale = wp.array(1.0 / res_f, dtype=wp.float64, device=dev)
-        self._torque_scale = wp.array(1.0 / res_t, dtype=wp.float64, device=dev)
-        self._mesh_force_scale = wp.array(1.0 / res_f[mesh_body] if nb else np.ones(1), dtype=wp.float64,
-                                          device=dev)
-        self._mesh_torque_scale = wp.array(1.0 / res_t[mesh_body] if nb else np.ones(1), dtype=wp.float64,
-                                           device=dev)
-        self._force_acc = wp.zeros(nb, dtype=accumulate.vec3l, device=dev)
-        self._torque_acc = wp.zeros(nb, dtype=accumulate.vec3l, device=dev)
-        self._mesh_force_acc = wp.zeros(max(nm, 1), dtype=accumulate.vec3l, device=dev)
-        self._mesh_torque_acc = wp.zeros(max(nm, 1), dtype=accumulate.vec3l, device=dev)
-        self.spring_force = wp.zeros(max(model.n_springs, 1), dtype=float, device=dev)
-        self.energy = wp.zeros(model.n_worlds * N_ENERGY, dtype=wp.float64, device=dev)
-        self.cohesion_now = wp.zeros(1, dtype=int, device=dev)
-        self.counters = wp.zeros(2, dtype=int, device=dev)  # steps, rebuilds (device side)
-        self.fault = wp.array([_NO_FAULT, 0, 0], dtype=int, device=dev)
-        self.list_stats = wp.zeros(4, dtype=int, device=dev)  # ss total, st total, ss overflow, st overflow
-        self._disp = wp.zeros(2, dtype=float, device=dev)
-        self._alloc_total = wp.zeros(2, dtype=int, device=dev)
-        self._rebuild_flag = wp.zeros(1, dtype=int, device=dev)
-        self.build_pos = wp.zeros(ns, dtype=wp.vec3d, device=dev)
-        self.mesh_build_pos = wp.zeros(max(nm, 1), dtype=wp.vec3d, device=dev)
-        self.mesh_build_quat = wp.zeros(max(nm, 1), dtype=wp.quatd, device=dev)
-        rmax = [float(np.linalg.norm(v, axis=1).max()) for v in model.host["mesh_vertices_local"]]
-        self.mesh_rmax = wp.array(np.tile(np.array(rmax, dtype=np.float32), model.n_worlds) if nm else [0.0],
-                                  dtype=float, device=dev)
+        ns = model.n_spheres
+        self.data = Data.zeros(model)  # the per-step arrays (data.py)
 
         self.materials = Materials()
         for name, arr in (
@@ -221,10 +182,6 @@ class Simulation:
         self.grid = wp.HashGrid(dim, dim, dim, device=dev, dtype=wp.float64) if ns else None
         if self.grid is not None:
             self.grid.reserve(ns, with_groups=True)
-        self.ss = bp.PairList(ns, 16, dev, two_keys=False)
-        self.ss_new = bp.PairList(ns, 16, dev, two_keys=False)
-        self.st = bp.PairList(ns, 16, dev, two_keys=True)
-        self.st_new = bp.PairList(ns, 16, dev, two_keys=True)
         self._graph = None
         self._rebuild_checked()
 
@@ -233,7 +190,7 @@ class Simulation:
         if bounds is None:
             pts = [self.state.body_pos.numpy()]
             if self.model.n_spheres:
-                pts.append(self.sphere_pos.numpy())
+                pts.append(self.data.sphere_pos.numpy())
             allp = np.concatenate(pts)
             lo, hi = allp.min(axis=0), allp.max(axis=0)
             grow = (hi - lo).max() + 1.0
@@ -245,6 +202,7 @@ class Simulation:
         self.bounds = (lo, hi)
 
     def _update_spheres(self, launch: Callable[..., object] = wp.launch) -> None:
+        d = self.data
         m = self.model
         if m.n_spheres == 0:
             return
@@ -253,63 +211,65 @@ class Simulation:
             m.n_spheres,
             inputs=[m.sphere_body, m.sphere_offset, self.state.body_pos, self.state.body_quat, self.state.body_vel,
                     self.state.body_angvel],
-            outputs=[self.sphere_pos, self.sphere_vel, self.sphere_angvel, self.sphere_arm],
+            outputs=[d.sphere_pos, d.sphere_vel, d.sphere_angvel, d.sphere_arm],
             device=self.device,
         )
 
     # ------------------------------------------------------------------ broad phase
     def _rebuild(self) -> None:
         """Rebuild both candidate lists into scratch arrays, inherit history, copy back (capturable)."""
+        d = self.data
         m = self.model
         ns = m.n_spheres
         if ns == 0:
             return
         dev = self.device
-        self.grid.build(self.sphere_pos, self._cell, groups=m.sphere_world)
+        self.grid.build(d.sphere_pos, self._cell, groups=m.sphere_world)
         common = [self.grid.id, m.sphere_body, m.sphere_world, m.sphere_radius, m.max_radius, self.skin]
-        old = [self.sphere_pos, self.ss.start, self.ss.count, self.ss.key_a, self.ss.hist]
-        wp.launch(bp._ss_count_kernel, ns, inputs=common + old, outputs=[self.ss_new.count], device=dev)
-        self._alloc_total.zero_()
-        wp.launch(bp.allocate_blocks_kernel, ns, inputs=[self.ss_new.count, self._alloc_total[0:1]],
-                  outputs=[self.ss_new.start], device=dev)
+        old = [d.sphere_pos, d.ss.start, d.ss.count, d.ss.key_a, d.ss.hist]
+        wp.launch(bp._ss_count_kernel, ns, inputs=common + old, outputs=[d.ss_new.count], device=dev)
+        d.alloc_total.zero_()
+        wp.launch(bp.allocate_blocks_kernel, ns, inputs=[d.ss_new.count, d.alloc_total[0:1]],
+                  outputs=[d.ss_new.start], device=dev)
         wp.launch(
             bp._ss_fill_kernel, ns,
-            inputs=common + [self.ss_new.capacity] + old + [self.ss_new.start],
-            outputs=[self.ss_new.count, self.ss_new.key_a, self.ss_new.hist, self.list_stats[2:3]],
+            inputs=common + [d.ss_new.capacity] + old + [d.ss_new.start],
+            outputs=[d.ss_new.count, d.ss_new.key_a, d.ss_new.hist, d.list_stats[2:3]],
             device=dev,
         )
-        wp.launch(_list_total_kernel, 1, inputs=[self._alloc_total, 0, self.list_stats], device=dev)
-        self.ss.copy_from(self.ss_new)
-        wp.copy(self.build_pos, self.sphere_pos)
+        wp.launch(_list_total_kernel, 1, inputs=[d.alloc_total, 0, d.list_stats], device=dev)
+        d.ss.copy_from(d.ss_new)
+        wp.copy(d.build_pos, d.sphere_pos)
         if m.n_meshes == 0:
             return
         st_model = [m.sphere_body, m.sphere_world, m.sphere_radius, m.mesh_body, m.mesh_ids, m.mesh_tri_offset,
-                    m.tri_vertices, m.world_mesh_start, m.meshes_per_world, self.skin, self.st_new.capacity]
-        st_in = [self.sphere_pos, self.state.body_pos, self.state.body_quat, self.st.start, self.st.count,
-                 self.st.key_a, self.st.key_b, self.st.hist]
-        st_out = [self.st_new.count, self.st_new.key_a, self.st_new.key_b, self.st_new.hist, self.list_stats[3:4]]
-        wp.launch(bp._st_build_kernel, ns, inputs=st_model + [0] + st_in + [self.st_new.start], outputs=st_out,
+                    m.tri_vertices, m.world_mesh_start, m.meshes_per_world, self.skin, d.st_new.capacity]
+        st_in = [d.sphere_pos, self.state.body_pos, self.state.body_quat, d.st.start, d.st.count,
+                 d.st.key_a, d.st.key_b, d.st.hist]
+        st_out = [d.st_new.count, d.st_new.key_a, d.st_new.key_b, d.st_new.hist, d.list_stats[3:4]]
+        wp.launch(bp._st_build_kernel, ns, inputs=st_model + [0] + st_in + [d.st_new.start], outputs=st_out,
                   device=dev)
-        wp.launch(bp.allocate_blocks_kernel, ns, inputs=[self.st_new.count, self._alloc_total[1:2]],
-                  outputs=[self.st_new.start], device=dev)
-        wp.launch(bp._st_build_kernel, ns, inputs=st_model + [1] + st_in + [self.st_new.start], outputs=st_out,
+        wp.launch(bp.allocate_blocks_kernel, ns, inputs=[d.st_new.count, d.alloc_total[1:2]],
+                  outputs=[d.st_new.start], device=dev)
+        wp.launch(bp._st_build_kernel, ns, inputs=st_model + [1] + st_in + [d.st_new.start], outputs=st_out,
                   device=dev)
-        wp.launch(_list_total_kernel, 1, inputs=[self._alloc_total, 1, self.list_stats], device=dev)
-        self.st.copy_from(self.st_new)
+        wp.launch(_list_total_kernel, 1, inputs=[d.alloc_total, 1, d.list_stats], device=dev)
+        d.st.copy_from(d.st_new)
         wp.launch(bp._record_mesh_build_pose_kernel, m.n_meshes,
                   inputs=[m.mesh_body, self.state.body_pos, self.state.body_quat],
-                  outputs=[self.mesh_build_pos, self.mesh_build_quat], device=dev)
+                  outputs=[d.mesh_build_pos, d.mesh_build_quat], device=dev)
 
     def _rebuild_checked(self) -> None:
         """Host-side rebuild that grows the lists until everything fits (not capturable)."""
+        d = self.data
         for _ in range(8):
-            self.list_stats.zero_()
+            d.list_stats.zero_()
             self._rebuild()
-            stats = self.list_stats.numpy()
+            stats = d.list_stats.numpy()
             if stats[2] == 0 and stats[3] == 0:
                 self._grow_if_needed(stats)
                 return
-            for lst, new, need in ((self.ss, self.ss_new, stats[2]), (self.st, self.st_new, stats[3])):
+            for lst, new, need in ((d.ss, d.ss_new, stats[2]), (d.st, d.st_new, stats[3])):
                 if need > 0:
                     cap = int(need * self._capacity_factor) + 64
                     lst.grow(cap)
@@ -319,13 +279,14 @@ class Simulation:
 
     def _rebuild_if_flagged(self) -> None:
         """Rebuild (host side, growing lists as needed) if the last step flagged it; one flag read per step."""
-        if self._rebuild_flag.numpy()[0]:
+        if self.data.rebuild_flag.numpy()[0]:
             self._rebuild_checked()
 
     def _grow_if_needed(self, stats: np.ndarray) -> bool:
         """Grow a list whose last build used more than 3/4 of its capacity; returns True if anything grew."""
+        d = self.data
         grew = False
-        for lst, new, used in ((self.ss, self.ss_new, stats[0]), (self.st, self.st_new, stats[1])):
+        for lst, new, used in ((d.ss, d.ss_new, stats[0]), (d.st, d.st_new, stats[1])):
             if used > 0.75 * lst.capacity:
                 cap = int(used * self._capacity_factor) + 64
                 lst.grow(cap)
@@ -342,6 +303,7 @@ class Simulation:
 
         ``record``: nothing runs; returns the step as a list of calls to replay (recorded launches, whose
         arguments are packed once: on the CPU that packing costs more than a small scene's kernels)."""
+        d = self.data
         m, s, dev = self.model, self.state, self.device
         ops: list[Callable[[], object]] = []
 
@@ -358,18 +320,18 @@ class Simulation:
                 arr.zero_()
 
         ns = m.n_spheres
-        zero(self._force_acc)
-        zero(self._torque_acc)
-        zero(self._mesh_force_acc)
-        zero(self._mesh_torque_acc)
-        acc = [self._force_acc, self._torque_acc, self._force_scale, self._torque_scale]
+        zero(d.force_acc)
+        zero(d.torque_acc)
+        zero(d.mesh_force_acc)
+        zero(d.mesh_torque_acc)
+        acc = [d.force_acc, d.torque_acc, d.force_scale, d.torque_scale]
         if ns:
             launch(
                 sphere_sphere_kernel, ns,
                 inputs=[m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, self.materials,
-                        self.options, self.sphere_pos, self.sphere_vel, self.sphere_angvel, self.sphere_arm,
-                        self.ss.start, self.ss.count, self.ss.key_a, self.cohesion_now, self.ss.hist],
-                outputs=[*acc, self.energy],
+                        self.options, d.sphere_pos, d.sphere_vel, d.sphere_angvel, d.sphere_arm,
+                        d.ss.start, d.ss.count, d.ss.key_a, d.cohesion_now, d.ss.hist],
+                outputs=[*acc, d.energy],
                 device=dev,
             )
         if ns and m.n_meshes:
@@ -377,11 +339,11 @@ class Simulation:
                 sphere_triangle_kernel, ns,
                 inputs=[m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, m.mesh_body,
                         m.mesh_material, m.mesh_tri_offset, m.tri_vertices, self.materials, self.options,
-                        self.sphere_pos, self.sphere_vel, self.sphere_angvel, self.sphere_arm, s.body_pos,
-                        s.body_quat, s.body_vel, s.body_angvel, self.st.start, self.st.count, self.st.key_a,
-                        self.st.key_b, self.cohesion_now, self.st.hist],
-                outputs=[*acc, self._mesh_force_acc, self._mesh_torque_acc, self._mesh_force_scale,
-                         self._mesh_torque_scale, self.energy],
+                        d.sphere_pos, d.sphere_vel, d.sphere_angvel, d.sphere_arm, s.body_pos,
+                        s.body_quat, s.body_vel, s.body_angvel, d.st.start, d.st.count, d.st.key_a,
+                        d.st.key_b, d.cohesion_now, d.st.hist],
+                outputs=[*acc, d.mesh_force_acc, d.mesh_torque_acc, d.mesh_force_scale,
+                         d.mesh_torque_scale, d.energy],
                 device=dev,
             )
         if m.n_springs:
@@ -391,14 +353,14 @@ class Simulation:
                         m.spring_damping, m.spring_rest_length, m.spring_preload, m.spring_progressive,
                         m.spring_stop_stiffness, m.body_world, self.dt,
                         int(self.track_energy), s.body_pos, s.body_quat, s.body_vel, s.body_angvel],
-                outputs=[*acc, self.spring_force, self.energy],
+                outputs=[*acc, d.spring_force, d.energy],
                 device=dev,
             )
-        sums = [(self._force_acc, self._force_scale, self.body_force),
-                (self._torque_acc, self._torque_scale, self.body_torque)] if m.n_bodies else []
+        sums = [(d.force_acc, d.force_scale, d.body_force),
+                (d.torque_acc, d.torque_scale, d.body_torque)] if m.n_bodies else []
         if m.n_meshes:
-            sums += [(self._mesh_force_acc, self._mesh_force_scale, self.mesh_force),
-                     (self._mesh_torque_acc, self._mesh_torque_scale, self.mesh_torque)]
+            sums += [(d.mesh_force_acc, d.mesh_force_scale, d.mesh_force),
+                     (d.mesh_torque_acc, d.mesh_torque_scale, d.mesh_torque)]
         for total, scale, out in sums:
             launch(accumulate.to_float_kernel, out.shape[0], inputs=[total, scale], outputs=[out], device=dev)
         launch(
@@ -406,35 +368,35 @@ class Simulation:
             inputs=[m.body_world, m.body_group, m.body_flags, m.body_mass, m.body_inertia, m.body_pivot,
                     m.body_pivot_vel, m.body_pivot_friction, m.group_damping,
                     m.n_groups, wp.vec3d(*m.gravity), wp.float64(self.dt), int(self.track_energy),
-                    self.body_force, self.body_torque],
-            outputs=[s.body_pos, s.body_quat, s.body_vel, s.body_angvel, s.body_angmom, self.energy],
+                    d.body_force, d.body_torque],
+            outputs=[s.body_pos, s.body_quat, s.body_vel, s.body_angvel, s.body_angmom, d.energy],
             device=dev,
         )
         launch(
             _check_bodies_kernel, m.n_bodies,
             inputs=[m.body_flags, s.body_pos, s.body_vel, s.body_angvel, wp.float64(self.max_speed),
-                    wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1]), self.counters],
-            outputs=[self.fault], device=dev,
+                    wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1]), d.counters],
+            outputs=[d.fault], device=dev,
         )
-        zero(self.cohesion_now)
+        zero(d.cohesion_now)
         self._update_spheres(launch)
         # broad phase next step? when the displacements since the last build could hide a contact
         if ns:
-            launch(bp._sphere_displacement_kernel, ns, inputs=[self.sphere_pos, self.build_pos],
-                   outputs=[self._disp], device=dev)
+            launch(bp._sphere_displacement_kernel, ns, inputs=[d.sphere_pos, d.build_pos],
+                   outputs=[d.disp], device=dev)
         if m.n_meshes:
             launch(bp._mesh_displacement_kernel, m.n_meshes,
-                   inputs=[m.mesh_body, self.mesh_rmax, s.body_pos, s.body_quat, self.mesh_build_pos,
-                           self.mesh_build_quat], outputs=[self._disp], device=dev)
-        launch(_end_step_kernel, 1, inputs=[self.skin, self._disp, self._rebuild_flag, self.counters], device=dev)
+                   inputs=[m.mesh_body, d.mesh_rmax, s.body_pos, s.body_quat, d.mesh_build_pos,
+                           d.mesh_build_quat], outputs=[d.disp], device=dev)
+        launch(_end_step_kernel, 1, inputs=[self.skin, d.disp, d.rebuild_flag, d.counters], device=dev)
         return ops
 
     def _check(self) -> None:
         """Raise SimulationError on a recorded fault or list overflow; grow lists that are nearly full."""
-        fault = self.fault.numpy()
-        if fault[0] != _NO_FAULT:
+        fault = self.data.fault.numpy()
+        if fault[0] != NO_FAULT:
             self._raise_fault(fault)
-        stats = self.list_stats.numpy()
+        stats = self.data.list_stats.numpy()
         if stats[2] or stats[3]:
             raise SimulationError(
                 f"contact candidate list overflow during a captured chunk before step {self.state.step} "
@@ -504,7 +466,7 @@ class Simulation:
 
     def set_cohesion_now(self) -> None:
         """Give cohesion to every existing contact of cohesive materials at the next step (Yade's setCohesionNow)."""
-        self.cohesion_now.fill_(1)
+        self.data.cohesion_now.fill_(1)
 
     def advance(self, n_steps: int) -> None:
         """Advance ``n_steps`` steps. Between steps the host reads the rebuild flag (one small synchronisation per
@@ -572,7 +534,7 @@ class Simulation:
     @property
     def rebuild_count(self) -> int:
         """Number of broad-phase rebuilds since the start (excluding the initial build)."""
-        return int(self.counters.numpy()[1])
+        return int(self.data.counters.numpy()[1])
 
     def critical_ratio(self) -> float:
         """dt / critical time step."""

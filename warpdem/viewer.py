@@ -260,8 +260,8 @@ class RerunViewer:
         stats = np.zeros(4, dtype=np.float64)
         n = self._model.spheres_per_world
         if n:
-            pos = sim.sphere_pos[self._s0:self._s0 + n].numpy()
-            vel = sim.sphere_vel[self._s0:self._s0 + n].numpy()
+            pos = sim.data.sphere_pos[self._s0:self._s0 + n].numpy()
+            vel = sim.data.sphere_vel[self._s0:self._s0 + n].numpy()
             speed = np.linalg.norm(vel.astype(np.float64), axis=1)
             stats[:3] = speed.min(), speed.mean(), speed.max()
             radii = self._radii

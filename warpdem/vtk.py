@@ -65,9 +65,9 @@ class VtkWriter:
         step = int(sim.state.step)
         ns, nm = m.spheres_per_world, m.meshes_per_world
         sel = slice(None) if self.world is None else slice(self.world * ns, (self.world + 1) * ns)
-        pos = sim.sphere_pos.numpy()[sel].astype(np.float64)
-        vel = sim.sphere_vel.numpy()[sel].astype(np.float64)
-        angvel = sim.sphere_angvel.numpy()[sel].astype(np.float64)
+        pos = sim.data.sphere_pos.numpy()[sel].astype(np.float64)
+        vel = sim.data.sphere_vel.numpy()[sel].astype(np.float64)
+        angvel = sim.data.sphere_angvel.numpy()[sel].astype(np.float64)
         n = len(pos)
         point_data = {
             "radius": np.asarray(m.host["sphere_radius"][sel], dtype=np.float64),

@@ -123,14 +123,14 @@ class Probe:
         obj (object of the facet, -1 for ss)."""
         ns = sim.model.n_spheres
         sid = self.layout["sphere_id"]
-        ss = sim.ss.numpy()
+        ss = sim.data.ss.numpy()
         owner = np.repeat(np.arange(ns), ss["count"])
         idx = _csr_entries(ss["start"], ss["count"])
         fl = ss["hist"]["flags"][idx]
         act = (fl & ACTIVE) != 0
         i, j = owner[act], ss["key_a"][idx][act]
         coh_ss = (fl[act] & COHESIVE) != 0
-        st = sim.st.numpy()
+        st = sim.data.st.numpy()
         owner = np.repeat(np.arange(ns), st["count"])
         idx = _csr_entries(st["start"], st["count"])
         fl = st["hist"]["flags"][idx]
@@ -148,7 +148,7 @@ class Probe:
         disp = st["body_pos"][self.tool_body] - self.pos0
         body_pos = np.zeros((int(self.layout["n_bodies"]), 3))
         body_pos[:self.nf] = self.incentre0 + np.where(np.arange(self.nf)[:, None] >= self.n_bin, disp, 0.0)
-        body_pos[self.layout["sphere_id"]] = sim.sphere_pos.numpy()
+        body_pos[self.layout["sphere_id"]] = sim.data.sphere_pos.numpy()
         clumps = np.flatnonzero(self.layout["is_clump"])
         body_pos[self.layout["particle_id"][clumps]] = st["body_pos"][self.first_soil + clumps]
         z = common.coordination(c["id1"], c["id2"], body_pos, self.layout, self.spec["sphere_radius"], self.nf)
@@ -166,7 +166,7 @@ def verify_scene(sim: wd.Simulation, spec: dict[str, np.ndarray], perturbed: boo
     m = sim.model
     h = m.host
     out = {
-        "sphere_pos": float(np.abs(sim.sphere_pos.numpy() - spec["sphere_pos"]).max()),
+        "sphere_pos": float(np.abs(sim.data.sphere_pos.numpy() - spec["sphere_pos"]).max()),
         "sphere_radius": float(np.abs(h["sphere_radius"] - spec["sphere_radius"]).max()),
         "dt": abs(sim.dt - float(spec["dt"])),
         "particle_grouping": float(np.any(h["sphere_body"] - h["sphere_body"].min() != spec["sphere_particle"])),
@@ -316,7 +316,7 @@ def run_spec(spec: dict[str, np.ndarray], per_facet: bool | tuple[bool, bool], s
     every, n = int(spec["record_every"]), int(spec["n_steps"]) if n_steps is None else n_steps
     t0 = time.perf_counter()
     out = sim.run(n, record_every=every, observers={
-        "draught": lambda s: -float(s.mesh_force.numpy()[lower, 1].sum()), "probe": probe.as_observer(),
+        "draught": lambda s: -float(s.data.mesh_force.numpy()[lower, 1].sum()), "probe": probe.as_observer(),
         "ke": lambda s: float(wd.observers.group_kinetic_energy("soil")(s)[0].sum())})
     wall = time.perf_counter() - t0
     t = out["time"]
@@ -338,9 +338,9 @@ def first_step(spec: dict[str, np.ndarray], assembly: str | None = None, per_fac
         sim, probe, lower = build_from_spec(spec, per_facet)
     sim.step()
     out = probe.measure(sim)
-    out["body_force"] = sim.body_force.numpy().astype(np.float64)
-    out["body_torque"] = sim.body_torque.numpy().astype(np.float64)
-    out["draught"] = -float(sim.mesh_force.numpy()[lower, 1].sum())
+    out["body_force"] = sim.data.body_force.numpy().astype(np.float64)
+    out["body_torque"] = sim.data.body_torque.numpy().astype(np.float64)
+    out["draught"] = -float(sim.data.mesh_force.numpy()[lower, 1].sum())
     out["first_soil"] = probe.first_soil
     return out
 

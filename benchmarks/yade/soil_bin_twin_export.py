@@ -146,7 +146,7 @@ def export(assembly: str, scale: str = "ci") -> Path:
     assert np.all(sphere_body >= first), "a non-soil body has spheres"
     particle = (sphere_body - first).astype(np.int64)
     assert np.all(np.diff(particle) >= 0), "members of a particle are not contiguous"
-    pos = sim.sphere_pos.numpy().astype(np.float64).copy()
+    pos = sim.data.sphere_pos.numpy().astype(np.float64).copy()
     radius = h["sphere_radius"].copy()
     # the bed's centres in the same order (Bed.add_to's order, kept particles only)
     starts = np.flatnonzero(np.r_[True, np.diff(bed.particle) != 0])

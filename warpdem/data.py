@@ -1,0 +1,147 @@
+"""Data: what a step computes besides the State, in one documented place.
+
+A :class:`~warpdem.simulation.Simulation` holds a static :class:`~warpdem.model.Model`, the bodies'
+:class:`~warpdem.model.State` (pose, velocities: what a step advances) and a :class:`Data`: the per-step work
+arrays that the kernels write and read within a step (sphere kinematics, force and torque sums, spring forces,
+energies), the candidate lists with their contact history, and the device-side bookkeeping of the broad phase and
+the fault checks. Observers, checkpoints and viewers read these fields; every field's shape, dtype and unit is
+listed below. Sizes: ``ns`` spheres, ``nb`` bodies, ``nm`` mesh instances (arrays sized by ``nm`` or the springs
+have at least one entry), ``W`` worlds, all worlds together.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from . import accumulate
+from .broadphase import PairList
+from .contacts import N_ENERGY
+from .model import Model
+
+NO_FAULT = 2**31 - 1
+"""``fault[0]`` while no body has failed (the failing body with the lowest index wins: atomic min)."""
+
+
+@dataclass
+class Data:
+    """The per-step arrays of a simulation (see the module docstring); made by :meth:`zeros`."""
+
+    # sphere kinematics, from the bodies' state (update_spheres_kernel)
+    sphere_pos: wp.array
+    """sphere centres in the world [m], vec3d (ns,)."""
+    sphere_vel: wp.array
+    """velocity of each sphere's centre [m/s], vec3f (ns,)."""
+    sphere_angvel: wp.array
+    """angular velocity of each sphere (its body's) [rad/s], vec3f (ns,)."""
+    sphere_arm: wp.array
+    """sphere centre minus its body's centre of mass, world frame [m], vec3f (ns,)."""
+
+    # force and torque sums (accumulate.py): fixed-point accumulators, their scales, and the float results
+    force_acc: wp.array
+    """force on each body in units of its resolution, accumulate.vec3l (nb,)."""
+    torque_acc: wp.array
+    """torque about each body's centre of mass in units of its resolution, accumulate.vec3l (nb,)."""
+    force_scale: wp.array
+    """1 / force resolution of each body [1/N], float64 (nb,)."""
+    torque_scale: wp.array
+    """1 / torque resolution of each body [1/(N m)], float64 (nb,)."""
+    mesh_force_acc: wp.array
+    """contact force on each mesh instance, fixed point, accumulate.vec3l (nm,)."""
+    mesh_torque_acc: wp.array
+    """contact torque on each mesh instance about its body's centre of mass, fixed point, accumulate.vec3l (nm,)."""
+    mesh_force_scale: wp.array
+    """1 / force resolution of each mesh instance (its body's) [1/N], float64 (nm,)."""
+    mesh_torque_scale: wp.array
+    """1 / torque resolution of each mesh instance (its body's) [1/(N m)], float64 (nm,)."""
+    body_force: wp.array
+    """contact and spring force on each body [N], world frame, vec3f (nb,) (gravity is added by the integrator)."""
+    body_torque: wp.array
+    """contact and spring torque about each body's centre of mass [N m], world frame, vec3f (nb,)."""
+    mesh_force: wp.array
+    """contact force of the spheres on each mesh instance [N], world frame, vec3f (nm,)."""
+    mesh_torque: wp.array
+    """their torque about the mesh body's centre of mass [N m], world frame, vec3f (nm,)."""
+
+    # springs and energies
+    spring_force: wp.array
+    """force of each spring-dashpot [N], tension positive, float32 (n_springs,)."""
+    energy: wp.array
+    """energy dissipated or supplied per world since the start [J], float64 (W * N_ENERGY,), slots in
+    observers.ENERGY_TERMS (with ``track_energy``)."""
+
+    # candidate lists and contact history (broadphase.PairList)
+    ss: PairList
+    """sphere-sphere candidates of the current lists: per sphere its partners of higher index, sorted."""
+    st: PairList
+    """sphere-triangle candidates of the current lists: per sphere (mesh instance, triangle) entries."""
+    ss_new: PairList
+    """the sphere-sphere lists being built at a rebuild (history carried over from ``ss``)."""
+    st_new: PairList
+    """the sphere-triangle lists being built at a rebuild."""
+    build_pos: wp.array
+    """sphere centres at the last list build [m], vec3d (ns,)."""
+    mesh_build_pos: wp.array
+    """mesh bodies' positions at the last list build [m], vec3d (nm,)."""
+    mesh_build_quat: wp.array
+    """mesh bodies' orientations at the last list build, quatd (nm,)."""
+    mesh_rmax: wp.array
+    """each mesh instance's largest vertex distance from its body's centre of mass [m], float32 (nm,)."""
+
+    # device-side bookkeeping
+    cohesion_now: wp.array
+    """1: the next step sets cohesion on every contact (Yade's setCohesionNow), int32 (1,)."""
+    counters: wp.array
+    """steps and list rebuilds done on the device, int32 (2,)."""
+    fault: wp.array
+    """first failure: body (NO_FAULT: none), cause, step, int32 (3,)."""
+    list_stats: wp.array
+    """entries of the sphere-sphere and sphere-triangle lists at the last build, and any overflow, int32 (4,)."""
+    disp: wp.array
+    """largest sphere and mesh displacement since the last build [m], float32 (2,)."""
+    alloc_total: wp.array
+    """list entries allocated at a build (sphere-sphere, sphere-triangle), int32 (2,)."""
+    rebuild_flag: wp.array
+    """1: the lists must be rebuilt before the next step, int32 (1,)."""
+
+    @classmethod
+    def zeros(cls, model: Model) -> Data:
+        """Zeroed arrays for ``model`` on its device; the scales are set by accumulate.resolutions, the mesh
+        extents from the model's geometry, the lists start with 16 entries per sphere."""
+        dev = model.device
+        ns, nb, nm = model.n_spheres, model.n_bodies, model.n_meshes
+        res_f, res_t = accumulate.resolutions(model.body_mass.numpy(), model.body_inertia.numpy(),
+                                              model.body_world.numpy(), model.n_worlds)
+        mesh_body = model.mesh_body.numpy() if nm else np.zeros(1, dtype=np.int64)
+        rmax = [float(np.linalg.norm(v, axis=1).max()) for v in model.host["mesh_vertices_local"]]
+
+        def zeros(n: int, dtype: object) -> wp.array:
+            return wp.zeros(n, dtype=dtype, device=dev)
+
+        def f64(values: np.ndarray) -> wp.array:
+            return wp.array(values, dtype=wp.float64, device=dev)
+
+        return cls(
+            sphere_pos=zeros(ns, wp.vec3d), sphere_vel=zeros(ns, wp.vec3f), sphere_angvel=zeros(ns, wp.vec3f),
+            sphere_arm=zeros(ns, wp.vec3f),
+            force_acc=zeros(nb, accumulate.vec3l), torque_acc=zeros(nb, accumulate.vec3l),
+            force_scale=f64(1.0 / res_f), torque_scale=f64(1.0 / res_t),
+            mesh_force_acc=zeros(max(nm, 1), accumulate.vec3l), mesh_torque_acc=zeros(max(nm, 1), accumulate.vec3l),
+            mesh_force_scale=f64(1.0 / res_f[mesh_body] if nb else np.ones(1)),
+            mesh_torque_scale=f64(1.0 / res_t[mesh_body] if nb else np.ones(1)),
+            body_force=zeros(nb, wp.vec3f), body_torque=zeros(nb, wp.vec3f),
+            mesh_force=zeros(max(nm, 1), wp.vec3f), mesh_torque=zeros(max(nm, 1), wp.vec3f),
+            spring_force=zeros(max(model.n_springs, 1), float),
+            energy=zeros(model.n_worlds * N_ENERGY, wp.float64),
+            ss=PairList(ns, 16, dev, two_keys=False), st=PairList(ns, 16, dev, two_keys=True),
+            ss_new=PairList(ns, 16, dev, two_keys=False), st_new=PairList(ns, 16, dev, two_keys=True),
+            build_pos=zeros(ns, wp.vec3d), mesh_build_pos=zeros(max(nm, 1), wp.vec3d),
+            mesh_build_quat=zeros(max(nm, 1), wp.quatd),
+            mesh_rmax=wp.array(np.tile(np.array(rmax, dtype=np.float32), model.n_worlds) if nm else [0.0],
+                               dtype=float, device=dev),
+            cohesion_now=zeros(1, int), counters=zeros(2, int),
+            fault=wp.array([NO_FAULT, 0, 0], dtype=int, device=dev), list_stats=zeros(4, int),
+            disp=zeros(2, float), alloc_total=zeros(2, int), rebuild_flag=zeros(1, int),
+        )
