@@ -14,8 +14,8 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 def test_engine_quickstart_runs_and_its_checkpoint_continues_the_run(tmp_path) -> None:
     """Reference: the uninterrupted run. The example saves a checkpoint half way and continues a second, freshly
     built simulation from it: on the CPU both second halves agree to the bit (every force, contact history and
-    counter is in the file); on CUDA (float32 atomics) to the chaotic spread of a few steps, so only the CPU is
-    compared exactly."""
+    counter is in the file, the last step's forces too, which the first record reads). Compared exactly on the CPU
+    only until the CUDA repeat test (tests/test_determinism.py) has run on a GPU."""
     spec = importlib.util.spec_from_file_location("engine_quickstart", EXAMPLES / "engine_quickstart.py")
     ex = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(ex)

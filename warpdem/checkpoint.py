@@ -1,5 +1,6 @@
 """Checkpoints: save the full dynamic state of a Simulation (bodies, contact history, broad-phase reference
-positions, counters, energy accumulators, the last step's spring forces that observers read, and the model values
+positions, counters, energy accumulators, the last step's spring forces and body and mesh forces and torques that
+observers read, and the model values
 a run may change while it goes: pivot velocities set by ``set_body_velocity`` and local damping set by
 ``set_local_damping``) and restore it into a Simulation built
 from the same scene.
@@ -24,9 +25,11 @@ import warp as wp
 from .errors import InputError
 from .files import write_atomic
 
-_FORMAT = 3  # 2: five energy slots (driven work), mutable model arrays; 3: manifest with checksums
+_FORMAT = 4  # 2: five energy slots (driven work), mutable model arrays; 3: manifest with checksums; 4: the last
+# step's forces (what an observer reads before the next step)
 _SIM_ARRAYS = ("energy", "counters", "build_pos", "mesh_build_pos", "mesh_build_quat", "cohesion_now", "fault",
-               "spring_force")
+               "spring_force", "body_force", "body_torque", "mesh_force", "mesh_torque")
+"""fields of Simulation.data (warpdem/data.py) saved beside the state and the candidate lists."""
 _MODEL_ARRAYS = ("body_pivot_vel", "group_damping")
 """model arrays that the Simulation's setters change during a run."""
 
