@@ -65,7 +65,7 @@ def run_demo(args: argparse.Namespace) -> int:
     from scenes import demo
     from warpdem import analysis
 
-    device = args.device or _default_device()
+    device = _setup(args)
     out = _claim(args, args.out)
     box = (0.24, 0.10, 0.12)
     config = {
@@ -254,6 +254,13 @@ def _quiet_warp() -> None:
 
 
 def _setup(args: argparse.Namespace) -> str:
+    """The device to run on: --device, else CUDA if available; a CUDA device on a machine without one is refused
+    here, before Warp's own driver messages."""
+    import warp as wp
+
+    if args.device and args.device.startswith("cuda") and not wp.is_cuda_available():
+        raise InputError(f"--device {args.device}: CUDA is not available on this machine (no NVIDIA GPU or driver); "
+                         "use --device cpu")
     return args.device or _default_device()
 
 

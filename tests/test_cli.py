@@ -357,3 +357,19 @@ def test_vtk_with_the_full_workflow_is_refused(capsys) -> None:
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["warpdem reproduce: error: --vtk 5: ParaView frames are written by the quick workflow (and by "
                    "soil-bin, speed-sweep, shear-box, demo), not by --workflow full"]
+
+
+def test_cuda_on_a_machine_without_it_is_one_line(tmp_path) -> None:
+    """Without an NVIDIA driver (as on CI), --device cuda ends with one line naming the option, before Warp's own
+    driver messages (a subprocess: those are written by Warp's native code on stderr)."""
+    import pytest
+    import warp as wp
+
+    if wp.is_cuda_available():
+        pytest.skip("this machine has CUDA")
+    r = _run("demo", "--device", "cuda", "--out", str(tmp_path / "d"))
+    assert r.returncode == 2
+    assert [x for x in r.stderr.splitlines() if x.strip()] == [
+        "warpdem demo: error: --device cuda: CUDA is not available on this machine (no NVIDIA GPU or driver); use "
+        "--device cpu"]
+    assert not (tmp_path / "d").exists()
