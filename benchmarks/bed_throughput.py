@@ -130,7 +130,8 @@ def main() -> None:
     p.add_argument("--sizes", type=int, nargs="+", default=[0], help="sphere counts (0: the bed once)")
     p.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"), help="the deposited bed's scale")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--cache", default="benchmarks/.beds", help="folder of deposited beds (made once)")
+    p.add_argument("--cache", default=str(Path(__file__).resolve().parent / ".beds"),
+                   help="folder of deposited beds (made once; default: benchmarks/.beds)")
     p.add_argument("--bed", default=None, help="a saved bed (.npz) to use instead (e.g. a paper-scale run's)")
     p.add_argument("--steps", type=int, default=0, help="timed steps (default: scaled to the size)")
     p.add_argument("--sorted", action="store_true", help="renumber the particles along a Morton curve first")
