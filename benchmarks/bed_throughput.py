@@ -75,7 +75,7 @@ def cell_ordered(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray
 
 
 def run_warpdem(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: str, steps: int, warmup: int,
-                scene: str) -> dict:
+                scene: str, threads: int | None = None) -> dict:
     import warp as wp
 
     wp.config.quiet = True
@@ -85,10 +85,11 @@ def run_warpdem(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: 
     b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
     b.add_material("soil", wd.Material(**MAT))
     Bed(AssemblySpec(kind="C"), (1.0, 1.0, 1.0), 0.1, pos, rad, particle).add_to(b, "soil")
-    sim, setup, wall = timed_run(b, device, steps, warmup)
+    sim, setup, wall = timed_run(b, device, steps, warmup, threads)
     model = sim.model
     contacts = int(wd.observers.contact_count(sim).sum()) if len(rad) <= 100_000 else -1
-    return {"engine": "warpdem", "scene": scene, "device": str(model.device), "spheres": len(rad),
+    return {"engine": "warpdem", "scene": scene, "device": str(model.device), "threads": sim.parts,
+            "spheres": len(rad),
             "particles": int(len(np.unique(particle))), "steps": steps, "wall_s": wall,
             "particle_steps_per_s": len(rad) * steps / wall, "setup_s": setup, "contacts": contacts,
             "rebuilds": sim.rebuild_count}
@@ -135,6 +136,7 @@ def main() -> None:
     p.add_argument("--bed", default=None, help="a saved bed (.npz) to use instead (e.g. a paper-scale run's)")
     p.add_argument("--steps", type=int, default=0, help="timed steps (default: scaled to the size)")
     p.add_argument("--sorted", action="store_true", help="renumber the particles along a Morton curve first")
+    p.add_argument("--threads", type=int, default=None, help="CPU threads sharing a step (default: all cores)")
     p.add_argument("--yade", action="store_true", help="also run the bed in Yade 2023.02a (-j2)")
     p.add_argument("--json", default=None, help="append results to this JSON-lines file")
     args = p.parse_args()
@@ -145,7 +147,8 @@ def main() -> None:
             pos, rad, part = cell_ordered(pos, rad, part)
         steps = args.steps or int(np.clip((2e8 if "cuda" in args.device else 4e6) / len(rad), 100, 4000))
         scene = "deposited bed C" + (", Morton order" if args.sorted else "")
-        res = [run_warpdem(pos, rad, part, args.device, steps, warmup=min(200, steps), scene=scene)]
+        res = [run_warpdem(pos, rad, part, args.device, steps, warmup=min(200, steps), scene=scene,
+                           threads=args.threads)]
         emit(res, run_yade(pos, rad, part, steps, warmup=20) if args.yade else None, args.json)
 
 

@@ -40,7 +40,8 @@ def lattice(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return pos, rad
 
 
-def timed_run(builder: object, device: str, steps: int, warmup: int) -> tuple[object, float, float]:
+def timed_run(builder: object, device: str, steps: int, warmup: int, threads: int | None = None
+              ) -> tuple[object, float, float]:
     """Build ``builder``'s scene on ``device``, bond every contact at the first step (moment law on, no damping,
     dt = 0.3 x the P-wave step), run ``warmup`` steps, then time ``steps``: (simulation, setup [s], wall [s])."""
     import warp as wp
@@ -50,7 +51,7 @@ def timed_run(builder: object, device: str, steps: int, warmup: int) -> tuple[ob
     t0 = time.time()
     model, state = builder.finalize(device)
     sim = wd.Simulation(model, state, dt=0.3 * wd.pwave_timestep(model), always_use_moment_law=True,
-                        graph_steps=min(200, steps))
+                        graph_steps=min(200, steps), cpu_threads=threads)
     sim.set_cohesion_now()
     setup = time.time() - t0
     sim.advance(warmup)
@@ -61,7 +62,7 @@ def timed_run(builder: object, device: str, steps: int, warmup: int) -> tuple[ob
     return sim, setup, time.time() - t
 
 
-def run_warpdem(n: int, device: str, steps: int, warmup: int) -> dict:
+def run_warpdem(n: int, device: str, steps: int, warmup: int, threads: int | None = None) -> dict:
     import warp as wp
 
     wp.config.quiet = True
@@ -71,11 +72,12 @@ def run_warpdem(n: int, device: str, steps: int, warmup: int) -> dict:
     b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
     b.add_material("soil", wd.Material(**MAT))
     b.add_spheres(pos, rad, "soil")
-    sim, setup, wall = timed_run(b, device, steps, warmup)
+    sim, setup, wall = timed_run(b, device, steps, warmup, threads)
     model = sim.model
     counts = sim.data.ss.count.numpy()
     contacts = int(wd.observers.contact_count(sim).sum()) if n <= 100_000 else int(counts.sum())
-    return {"engine": "warpdem", "device": str(model.device), "spheres": len(pos), "steps": steps,
+    return {"engine": "warpdem", "device": str(model.device), "threads": sim.parts, "spheres": len(pos),
+            "steps": steps,
             "wall_s": wall, "particle_steps_per_s": len(pos) * steps / wall, "setup_s": setup,
             "contacts_or_candidates": contacts, "rebuilds": sim.rebuild_count}
 
@@ -142,12 +144,13 @@ def main() -> None:
     p.add_argument("--device", default="cpu")
     p.add_argument("--sizes", type=int, nargs="+", default=[1000, 8000, 27000])
     p.add_argument("--steps", type=int, default=0, help="timed steps (default: scaled to the size)")
+    p.add_argument("--threads", type=int, default=None, help="CPU threads sharing a step (default: all cores)")
     p.add_argument("--yade", action="store_true", help="also run the scene in Yade 2023.02a (-j2)")
     p.add_argument("--json", default=None, help="append results to this JSON-lines file")
     args = p.parse_args()
     for n in args.sizes:
         steps = args.steps or int(np.clip(2e8 / n if "cuda" in args.device else 4e6 / n, 100, 4000))
-        res = [run_warpdem(n, args.device, steps, warmup=min(200, steps))]
+        res = [run_warpdem(n, args.device, steps, warmup=min(200, steps), threads=args.threads)]
         emit(res, run_yade(n, steps, warmup=20) if args.yade else None, args.json)
 
 

@@ -36,7 +36,7 @@ def _sums(order: np.ndarray, body: np.ndarray, force: np.ndarray, res: np.ndarra
                                                   wp.array(force, dtype=wp.vec3f, device=DEVICE),
                                                   acc_f, acc_t, scale, scale, plain], device=DEVICE)
     out = wp.zeros(n, dtype=wp.vec3f, device=DEVICE)
-    wp.launch(accumulate.to_float_kernel, n, inputs=[acc_f, scale], outputs=[out], device=DEVICE)
+    wp.launch(accumulate.to_float_kernel, n, inputs=[0, acc_f, scale, 1], outputs=[out], device=DEVICE)
     return acc_f.numpy(), out.numpy(), plain.numpy()
 
 
@@ -94,3 +94,106 @@ def test_a_chaotic_run_repeats_to_the_bit() -> None:
     for a, b in zip(first, again, strict=True):
         np.testing.assert_array_equal(a, b)
     assert np.abs(first[0][:, 2] - 0.03).max() > 1e-3  # the spheres did move
+
+
+def _threaded_scene() -> wd.ModelBuilder:
+    """The packing of test_worlds with two clumps dropped on it, joined by a spring-dashpot: spheres, clumps, a
+    mesh and a spring, every kind of contribution to the force sums."""
+    b = packing_scene(np.zeros(3))
+    a = b.add_clump(np.array([[-0.006, 0.0, 0.07], [0.0, 0.0, 0.07]]), np.array([0.005, 0.004]), "soil",
+                    group="soil")
+    c = b.add_clump(np.array([[0.01, 0.004, 0.08], [0.016, 0.004, 0.08]]), np.array([0.004, 0.005]), "soil",
+                    group="soil")
+    b.add_spring("tie", a, (-0.003, 0.0, 0.07), c, (0.013, 0.004, 0.08), stiffness=50.0, damping=0.05)
+    return b
+
+
+def test_cpu_threads_give_the_same_bits(monkeypatch: object) -> None:
+    # Reference: the same run on one thread. A step shared out between CPU threads (each thread a range of
+    # spheres for the contacts, a range of bodies and their spheres for the motion, its own fixed-point
+    # accumulators) must give the same positions, velocities and forces to the bit: integer sums do not depend on
+    # the split. Three threads on 2 x 50 spheres (the size limit lowered so that this small scene is shared out),
+    # run through advance (threads in parallel) and through step (the parts one after the other). The tracked
+    # energies are float64 sums grouped by thread: equal to 1e-12 relative (float64 rounding of ~1e4 terms).
+    if DEVICE != "cpu":
+        return  # CUDA runs a step as one launch per kernel
+    from warpdem import cpu_threads
+
+    monkeypatch.setattr(cpu_threads, "MIN_SPHERES_PER_THREAD", 8)
+
+    def run(threads: int, direct: bool = False) -> tuple[wd.Simulation, dict]:
+        model, state = _threaded_scene().finalize(DEVICE, n_worlds=2)
+        sim = wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True, track_energy=True,
+                            cpu_threads=threads)
+        if direct:
+            for _ in range(1500):
+                sim.step()
+            return sim, {}
+        rec = sim.run(1500, record_every=300, observers={"floor": wd.observers.mesh_wrench("floor"),
+                                                         "tie": wd.observers.spring_force("tie")})
+        return sim, rec
+
+    one, rec_one = run(1)
+    three, rec_three = run(3)
+    stepped, _ = run(3, direct=True)
+    assert one.parts == 1 and three.parts == 3
+    assert one.rebuild_count > 0  # the lists were rebuilt (and the contacts cut again)
+    for sim in (three, stepped):
+        for name in ("body_pos", "body_quat", "body_vel", "body_angvel"):
+            np.testing.assert_array_equal(getattr(sim.state, name).numpy(), getattr(one.state, name).numpy())
+        for name in ("body_force", "body_torque", "mesh_force", "spring_force"):
+            np.testing.assert_array_equal(getattr(sim.data, name).numpy(), getattr(one.data, name).numpy())
+        np.testing.assert_allclose(sim.data.energy.numpy(), one.data.energy.numpy(), rtol=1e-12, atol=1e-18)
+    for key in ("floor", "tie"):
+        np.testing.assert_array_equal(rec_three[key], rec_one[key])
+    assert np.abs(one.state.body_vel.numpy()).max() > 1e-3  # it moved
+    assert one.data.energy.numpy().max() > 0.0  # and dissipated
+
+
+def test_cpu_threads_resume_from_a_checkpoint_to_the_bit(monkeypatch: object, tmp_path: object) -> None:
+    # Reference: the uninterrupted run on the same three threads. The contacts' cut between threads depends only on
+    # the candidate lists, which the checkpoint keeps, so a resumed run groups even the energy sums as the
+    # uninterrupted one: every array equal to the bit, energies included.
+    if DEVICE != "cpu":
+        return
+    from warpdem import cpu_threads
+
+    monkeypatch.setattr(cpu_threads, "MIN_SPHERES_PER_THREAD", 8)
+
+    def make() -> wd.Simulation:
+        model, state = _threaded_scene().finalize(DEVICE, n_worlds=2)
+        return wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True, track_energy=True, cpu_threads=3)
+
+    a = make()
+    a.advance(2100)  # by then the spheres' candidates have shifted the cut away from the first build's
+    wd.checkpoint.save(a, tmp_path / "ck.npz")
+    at_checkpoint, cut = a.rebuild_count, list(a._contact_cut)
+    a.advance(600)
+    b = make()
+    assert b._contact_cut != cut
+    wd.checkpoint.load(b, tmp_path / "ck.npz")
+    assert b._contact_cut == cut  # not the cut of b's own first build
+    b.advance(600)
+    assert a.parts == 3 and a.rebuild_count > at_checkpoint  # the lists were rebuilt (and cut again) after it
+    for k in a.state.ARRAYS:
+        np.testing.assert_array_equal(getattr(a.state, k).numpy(), getattr(b.state, k).numpy())
+    np.testing.assert_array_equal(a.data.energy.numpy(), b.data.energy.numpy())
+
+
+def test_cpu_threads_must_be_a_positive_integer(monkeypatch: object) -> None:
+    # Reference: the error path of README (a named InputError naming the parameter and its value).
+    model, state = packing_scene(np.zeros(3)).finalize(DEVICE)
+    for bad in (0, -2, 1.5, "2"):
+        try:
+            wd.Simulation(model, state, dt=2e-5, cpu_threads=bad)
+        except wd.InputError as exc:
+            assert "cpu_threads" in str(exc) and repr(bad) in str(exc)
+        else:
+            assert DEVICE != "cpu", bad  # ignored on CUDA
+    monkeypatch.setenv("WARPDEM_CPU_THREADS", "zero")
+    try:
+        wd.Simulation(model, state, dt=2e-5)
+    except wd.InputError as exc:
+        assert "WARPDEM_CPU_THREADS" in str(exc) and "'zero'" in str(exc)
+    else:
+        assert DEVICE != "cpu"

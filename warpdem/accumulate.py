@@ -5,7 +5,8 @@ of the body's resolution and added to an int64 accumulator with an integer atomi
 associative, so the sum does not depend on the order in which threads add: a run repeats to the bit on CUDA, and
 a world gives the same bits whatever other worlds share its batch. After the contacts and springs, the sums are
 converted back to float32 (``body_force``, ``body_torque``, ``mesh_force``, ``mesh_torque``), which is what the
-integrator and the observers read.
+integrator and the observers read. On the CPU, where a step's large kernels are shared out between threads, each
+thread adds into its own accumulators and the conversion sums them: the same integers in any split.
 
 Resolutions (:func:`resolutions`): a body of mass m has the force resolution 2^floor(log2(m g0 2^-32)) [N] with
 g0 = 9.81 m/s^2 (a nominal weight, whatever the model's gravity): about 2.3e-10 of its weight, far below float32's
@@ -57,15 +58,35 @@ def add_wrench(
 
 @wp.kernel
 def to_float_kernel(
+    first: int,  # the first slot of this launch (a CPU thread's share)
     acc: wp.array(dtype=vec3l),
     scale: wp.array(dtype=wp.float64),
+    parts: int,
     out: wp.array(dtype=wp.vec3f),
 ):
-    """out[i] = acc[i] x resolution, in float32."""
-    i = wp.tid()
+    """out[i] = (sum over the parts p of acc[p * n + i]) x resolution, in float32, n = len(out).
+
+    ``acc`` holds ``parts`` accumulators of n slots one after another (one per CPU thread, summed here: integer
+    sums, so the result does not depend on how the contributions were shared out)."""
+    i = wp.tid() + first
+    n = out.shape[0]
     a = acc[i]
+    for p in range(1, parts):
+        a = a + acc[p * n + i]
     r = wp.float64(1.0) / scale[i]
     out[i] = wp.vec3f(float(wp.float64(a[0]) * r), float(wp.float64(a[1]) * r), float(wp.float64(a[2]) * r))
+
+
+@wp.kernel
+def fold_energy_kernel(extra: wp.array(dtype=wp.float64), parts: int, energy: wp.array(dtype=wp.float64)):
+    """energy[i] += the other CPU threads' terms extra[(p - 1) * n + i], p = 1 .. parts - 1, which are zeroed."""
+    i = wp.tid()
+    n = energy.shape[0]
+    e = energy[i]
+    for p in range(1, parts):
+        e += extra[(p - 1) * n + i]
+        extra[(p - 1) * n + i] = wp.float64(0.0)
+    energy[i] = e
 
 
 def _pow2_floor(x: np.ndarray) -> np.ndarray:

@@ -81,6 +81,7 @@ def phys_of(mats: Materials, world: int, mi: int, mj: int, r1: float, r2: float)
 
 @wp.kernel
 def sphere_sphere_kernel(
+    first: int,  # the first sphere of this launch (a CPU thread's share)
     # Model:
     sphere_body: wp.array(dtype=int),
     sphere_world: wp.array(dtype=int),
@@ -106,7 +107,7 @@ def sphere_sphere_kernel(
     torque_scale: wp.array(dtype=wp.float64),
     energy: wp.array(dtype=wp.float64),
 ):
-    i = wp.tid()
+    i = wp.tid() + first
     n_i = count[i]
     if n_i == 0:
         return
@@ -257,6 +258,7 @@ def suppressed(
 
 @wp.kernel
 def sphere_triangle_kernel(
+    first: int,  # the first sphere of this launch (a CPU thread's share)
     # Model:
     sphere_body: wp.array(dtype=int),
     sphere_world: wp.array(dtype=int),
@@ -295,7 +297,7 @@ def sphere_triangle_kernel(
     mesh_torque_scale: wp.array(dtype=wp.float64),
     energy: wp.array(dtype=wp.float64),
 ):
-    i = wp.tid()
+    i = wp.tid() + first
     n_i = count[i]
     if n_i == 0:
         return

@@ -41,17 +41,19 @@ class Data:
 
     # force and torque sums (accumulate.py): fixed-point accumulators, their scales, and the float results
     force_acc: wp.array
-    """force on each body in units of its resolution, accumulate.vec3l (nb,)."""
+    """force on each body in units of its resolution, accumulate.vec3l (P * nb,): P = the CPU threads sharing a
+    step (1 on CUDA), each adding into its own nb slots."""
     torque_acc: wp.array
-    """torque about each body's centre of mass in units of its resolution, accumulate.vec3l (nb,)."""
+    """torque about each body's centre of mass in units of its resolution, accumulate.vec3l (P * nb,)."""
     force_scale: wp.array
     """1 / force resolution of each body [1/N], float64 (nb,)."""
     torque_scale: wp.array
     """1 / torque resolution of each body [1/(N m)], float64 (nb,)."""
     mesh_force_acc: wp.array
-    """contact force on each mesh instance, fixed point, accumulate.vec3l (nm,)."""
+    """contact force on each mesh instance, fixed point, accumulate.vec3l (P * nm,)."""
     mesh_torque_acc: wp.array
-    """contact torque on each mesh instance about its body's centre of mass, fixed point, accumulate.vec3l (nm,)."""
+    """contact torque on each mesh instance about its body's centre of mass, fixed point, accumulate.vec3l
+    (P * nm,)."""
     mesh_force_scale: wp.array
     """1 / force resolution of each mesh instance (its body's) [1/N], float64 (nm,)."""
     mesh_torque_scale: wp.array
@@ -71,6 +73,9 @@ class Data:
     energy: wp.array
     """energy dissipated or supplied per world since the start [J], float64 (W * N_ENERGY,), slots in
     observers.ENERGY_TERMS (with ``track_energy``)."""
+    energy_extra: wp.array
+    """the energy terms of CPU threads 2 .. P within a step [J], float64 ((P - 1) * W * N_ENERGY,), at least one
+    entry; added into ``energy`` at the end of the step."""
 
     # candidate lists and contact history (broadphase.PairList)
     ss: PairList
@@ -107,9 +112,10 @@ class Data:
     """1: the lists must be rebuilt before the next step, int32 (1,)."""
 
     @classmethod
-    def zeros(cls, model: Model) -> Data:
+    def zeros(cls, model: Model, parts: int = 1) -> Data:
         """Zeroed arrays for ``model`` on its device; the scales are set by accumulate.resolutions, the mesh
-        extents from the model's geometry, the lists start with 16 entries per sphere."""
+        extents from the model's geometry, the lists start with 16 entries per sphere; ``parts`` (P): CPU threads
+        that share a step, each with its own accumulators."""
         dev = model.device
         ns, nb, nm = model.n_spheres, model.n_bodies, model.n_meshes
         res_f, res_t = accumulate.resolutions(model.body_mass.numpy(), model.body_inertia.numpy(),
@@ -126,15 +132,17 @@ class Data:
         return cls(
             sphere_pos=zeros(ns, wp.vec3d), sphere_vel=zeros(ns, wp.vec3f), sphere_angvel=zeros(ns, wp.vec3f),
             sphere_arm=zeros(ns, wp.vec3f),
-            force_acc=zeros(nb, accumulate.vec3l), torque_acc=zeros(nb, accumulate.vec3l),
+            force_acc=zeros(parts * nb, accumulate.vec3l), torque_acc=zeros(parts * nb, accumulate.vec3l),
             force_scale=f64(1.0 / res_f), torque_scale=f64(1.0 / res_t),
-            mesh_force_acc=zeros(max(nm, 1), accumulate.vec3l), mesh_torque_acc=zeros(max(nm, 1), accumulate.vec3l),
+            mesh_force_acc=zeros(parts * max(nm, 1), accumulate.vec3l),
+            mesh_torque_acc=zeros(parts * max(nm, 1), accumulate.vec3l),
             mesh_force_scale=f64(1.0 / res_f[mesh_body] if nb else np.ones(1)),
             mesh_torque_scale=f64(1.0 / res_t[mesh_body] if nb else np.ones(1)),
             body_force=zeros(nb, wp.vec3f), body_torque=zeros(nb, wp.vec3f),
             mesh_force=zeros(max(nm, 1), wp.vec3f), mesh_torque=zeros(max(nm, 1), wp.vec3f),
             spring_force=zeros(max(model.n_springs, 1), float),
             energy=zeros(model.n_worlds * N_ENERGY, wp.float64),
+            energy_extra=zeros(max(parts - 1, 1) * model.n_worlds * N_ENERGY, wp.float64),
             ss=PairList(ns, 16, dev, two_keys=False), st=PairList(ns, 16, dev, two_keys=True),
             ss_new=PairList(ns, 16, dev, two_keys=False), st_new=PairList(ns, 16, dev, two_keys=True),
             build_pos=zeros(ns, wp.vec3d), mesh_build_pos=zeros(max(nm, 1), wp.vec3d),

@@ -146,6 +146,7 @@ def integrate_hinged(
 
 @wp.kernel
 def integrate_bodies_kernel(
+    first: int,  # the first body of this launch (a CPU thread's share)
     # Model:
     body_world: wp.array(dtype=int),
     body_group: wp.array(dtype=int),
@@ -171,7 +172,7 @@ def integrate_bodies_kernel(
     body_angmom: wp.array(dtype=wp.vec3d),
     energy: wp.array(dtype=wp.float64),
 ):
-    b = wp.tid()
+    b = wp.tid() + first
     flags = body_flags[b]
     v = body_vel[b]
     omega = body_angvel[b]
@@ -292,6 +293,7 @@ def integrate_bodies_kernel(
 
 @wp.kernel
 def update_spheres_kernel(
+    first: int,  # the first sphere of this launch (a CPU thread's share)
     # Model:
     sphere_body: wp.array(dtype=int),
     sphere_offset: wp.array(dtype=wp.vec3f),
@@ -307,7 +309,7 @@ def update_spheres_kernel(
     sphere_arm: wp.array(dtype=wp.vec3f),
 ):
     """Sphere centres and velocities from their bodies: x = X + R(q) p, v = V + Omega x (x - X)."""
-    i = wp.tid()
+    i = wp.tid() + first
     b = sphere_body[i]
     arm = wp.quat_rotate(body_quat[b], wp.vec3d(sphere_offset[i]))
     sphere_pos[i] = body_pos[b] + arm

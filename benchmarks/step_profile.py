@@ -1,0 +1,111 @@
+"""Where a step's time goes: each launch of a step timed on its own, on the deposited bed of ``bed_throughput.py``.
+
+    python benchmarks/step_profile.py --device cpu --steps 300
+    python benchmarks/step_profile.py --device cuda --bed BED.npz --size 4000000 --steps 100
+
+The step is the one :meth:`warpdem.Simulation.advance` replays (its recorded launches), run op by op with a device
+synchronisation after each, so each op's wall time is its own (on CUDA this adds a launch latency per op that a
+captured graph does not pay: read the CUDA column as kernel time plus ~5-10 us). Rebuilds of the candidate lists are
+timed as one op ("rebuild"). Prints a table, milliseconds per step and share of the step, largest first.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+from bed_throughput import MAT, deposited_bed, tiled  # benchmarks/bed_throughput.py, beside this script
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+
+def op_name(op: object) -> str:
+    """A readable name for one recorded op: the kernel's name, a phase's (shared out between CPU threads), or the
+    array method's."""
+    if hasattr(op, "parts"):
+        return "phase " + op.name + " (" + ", ".join(op_name(o) for o in op.parts[0]) + f") x {len(op.parts)}"
+    owner = getattr(op, "__self__", None)
+    kernel = getattr(owner, "kernel", None)
+    if kernel is not None:
+        return kernel.key.split(".")[-1]
+    return getattr(op, "__name__", repr(op))
+
+
+def profile(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: str, steps: int, warmup: int,
+            threads: int | None = None) -> tuple[dict[str, float], float, int]:
+    """Per-op wall seconds summed over ``steps`` steps, the total, and the number of rebuilds."""
+    import warp as wp
+
+    wp.config.quiet = True
+    import warpdem as wd
+    from scenes.assemblies import AssemblySpec, Bed
+
+    b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
+    b.add_material("soil", wd.Material(**MAT))
+    Bed(AssemblySpec(kind="C"), (1.0, 1.0, 1.0), 0.1, pos, rad, particle).add_to(b, "soil")
+    model, state = b.finalize(device)
+    sim = wd.Simulation(model, state, dt=0.3 * wd.pwave_timestep(model), always_use_moment_law=True,
+                        cpu_threads=threads)
+    sim.set_cohesion_now()
+    sim.advance(warmup)
+    ops = sim._launch_step(record=True)
+    names = [op_name(op) for op in ops]
+    times: dict[str, float] = defaultdict(float)
+    rebuilds = 0
+    wp.synchronize_device(device)
+    t_all = time.perf_counter()
+    for _ in range(steps):
+        t = time.perf_counter()
+        if sim.data.rebuild_flag.numpy()[0]:
+            sim._rebuild_checked()
+            rebuilds += 1
+            wp.synchronize_device(device)
+            times["rebuild"] += time.perf_counter() - t
+            ops = sim._launch_step(record=True)  # a rebuild may have grown (moved) the lists
+            names = [op_name(op) for op in ops]
+        for op, name in zip(ops, names, strict=True):
+            t = time.perf_counter()
+            op()
+            wp.synchronize_device(device)
+            times[name] += time.perf_counter() - t
+    total = time.perf_counter() - t_all
+    return dict(times), total, rebuilds
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--device", default="cpu")
+    p.add_argument("--size", type=int, default=0, help="sphere count (0: the bed once)")
+    p.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"), help="the deposited bed's scale")
+    p.add_argument("--bed", default=None, help="a saved bed (.npz) to use instead")
+    p.add_argument("--cache", default=str(Path(__file__).resolve().parent / ".beds"),
+                   help="folder of deposited beds (made once; default: benchmarks/.beds)")
+    p.add_argument("--steps", type=int, default=300)
+    p.add_argument("--warmup", type=int, default=20)
+    p.add_argument("--threads", type=int, default=None, help="CPU threads sharing a step (default: all cores)")
+    p.add_argument("--json", default=None, help="append the result to this JSON-lines file")
+    args = p.parse_args()
+    pos, rad, part = deposited_bed(args.scale, 0, Path(args.cache), args.bed)
+    if args.size > len(rad):
+        pos, rad, part = tiled(pos, rad, part, args.size)
+    times, total, rebuilds = profile(pos, rad, part, args.device, args.steps, args.warmup, args.threads)
+    print(f"{len(rad):,} spheres, {args.steps} steps on {args.device}: {1e3 * total / args.steps:.3f} ms/step "
+          f"({len(rad) * args.steps / total:.3g} particle-steps/s op by op), {rebuilds} rebuilds")
+    print(f"{'op':<60} {'ms/step':>9} {'share':>7}")
+    for name, sec in sorted(times.items(), key=lambda kv: -kv[1]):
+        print(f"{name:<60} {1e3 * sec / args.steps:9.4f} {100 * sec / total:6.1f}%")
+    if args.json:
+        with open(args.json, "a") as f:
+            f.write(json.dumps({"device": args.device, "threads": args.threads, "spheres": len(rad),
+                                "steps": args.steps,
+                                "rebuilds": rebuilds, "ms_per_step": 1e3 * total / args.steps,
+                                "ops_ms_per_step": {k: 1e3 * v / args.steps for k, v in times.items()}}) + "\n")
+
+
+if __name__ == "__main__":
+    main()
