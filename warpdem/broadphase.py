@@ -14,9 +14,12 @@ largest mesh displacement exceeds the skin, so no contact can be missed between 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import warp as wp
 
+from . import cpu_threads
 from .contact_law import ACTIVE, Hist, closest_point_triangle, empty_hist
 
 wp.set_module_options({"enable_backward": False})
@@ -24,7 +27,7 @@ wp.set_module_options({"enable_backward": False})
 
 # ----------------------------------------------------------------------------- displacement check
 @wp.kernel
-def _sphere_displacement_kernel(
+def sphere_displacement_kernel(
     # Data in:
     sphere_pos_in: wp.array(dtype=wp.vec3d),
     build_pos_in: wp.array(dtype=wp.vec3d),
@@ -37,7 +40,7 @@ def _sphere_displacement_kernel(
 
 
 @wp.kernel
-def _mesh_displacement_kernel(
+def mesh_displacement_kernel(
     # Model:
     mesh_body: wp.array(dtype=int),
     mesh_rmax: wp.array(dtype=float),
@@ -93,6 +96,7 @@ def _ss_is_candidate(
 
 @wp.kernel
 def _ss_count_kernel(
+    first: int,  # the first sphere of this launch (a CPU thread's share)
     # Model:
     grid: wp.uint64,
     sphere_body: wp.array(dtype=int),
@@ -109,7 +113,7 @@ def _ss_count_kernel(
     # Data out:
     count_out: wp.array(dtype=int),
 ):
-    i = wp.tid()
+    i = wp.tid() + first
     x = sphere_pos[i]
     query = wp.hash_grid_query(grid, x, radius[i] + wp.float64(max_radius + skin), sphere_world[i])
     j = int(0)
@@ -126,6 +130,7 @@ def _ss_count_kernel(
 
 @wp.kernel
 def _ss_fill_kernel(
+    first: int,  # the first sphere of this launch (a CPU thread's share)
     # Model:
     grid: wp.uint64,
     sphere_body: wp.array(dtype=int),
@@ -147,7 +152,7 @@ def _ss_fill_kernel(
     hist_out: wp.array(dtype=Hist),
     overflow_out: wp.array(dtype=int),
 ):
-    i = wp.tid()
+    i = wp.tid() + first
     base = start_in[i]
     n = count_out[i]
     if base + n > capacity:
@@ -226,6 +231,7 @@ def _st_is_candidate(
 
 @wp.kernel
 def _st_build_kernel(
+    first: int,  # the first sphere of this launch (a CPU thread's share)
     # Model:
     sphere_body: wp.array(dtype=int),
     sphere_world: wp.array(dtype=int),
@@ -257,7 +263,7 @@ def _st_build_kernel(
     overflow_out: wp.array(dtype=int),
 ):
     """Count (fill = 0) or fill (fill = 1) the sphere-triangle candidates of sphere i."""
-    i = wp.tid()
+    i = wp.tid() + first
     base = int(0)
     n = int(2147483647)
     if fill == 1:
@@ -314,6 +320,70 @@ def _st_build_kernel(
         for k in range(old_start[i], old_start[i] + old_count[i]):
             if old_mesh[k] == mesh_out[base + a] and old_face[k] == face_out[base + a]:
                 hist_out[base + a] = old_hist[k]
+
+
+@wp.kernel
+def _list_total_kernel(alloc_total: wp.array(dtype=int), slot: int, out: wp.array(dtype=int)):
+    """Record the entries a list needed at its last build (list_stats[slot]), for capacity monitoring."""
+    wp.atomic_max(out, slot, alloc_total[slot])
+
+
+# ----------------------------------------------------------------------------- the build
+def build(grid: wp.HashGrid, cell: float, skin: float, model: object, state: object, data: object,
+          parts: Sequence[tuple[int, int]] | None = None) -> None:
+    """Rebuild both candidate lists of ``data`` (warpdem.data.Data) from the current sphere and body positions.
+
+    The new lists are made in the scratch lists (``ss_new``, ``st_new``), each surviving pair's history is copied
+    from the old lists, and the result is copied back, so the arrays keep their addresses (capturable on CUDA).
+    ``list_stats`` records the entries each list needed and, on overflow, the capacity it lacked (the caller grows
+    the lists and builds again). ``grid``: the hash grid (cell size ``cell`` [m]); ``skin`` [m]: the candidate gap.
+    ``parts``: on the CPU, sphere ranges (first, end) whose per-sphere kernels run at once on CPU threads
+    (cpu_threads.Parallel); default: all spheres in one launch.
+    """
+    m, d, dev = model, data, model.device
+    ns = m.n_spheres
+    if ns == 0:
+        return
+    parts = list(parts) if parts else [(0, ns)]
+
+    def per_sphere(kernel: object, inputs: list, outputs: list) -> None:
+        """``kernel`` over every sphere, its first argument the range's first sphere."""
+        if len(parts) == 1:
+            wp.launch(kernel, ns, inputs=[0, *inputs], outputs=outputs, device=dev)
+            return
+        cpu_threads.Parallel(kernel.key, [
+            [wp.launch(kernel, end - first, inputs=[first, *inputs], outputs=outputs, device=dev,
+                       record_cmd=True).launch]
+            for first, end in parts if end > first
+        ])()
+
+    grid.build(d.sphere_pos, cell, groups=m.sphere_world)
+    common = [grid.id, m.sphere_body, m.sphere_world, m.sphere_radius, m.max_radius, skin]
+    old = [d.sphere_pos, d.ss.start, d.ss.count, d.ss.key_a, d.ss.hist]
+    per_sphere(_ss_count_kernel, common + old, [d.ss_new.count])
+    d.alloc_total.zero_()
+    wp.launch(allocate_blocks_kernel, ns, inputs=[d.ss_new.count, d.alloc_total[0:1]], outputs=[d.ss_new.start],
+              device=dev)
+    per_sphere(_ss_fill_kernel, common + [d.ss_new.capacity] + old + [d.ss_new.start],
+               [d.ss_new.count, d.ss_new.key_a, d.ss_new.hist, d.list_stats[2:3]])
+    wp.launch(_list_total_kernel, 1, inputs=[d.alloc_total, 0, d.list_stats], device=dev)
+    d.ss.copy_from(d.ss_new)
+    wp.copy(d.build_pos, d.sphere_pos)
+    if m.n_meshes == 0:
+        return
+    st_model = [m.sphere_body, m.sphere_world, m.sphere_radius, m.mesh_body, m.mesh_ids, m.mesh_tri_offset,
+                m.tri_vertices, m.world_mesh_start, m.meshes_per_world, skin, d.st_new.capacity]
+    st_in = [d.sphere_pos, state.body_pos, state.body_quat, d.st.start, d.st.count, d.st.key_a, d.st.key_b,
+             d.st.hist]
+    st_out = [d.st_new.count, d.st_new.key_a, d.st_new.key_b, d.st_new.hist, d.list_stats[3:4]]
+    per_sphere(_st_build_kernel, st_model + [0] + st_in + [d.st_new.start], st_out)
+    wp.launch(allocate_blocks_kernel, ns, inputs=[d.st_new.count, d.alloc_total[1:2]], outputs=[d.st_new.start],
+              device=dev)
+    per_sphere(_st_build_kernel, st_model + [1] + st_in + [d.st_new.start], st_out)
+    wp.launch(_list_total_kernel, 1, inputs=[d.alloc_total, 1, d.list_stats], device=dev)
+    d.st.copy_from(d.st_new)
+    wp.launch(_record_mesh_build_pose_kernel, m.n_meshes, inputs=[m.mesh_body, state.body_pos, state.body_quat],
+              outputs=[d.mesh_build_pos, d.mesh_build_quat], device=dev)
 
 
 # ----------------------------------------------------------------------------- host-side container

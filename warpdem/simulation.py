@@ -58,12 +58,6 @@ def _end_step_kernel(
 
 
 @wp.kernel
-def _list_total_kernel(alloc_total: wp.array(dtype=int), slot: int, out: wp.array(dtype=int)):
-    """Record the entries a list needed at its last build (list_stats[slot]), for capacity monitoring."""
-    wp.atomic_max(out, slot, alloc_total[slot])
-
-
-@wp.kernel
 def _check_bodies_kernel(
     body_flags: wp.array(dtype=int),
     body_pos: wp.array(dtype=wp.vec3d),
@@ -262,47 +256,12 @@ class Simulation:
 
     # ------------------------------------------------------------------ broad phase
     def _rebuild(self) -> None:
-        """Rebuild both candidate lists into scratch arrays, inherit history, copy back (capturable)."""
-        d = self.data
-        m = self.model
-        ns = m.n_spheres
-        if ns == 0:
+        """Rebuild both candidate lists (broadphase.build), on the CPU threads' contact ranges."""
+        if self.model.n_spheres == 0:
             return
-        dev = self.device
-        self.grid.build(d.sphere_pos, self._cell, groups=m.sphere_world)
-        common = [self.grid.id, m.sphere_body, m.sphere_world, m.sphere_radius, m.max_radius, self.skin]
-        old = [d.sphere_pos, d.ss.start, d.ss.count, d.ss.key_a, d.ss.hist]
-        wp.launch(bp._ss_count_kernel, ns, inputs=common + old, outputs=[d.ss_new.count], device=dev)
-        d.alloc_total.zero_()
-        wp.launch(bp.allocate_blocks_kernel, ns, inputs=[d.ss_new.count, d.alloc_total[0:1]],
-                  outputs=[d.ss_new.start], device=dev)
-        wp.launch(
-            bp._ss_fill_kernel, ns,
-            inputs=common + [d.ss_new.capacity] + old + [d.ss_new.start],
-            outputs=[d.ss_new.count, d.ss_new.key_a, d.ss_new.hist, d.list_stats[2:3]],
-            device=dev,
-        )
-        wp.launch(_list_total_kernel, 1, inputs=[d.alloc_total, 0, d.list_stats], device=dev)
-        d.ss.copy_from(d.ss_new)
-        wp.copy(d.build_pos, d.sphere_pos)
-        if m.n_meshes == 0:
-            return
-        st_model = [m.sphere_body, m.sphere_world, m.sphere_radius, m.mesh_body, m.mesh_ids, m.mesh_tri_offset,
-                    m.tri_vertices, m.world_mesh_start, m.meshes_per_world, self.skin, d.st_new.capacity]
-        st_in = [d.sphere_pos, self.state.body_pos, self.state.body_quat, d.st.start, d.st.count,
-                 d.st.key_a, d.st.key_b, d.st.hist]
-        st_out = [d.st_new.count, d.st_new.key_a, d.st_new.key_b, d.st_new.hist, d.list_stats[3:4]]
-        wp.launch(bp._st_build_kernel, ns, inputs=st_model + [0] + st_in + [d.st_new.start], outputs=st_out,
-                  device=dev)
-        wp.launch(bp.allocate_blocks_kernel, ns, inputs=[d.st_new.count, d.alloc_total[1:2]],
-                  outputs=[d.st_new.start], device=dev)
-        wp.launch(bp._st_build_kernel, ns, inputs=st_model + [1] + st_in + [d.st_new.start], outputs=st_out,
-                  device=dev)
-        wp.launch(_list_total_kernel, 1, inputs=[d.alloc_total, 1, d.list_stats], device=dev)
-        d.st.copy_from(d.st_new)
-        wp.launch(bp._record_mesh_build_pose_kernel, m.n_meshes,
-                  inputs=[m.mesh_body, self.state.body_pos, self.state.body_quat],
-                  outputs=[d.mesh_build_pos, d.mesh_build_quat], device=dev)
+        cut = self._contact_cut
+        bp.build(self.grid, self._cell, self.skin, self.model, self.state, self.data,
+                 [(cut[p], cut[p + 1]) for p in range(self.parts)])
 
     def _rebuild_checked(self) -> None:
         """Host-side rebuild that grows the lists until everything fits (not capturable)."""
@@ -470,10 +429,10 @@ class Simulation:
         zero(d.cohesion_now)
         # broad phase next step? when the displacements since the last build could hide a contact
         if ns:
-            serial(launch(bp._sphere_displacement_kernel, ns, inputs=[d.sphere_pos, d.build_pos],
+            serial(launch(bp.sphere_displacement_kernel, ns, inputs=[d.sphere_pos, d.build_pos],
                           outputs=[d.disp], device=dev))
         if m.n_meshes:
-            serial(launch(bp._mesh_displacement_kernel, m.n_meshes,
+            serial(launch(bp.mesh_displacement_kernel, m.n_meshes,
                           inputs=[m.mesh_body, d.mesh_rmax, s.body_pos, s.body_quat, d.mesh_build_pos,
                                   d.mesh_build_quat], outputs=[d.disp], device=dev))
         serial(launch(_end_step_kernel, 1, inputs=[self.skin, d.disp, d.rebuild_flag, d.counters], device=dev))
