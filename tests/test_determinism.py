@@ -36,8 +36,10 @@ def _sums(order: np.ndarray, body: np.ndarray, force: np.ndarray, res: np.ndarra
                                                   wp.array(force, dtype=wp.vec3f, device=DEVICE),
                                                   acc_f, acc_t, scale, scale, plain], device=DEVICE)
     out = wp.zeros(n, dtype=wp.vec3f, device=DEVICE)
+    sums = acc_f.numpy()
     wp.launch(accumulate.to_float_kernel, n, inputs=[0, acc_f, scale, 1], outputs=[out], device=DEVICE)
-    return acc_f.numpy(), out.numpy(), plain.numpy()
+    assert not acc_f.numpy().any()  # read and cleared for the next step
+    return sums, out.numpy(), plain.numpy()
 
 
 def test_fixed_point_sums_do_not_depend_on_the_order_of_the_contributions() -> None:

@@ -64,15 +64,18 @@ def to_float_kernel(
     parts: int,
     out: wp.array(dtype=wp.vec3f),
 ):
-    """out[i] = (sum over the parts p of acc[p * n + i]) x resolution, in float32, n = len(out).
+    """out[i] = (sum over the parts p of acc[p * n + i]) x resolution, in float32, n = len(out); the slots read are
+    zeroed for the next step.
 
     ``acc`` holds ``parts`` accumulators of n slots one after another (one per CPU thread, summed here: integer
     sums, so the result does not depend on how the contributions were shared out)."""
     i = wp.tid() + first
     n = out.shape[0]
     a = acc[i]
+    acc[i] = vec3l()
     for p in range(1, parts):
         a = a + acc[p * n + i]
+        acc[p * n + i] = vec3l()
     r = wp.float64(1.0) / scale[i]
     out[i] = wp.vec3f(float(wp.float64(a[0]) * r), float(wp.float64(a[1]) * r), float(wp.float64(a[2]) * r))
 

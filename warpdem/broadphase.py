@@ -9,7 +9,8 @@ Sphere-sphere candidates come from a grouped float64 ``wp.HashGrid`` (group = wo
 sphere-triangle candidates from ``wp.mesh_query_aabb`` against each mesh in its own body frame (no refit needed).
 A pair is a candidate when its gap is below the skin; contacts that exist stay listed however far they stretch.
 The lists are rebuilt when the largest sphere displacement since the last build plus the larger of that and the
-largest mesh displacement exceeds the skin, so no contact can be missed between two builds.
+largest mesh displacement exceeds the skin, so no contact can be missed between two builds (the spheres' displacement
+is measured where their positions are updated, integrator.update_spheres_kernel; the meshes' here).
 """
 
 from __future__ import annotations
@@ -26,19 +27,6 @@ wp.set_module_options({"enable_backward": False})
 
 
 # ----------------------------------------------------------------------------- displacement check
-@wp.kernel
-def sphere_displacement_kernel(
-    # Data in:
-    sphere_pos_in: wp.array(dtype=wp.vec3d),
-    build_pos_in: wp.array(dtype=wp.vec3d),
-    # Data out:
-    disp_out: wp.array(dtype=float),
-):
-    i = wp.tid()
-    d = float(wp.length(sphere_pos_in[i] - build_pos_in[i]))
-    wp.atomic_max(disp_out, 0, d)
-
-
 @wp.kernel
 def mesh_displacement_kernel(
     # Model:
@@ -58,7 +46,7 @@ def mesh_displacement_kernel(
     s = wp.min(wp.length(wp.vec3d(dq[0], dq[1], dq[2])), wp.float64(1.0))
     angle = 2.0 * float(wp.asin(s))
     d = float(wp.length(body_pos_in[b] - build_pos_in[m])) + angle * mesh_rmax[m]
-    wp.atomic_max(disp_out, 1, d)
+    wp.atomic_max(disp_out, 0, d)
 
 
 @wp.kernel

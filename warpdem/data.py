@@ -21,6 +21,9 @@ from .broadphase import PairList
 from .contacts import N_ENERGY
 from .model import Model
 
+DISP_STRIDE = wp.constant(16)
+"""entries between two threads' slots of ``disp`` (64 bytes: one cache line each, so that threads do not share one)."""
+
 NO_FAULT = 2**31 - 1
 """``fault[0]`` while no body has failed (the failing body with the lowest index wins: atomic min)."""
 
@@ -105,7 +108,8 @@ class Data:
     list_stats: wp.array
     """entries of the sphere-sphere and sphere-triangle lists at the last build, and any overflow, int32 (4,)."""
     disp: wp.array
-    """largest sphere and mesh displacement since the last build [m], float32 (2,)."""
+    """largest mesh displacement (entry 0), then the largest sphere displacement of each CPU thread p (entry
+    (1 + p) * DISP_STRIDE), since the last build [m], float32 ((1 + P) * DISP_STRIDE,)."""
     alloc_total: wp.array
     """list entries allocated at a build (sphere-sphere, sphere-triangle), int32 (2,)."""
     rebuild_flag: wp.array
@@ -151,5 +155,5 @@ class Data:
                                dtype=float, device=dev),
             cohesion_now=zeros(1, int), counters=zeros(2, int),
             fault=wp.array([NO_FAULT, 0, 0], dtype=int, device=dev), list_stats=zeros(4, int),
-            disp=zeros(2, float), alloc_total=zeros(2, int), rebuild_flag=zeros(1, int),
+            disp=zeros((1 + parts) * DISP_STRIDE, float), alloc_total=zeros(2, int), rebuild_flag=zeros(1, int),
         )

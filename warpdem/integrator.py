@@ -307,12 +307,20 @@ def update_spheres_kernel(
     sphere_vel: wp.array(dtype=wp.vec3f),
     sphere_angvel: wp.array(dtype=wp.vec3f),
     sphere_arm: wp.array(dtype=wp.vec3f),
+    # the broad phase's displacement check (disp_slot < 0: none):
+    build_pos: wp.array(dtype=wp.vec3d),
+    disp_slot: int,
+    disp_out: wp.array(dtype=float),
 ):
-    """Sphere centres and velocities from their bodies: x = X + R(q) p, v = V + Omega x (x - X)."""
+    """Sphere centres and velocities from their bodies: x = X + R(q) p, v = V + Omega x (x - X); and the largest
+    distance of a sphere from its position at the last list build [m] into disp_out[disp_slot] (atomic max)."""
     i = wp.tid() + first
     b = sphere_body[i]
     arm = wp.quat_rotate(body_quat[b], wp.vec3d(sphere_offset[i]))
-    sphere_pos[i] = body_pos[b] + arm
+    x = body_pos[b] + arm
+    sphere_pos[i] = x
+    if disp_slot >= 0:
+        wp.atomic_max(disp_out, disp_slot, float(wp.length(x - build_pos[i])))
     omega = body_angvel[b]
     sphere_vel[i] = wp.vec3f(body_vel[b] + wp.cross(omega, arm))
     sphere_angvel[i] = wp.vec3f(omega)

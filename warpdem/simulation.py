@@ -26,7 +26,7 @@ from .contacts import (
     sphere_sphere_kernel,
     sphere_triangle_kernel,
 )
-from .data import NO_FAULT, Data
+from .data import DISP_STRIDE, NO_FAULT, Data
 from .errors import InputError, SimulationError, check_finite, check_positive
 from .integrator import integrate_bodies_kernel, spring_kernel, update_spheres_kernel
 from .model import FLAG_PIVOT, Model, State
@@ -45,15 +45,18 @@ def _end_step_kernel(
     counters: wp.array(dtype=int),
 ):
     """At the end of a step: decide whether to rebuild the candidate lists before the next one, and count steps
-    (counters: steps, rebuilds)."""
-    ds = disp[0]
-    if ds + wp.max(ds, disp[1]) > skin:
+    (counters: steps, rebuilds). disp: the meshes' largest displacement, then the spheres' of each CPU thread, one
+    slot per DISP_STRIDE entries."""
+    ds = float(0.0)
+    for p in range(DISP_STRIDE, disp.shape[0], DISP_STRIDE):
+        ds = wp.max(ds, disp[p])
+        disp[p] = 0.0
+    if ds + wp.max(ds, disp[0]) > skin:
         flag_out[0] = 1
         counters[1] = counters[1] + 1
     else:
         flag_out[0] = 0
     disp[0] = 0.0
-    disp[1] = 0.0
     counters[0] = counters[0] + 1
 
 
@@ -237,9 +240,10 @@ class Simulation:
                 raise InputError(f"bounds must be (lower (3,), upper (3,)) with lower < upper, got {bounds!r}")
         self.bounds = (lo, hi)
 
-    def _update_spheres(self, launch: Callable[..., object] = wp.launch, first: int = 0, dim: int | None = None
-                        ) -> object:
-        """Sphere kinematics from the bodies' state, for spheres first .. first + dim (default: all)."""
+    def _update_spheres(self, launch: Callable[..., object] = wp.launch, first: int = 0, dim: int | None = None,
+                        disp_slot: int = -1) -> object:
+        """Sphere kinematics from the bodies' state, for spheres first .. first + dim (default: all); with
+        ``disp_slot`` >= 0, their largest displacement since the last list build into ``data.disp[disp_slot]``."""
         d = self.data
         m = self.model
         dim = m.n_spheres - first if dim is None else dim
@@ -250,7 +254,7 @@ class Simulation:
             dim,
             inputs=[first, m.sphere_body, m.sphere_offset, self.state.body_pos, self.state.body_quat,
                     self.state.body_vel, self.state.body_angvel],
-            outputs=[d.sphere_pos, d.sphere_vel, d.sphere_angvel, d.sphere_arm],
+            outputs=[d.sphere_pos, d.sphere_vel, d.sphere_angvel, d.sphere_arm, d.build_pos, disp_slot, d.disp],
             device=self.device,
         )
 
@@ -353,10 +357,7 @@ class Simulation:
 
         ns = m.n_spheres
         sc, bc, cc = self._sphere_cut, self._body_cut, self._contact_cut
-        zero(d.force_acc)
-        zero(d.torque_acc)
-        zero(d.mesh_force_acc)
-        zero(d.mesh_torque_acc)
+        # the accumulators are zero here: the sums to float of the previous step cleared them
         contacts: list[list[Callable[[], object] | None]] = []
         for p in range(P):
             acc, mesh_acc, energy = part_sums(p)
@@ -417,7 +418,7 @@ class Simulation:
                 outputs=[s.body_pos, s.body_quat, s.body_vel, s.body_angvel, s.body_angmom, energy],
                 device=dev,
             ))
-            part.append(self._update_spheres(launch, sc[p], sc[p + 1] - sc[p]))
+            part.append(self._update_spheres(launch, sc[p], sc[p + 1] - sc[p], disp_slot=(1 + p) * DISP_STRIDE))
             motion.append(part)
         phase("motion", motion)
         serial(launch(
@@ -428,9 +429,6 @@ class Simulation:
         ))
         zero(d.cohesion_now)
         # broad phase next step? when the displacements since the last build could hide a contact
-        if ns:
-            serial(launch(bp.sphere_displacement_kernel, ns, inputs=[d.sphere_pos, d.build_pos],
-                          outputs=[d.disp], device=dev))
         if m.n_meshes:
             serial(launch(bp.mesh_displacement_kernel, m.n_meshes,
                           inputs=[m.mesh_body, d.mesh_rmax, s.body_pos, s.body_quat, d.mesh_build_pos,
