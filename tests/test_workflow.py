@@ -292,3 +292,27 @@ def test_a_bed_deposition_must_fit_the_budget_whole(tmp_path):
         wf.run_job(wf.jobs(0)[0], soil, None, budget)
     assert budget.asked == [(123.0, "depositing replica 0's bed")]
     assert not (tmp_path / "beds").exists() or not list((tmp_path / "beds").glob("*.npz"))
+
+
+def test_the_draught_calibrations_bed_must_fit_the_budget_whole(tmp_path):
+    """The draught calibration's bed is deposited before its first generation: that deposition asks the budget first
+    too, sized by its own last recorded time or, before there is one, a Table 3 bed's (timings.json), and stops
+    before depositing anything when it does not fit."""
+
+    class _Asked(Budget):
+        def __init__(self) -> None:
+            super().__init__(None)
+            self.asked: list[tuple[float, str]] = []
+
+        def require(self, seconds: float, what: str) -> None:
+            self.asked.append((seconds, what))
+            raise BudgetExhausted(f"test stop before {what}")
+
+    wf = Workflow(tmp_path, _config())
+    for timings, expected in (({"deposit": 123.0}, 123.0), ({"deposit": 123.0, "deposit_draught": 45.0}, 45.0)):
+        (tmp_path / "timings.json").write_text(json.dumps(timings))
+        budget = _Asked()
+        with pytest.raises(BudgetExhausted, match="depositing the draught calibration's bed"):
+            wf.draught(budget)
+        assert budget.asked == [(expected, "depositing the draught calibration's bed")]
+        assert not (tmp_path / "beds").exists() or not list((tmp_path / "beds").glob("*.npz"))
