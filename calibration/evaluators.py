@@ -14,6 +14,8 @@ on one machine, ``ray start --address=HEAD:6379`` on the others) and pass ``addr
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 
@@ -31,13 +33,20 @@ class LocalEvaluator:
 
 
 class _Worker:
-    """A Ray actor: one problem, one device, one batched simulation per call."""
+    """A Ray actor: one problem, one device, one batched simulation per call; on the CPU, as many threads per step
+    as the CPUs it reserved (so that workers sharing a machine do not each take every core)."""
 
-    def __init__(self, problem) -> None:  # noqa: ANN001
+    def __init__(self, problem, cpu_threads: int) -> None:  # noqa: ANN001
+        os.environ["WARPDEM_CPU_THREADS"] = str(cpu_threads)  # read by every Simulation this worker makes
         self.problem = problem
 
     def evaluate(self, values: np.ndarray) -> list[dict[str, float]]:
         return self.problem.evaluate(values)
+
+    def cpu_threads(self) -> int:
+        from warpdem.cpu_threads import default_threads
+
+        return default_threads()
 
 
 class RayEvaluator:
@@ -47,7 +56,8 @@ class RayEvaluator:
         problem: the calibration problem (pickled to every worker).
         workers: number of actors (default: the cluster's GPUs if ``gpus_per_worker`` > 0, else 2).
         address: an existing cluster's address, "auto", or None to start a local one.
-        gpus_per_worker, cpus_per_worker: resources reserved by each actor.
+        gpus_per_worker, cpus_per_worker: resources reserved by each actor (on the CPU, a worker's step runs on
+            int(cpus_per_worker) threads, at least one).
         init_kwargs: further arguments to ``ray.init`` (e.g. ``num_cpus`` of a local cluster).
     """
 
@@ -68,11 +78,16 @@ class RayEvaluator:
             gpus = int(ray.cluster_resources().get("GPU", 0))
             workers = max(1, gpus // max(1, int(gpus_per_worker))) if gpus_per_worker > 0 else 2
         actor = ray.remote(num_cpus=cpus_per_worker, num_gpus=gpus_per_worker)(_Worker)
-        self.actors = [actor.remote(problem) for _ in range(workers)]
+        threads = max(1, int(cpus_per_worker))
+        self.actors = [actor.remote(problem, threads) for _ in range(workers)]
 
     @property
     def workers(self) -> int:
         return len(self.actors)
+
+    def cpu_threads(self) -> list[int]:
+        """The CPU threads each worker's simulations use per step."""
+        return self._ray.get([a.cpu_threads.remote() for a in self.actors])
 
     def __call__(self, values: np.ndarray) -> list[dict[str, float]]:
         values = np.atleast_2d(np.asarray(values, dtype=np.float64))

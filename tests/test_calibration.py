@@ -206,13 +206,15 @@ def test_ringing_calibration_recovers_the_analytic_spring() -> None:
 @pytest.mark.skipif(importlib.util.find_spec("ray") is None, reason="Ray (optional extra) not installed")
 def test_ray_workers_give_the_in_process_result() -> None:
     # The Ray path: a local cluster of 2 workers, each simulating its share of the population as one batch,
-    # returns exactly what the in-process evaluator returns.
+    # returns exactly what the in-process evaluator returns. Each worker reserved one CPU, so its steps run on one
+    # thread (two workers on two cores do not take four).
     p = RingingProblem(**RING)
     pop = np.array([[2e5, 0.05], [6e5, 0.1], [1.3e6, 0.2], [8e6, 0.4]])
     local = LocalEvaluator(p)(pop)
     ray_eval = RayEvaluator(p, 2, init_kwargs={"num_cpus": 2})
     try:
         assert ray_eval.workers == 2
+        assert ray_eval.cpu_threads() == [1, 1]
         remote = ray_eval(pop)
     finally:
         ray_eval.close()
