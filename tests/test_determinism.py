@@ -199,3 +199,35 @@ def test_cpu_threads_must_be_a_positive_integer(monkeypatch: object) -> None:
         assert "WARPDEM_CPU_THREADS" in str(exc) and "'zero'" in str(exc)
     else:
         assert DEVICE != "cpu"
+
+
+def test_cpu_threads_report_the_fault_one_thread_reports(monkeypatch: object) -> None:
+    # Reference: the same blow-up on one thread. Three worlds of two spheres, world 1's pushed deep into each other
+    # with a step 30x the critical one (tests/test_errors.py's scene); on three threads (one world each) the error
+    # names the same body, cause and step as on one.
+    if DEVICE != "cpu":
+        return
+    from warpdem import cpu_threads
+
+    monkeypatch.setattr(cpu_threads, "MIN_SPHERES_PER_THREAD", 1)
+
+    def fault(threads: int) -> tuple[int, str, int, int]:
+        b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
+        b.add_material("m", wd.Material(young=1e7, poisson=0.3, density=2700, friction_angle=30))
+        b.add_sphere((0, 0, 0), 0.01, "m")
+        b.add_sphere((0.03, 0, 0), 0.01, "m")
+        model, state = b.finalize(DEVICE, n_worlds=3)
+        pos = state.body_pos.numpy()
+        pos[3] = pos[2] + np.array([0.012, 0.0, 0.0])
+        state.body_pos.assign(pos)
+        sim = wd.Simulation(model, state, dt=30 * wd.pwave_timestep(model), force_dt=True, cpu_threads=threads)
+        assert sim.parts == threads
+        try:
+            sim.advance(200)
+        except wd.SimulationError as e:
+            return e.body, e.cause, e.step, e.world
+        raise AssertionError("the run did not blow up")
+
+    one = fault(1)
+    assert one[3] == 1
+    assert fault(3) == one

@@ -105,6 +105,9 @@ class Data:
     """steps and list rebuilds done on the device, int32 (2,)."""
     fault: wp.array
     """first failure: body (NO_FAULT: none), cause, step, int32 (3,)."""
+    fault_parts: wp.array
+    """each CPU thread's failure of the current step (body, cause, step at entry p * DISP_STRIDE), moved into
+    ``fault`` at the end of the step, int32 (P * DISP_STRIDE,)."""
     list_stats: wp.array
     """entries of the sphere-sphere and sphere-triangle lists at the last build, and any overflow, int32 (4,)."""
     disp: wp.array
@@ -154,6 +157,9 @@ class Data:
             mesh_rmax=wp.array(np.tile(np.array(rmax, dtype=np.float32), model.n_worlds) if nm else [0.0],
                                dtype=float, device=dev),
             cohesion_now=zeros(1, int), counters=zeros(2, int),
-            fault=wp.array([NO_FAULT, 0, 0], dtype=int, device=dev), list_stats=zeros(4, int),
+            fault=wp.array([NO_FAULT, 0, 0], dtype=int, device=dev),
+            fault_parts=wp.array(np.tile(np.r_[NO_FAULT, np.zeros(DISP_STRIDE - 1)], parts).astype(np.int32),
+                                 dtype=int, device=dev),
+            list_stats=zeros(4, int),
             disp=zeros((1 + parts) * DISP_STRIDE, float), alloc_total=zeros(2, int), rebuild_flag=zeros(1, int),
         )

@@ -35,18 +35,29 @@ from .timestep import critical_timestep
 wp.set_module_options({"enable_backward": False})
 
 FAULT_NAMES = {1: "nan", 2: "speed", 3: "escaped"}
+NO_FAULT_C = wp.constant(NO_FAULT)
 
 
 @wp.kernel
 def _end_step_kernel(
     skin: float,
     disp: wp.array(dtype=float),
+    fault_parts: wp.array(dtype=int),
     flag_out: wp.array(dtype=int),
     counters: wp.array(dtype=int),
+    fault: wp.array(dtype=int),
 ):
-    """At the end of a step: decide whether to rebuild the candidate lists before the next one, and count steps
-    (counters: steps, rebuilds). disp: the meshes' largest displacement, then the spheres' of each CPU thread, one
-    slot per DISP_STRIDE entries."""
+    """At the end of a step: decide whether to rebuild the candidate lists before the next one, count steps
+    (counters: steps, rebuilds), and keep the step's first body fault unless an earlier step had one. disp: the
+    meshes' largest displacement, then the spheres' of each CPU thread; fault_parts: each thread's (body, cause,
+    step), for bodies in thread order; one slot per DISP_STRIDE entries in both."""
+    for base in range(0, fault_parts.shape[0], DISP_STRIDE):
+        if fault_parts[base] != NO_FAULT_C:
+            if fault[0] == NO_FAULT_C:
+                fault[0] = fault_parts[base]
+                fault[1] = fault_parts[base + 1]
+                fault[2] = fault_parts[base + 2]
+            fault_parts[base] = NO_FAULT_C
     ds = float(0.0)
     for p in range(DISP_STRIDE, disp.shape[0], DISP_STRIDE):
         ds = wp.max(ds, disp[p])
@@ -62,6 +73,7 @@ def _end_step_kernel(
 
 @wp.kernel
 def _check_bodies_kernel(
+    first: int,  # the first body of this launch (a CPU thread's share)
     body_flags: wp.array(dtype=int),
     body_pos: wp.array(dtype=wp.vec3d),
     body_vel: wp.array(dtype=wp.vec3d),
@@ -70,10 +82,12 @@ def _check_bodies_kernel(
     lower: wp.vec3d,
     upper: wp.vec3d,
     counters: wp.array(dtype=int),
+    base: int,
     fault: wp.array(dtype=int),
 ):
-    """Record the first body (lowest index) that is NaN, too fast or out of bounds: fault = (body, cause, step)."""
-    b = wp.tid()
+    """Record the body of lowest index that is NaN, too fast or out of bounds: fault[base:base + 3] = (body, cause,
+    step)."""
+    b = wp.tid() + first
     x = body_pos[b]
     v = body_vel[b]
     cause = int(0)
@@ -87,10 +101,10 @@ def _check_bodies_kernel(
             if x[k] < lower[k] or x[k] > upper[k]:
                 cause = 3
     if cause != 0:
-        old = wp.atomic_min(fault, 0, b)
+        old = wp.atomic_min(fault, base, b)
         if b < old:
-            fault[1] = cause
-            fault[2] = counters[0] + 1  # the step being completed (counted at its end)
+            fault[base + 1] = cause
+            fault[base + 2] = counters[0] + 1  # the step being completed (counted at its end)
 
 
 class Simulation:
@@ -419,21 +433,22 @@ class Simulation:
                 device=dev,
             ))
             part.append(self._update_spheres(launch, sc[p], sc[p + 1] - sc[p], disp_slot=(1 + p) * DISP_STRIDE))
+            part.append(launch(
+                _check_bodies_kernel, bc[p + 1] - bc[p],
+                inputs=[bc[p], m.body_flags, s.body_pos, s.body_vel, s.body_angvel, wp.float64(self.max_speed),
+                        wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1]), d.counters, p * DISP_STRIDE],
+                outputs=[d.fault_parts], device=dev,
+            ))
             motion.append(part)
         phase("motion", motion)
-        serial(launch(
-            _check_bodies_kernel, m.n_bodies,
-            inputs=[m.body_flags, s.body_pos, s.body_vel, s.body_angvel, wp.float64(self.max_speed),
-                    wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1]), d.counters],
-            outputs=[d.fault], device=dev,
-        ))
         zero(d.cohesion_now)
         # broad phase next step? when the displacements since the last build could hide a contact
         if m.n_meshes:
             serial(launch(bp.mesh_displacement_kernel, m.n_meshes,
                           inputs=[m.mesh_body, d.mesh_rmax, s.body_pos, s.body_quat, d.mesh_build_pos,
                                   d.mesh_build_quat], outputs=[d.disp], device=dev))
-        serial(launch(_end_step_kernel, 1, inputs=[self.skin, d.disp, d.rebuild_flag, d.counters], device=dev))
+        serial(launch(_end_step_kernel, 1, inputs=[self.skin, d.disp, d.fault_parts],
+                      outputs=[d.rebuild_flag, d.counters, d.fault], device=dev))
         if P > 1 and self.track_energy:
             serial(launch(accumulate.fold_energy_kernel, d.energy.shape[0], inputs=[d.energy_extra, P],
                           outputs=[d.energy], device=dev))
