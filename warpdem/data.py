@@ -6,7 +6,7 @@ arrays that the kernels write and read within a step (sphere kinematics, force a
 energies), the candidate lists with their contact history, and the device-side bookkeeping of the broad phase and
 the fault checks. Observers, checkpoints and viewers read these fields; every field's shape, dtype and unit is
 listed below. Sizes: ``ns`` spheres, ``nb`` bodies, ``nm`` mesh instances (arrays sized by ``nm`` or the springs
-have at least one entry), ``W`` worlds, all worlds together.
+have at least one entry), ``W`` worlds, all worlds together; ``P`` CPU threads sharing a step (1 on CUDA).
 """
 
 from __future__ import annotations
@@ -22,7 +22,8 @@ from .contacts import N_ENERGY
 from .model import Model
 
 DISP_STRIDE = wp.constant(16)
-"""entries between two threads' slots of ``disp`` (64 bytes: one cache line each, so that threads do not share one)."""
+"""entries between two threads' slots of ``disp`` and ``fault_parts`` (64 bytes: a cache line each, so that threads
+do not write into one line)."""
 
 NO_FAULT = 2**31 - 1
 """``fault[0]`` while no body has failed (the failing body with the lowest index wins: atomic min)."""
