@@ -35,6 +35,8 @@ from .timestep import critical_timestep
 wp.set_module_options({"enable_backward": False})
 
 FAULT_NAMES = {1: "nan", 2: "speed", 3: "escaped"}
+_CPU_GRAPHS = tuple(int(x) for x in wp.__version__.split(".")[:2]) >= (1, 19)
+"""Warp captures CPU graphs (launches and memsets replayed in C++) from 1.19 on."""
 NO_FAULT_C = wp.constant(NO_FAULT)
 
 
@@ -534,15 +536,17 @@ class Simulation:
     def advance(self, n_steps: int) -> None:
         """Advance ``n_steps`` steps. Between steps the host reads the rebuild flag (one small synchronisation per
         step, only in scenes with spheres) and rebuilds when asked; every ``graph_steps`` steps, and after the
-        last, it checks for faults (a fault names the step where it happened) and list capacity. On CUDA each step
-        is one captured graph."""
-        graph = not self.device.is_cpu and self.graph_steps > 1
+        last, it checks for faults (a fault names the step where it happened) and list capacity. Each step is one
+        captured graph: a CUDA graph, or on the CPU a Warp CPU graph (replayed in C++, no Python per launch) when
+        one thread runs the step; a step shared between CPU threads replays its recorded launches and phases."""
+        cpu_graph = self.device.is_cpu and self.parts == 1 and _CPU_GRAPHS
+        graph = (cpu_graph or not self.device.is_cpu) and self.graph_steps > 1
         every = max(self.graph_steps, 1)
         spheres = self.model.n_spheres > 0
         for k in range(n_steps):
             if spheres:
                 self._rebuild_if_flagged()
-            if self._graph is None:  # the captured (CUDA) or recorded (CPU) step; None when arrays moved
+            if self._graph is None:  # the captured graph or the recorded launches; None when arrays moved
                 if graph:
                     with wp.ScopedCapture(device=self.device) as capture:
                         self._launch_step()
