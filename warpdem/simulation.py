@@ -109,6 +109,15 @@ def _check_bodies_kernel(
             fault[base + 2] = counters[0] + 1  # the step being completed (counted at its end)
 
 
+def _cpu_graph(ops: list[Callable[[], object]]) -> Callable[[], object]:
+    """Recorded CPU launches captured as one Warp CPU graph; returns its replay."""
+    with wp.ScopedCapture(device="cpu", force_module_load=False) as capture:
+        for op in ops:
+            op()
+    graph = capture.graph
+    return lambda: wp.capture_launch(graph)
+
+
 class Simulation:
     """Time stepping of a Model/State pair.
 
@@ -352,6 +361,8 @@ class Simulation:
             parts = [[op for op in part if op is not None] for part in parts]
             parts = [part for part in parts if part]
             if len(parts) > 1:
+                if _CPU_GRAPHS:  # each thread replays its launches as one CPU graph (no Python per launch)
+                    parts = [[_cpu_graph(part)] for part in parts]
                 ops.append(cpu_threads.Parallel(name, parts))
             elif parts:
                 ops.extend(parts[0])
