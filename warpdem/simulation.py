@@ -115,7 +115,13 @@ def _cpu_graph(ops: list[Callable[[], object]]) -> Callable[[], object]:
         for op in ops:
             op()
     graph = capture.graph
-    return lambda: wp.capture_launch(graph)
+
+    def replay() -> None:
+        wp.capture_launch(graph)
+
+    kernels = [getattr(getattr(op, "__self__", None), "kernel", None) for op in ops]
+    replay.__name__ = "graph of " + ", ".join(k.key.split(".")[-1] if k else "op" for k in kernels)
+    return replay
 
 
 class Simulation:
