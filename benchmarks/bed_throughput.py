@@ -74,8 +74,8 @@ def cell_ordered(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray
     return pos[order], rad[order], new_particle
 
 
-def run_warpdem(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: str, steps: int, warmup: int,
-                scene: str, threads: int | None = None) -> dict:
+def bed_scene(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray) -> object:
+    """A ModelBuilder of the bed (assembly C clumps, the benchmark's material MAT, no gravity, no walls)."""
     import warp as wp
 
     wp.config.quiet = True
@@ -85,7 +85,14 @@ def run_warpdem(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: 
     b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
     b.add_material("soil", wd.Material(**MAT))
     Bed(AssemblySpec(kind="C"), (1.0, 1.0, 1.0), 0.1, pos, rad, particle).add_to(b, "soil")
-    sim, setup, wall = timed_run(b, device, steps, warmup, threads)
+    return b
+
+
+def run_warpdem(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: str, steps: int, warmup: int,
+                scene: str, threads: int | None = None) -> dict:
+    import warpdem as wd
+
+    sim, setup, wall = timed_run(bed_scene(pos, rad, particle), device, steps, warmup, threads)
     model = sim.model
     contacts = int(wd.observers.contact_count(sim).sum()) if len(rad) <= 100_000 else -1
     return {"engine": "warpdem", "scene": scene, "device": str(model.device), "threads": sim.parts,

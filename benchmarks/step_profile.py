@@ -19,7 +19,7 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-from bed_throughput import MAT, deposited_bed, tiled  # benchmarks/bed_throughput.py, beside this script
+from bed_throughput import bed_scene, deposited_bed, tiled  # benchmarks/bed_throughput.py, beside this script
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -41,14 +41,9 @@ def profile(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: str,
     """Per-op wall seconds summed over ``steps`` steps, the total, and the number of rebuilds."""
     import warp as wp
 
-    wp.config.quiet = True
     import warpdem as wd
-    from scenes.assemblies import AssemblySpec, Bed
 
-    b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
-    b.add_material("soil", wd.Material(**MAT))
-    Bed(AssemblySpec(kind="C"), (1.0, 1.0, 1.0), 0.1, pos, rad, particle).add_to(b, "soil")
-    model, state = b.finalize(device)
+    model, state = bed_scene(pos, rad, particle).finalize(device)
     sim = wd.Simulation(model, state, dt=0.3 * wd.pwave_timestep(model), always_use_moment_law=True,
                         cpu_threads=threads)
     sim.set_cohesion_now()

@@ -270,19 +270,22 @@ def test_lockstep_sets_aside_unstable_individuals_as_each_calibration_alone_woul
         assert any(r.failure for r in together[k].archive)
 
 
+class _Asked(Budget):
+    """A budget that records what it is asked for and refuses it (the test stops there)."""
+
+    def __init__(self) -> None:
+        super().__init__(None)
+        self.asked: list[tuple[float, str]] = []
+
+    def require(self, seconds: float, what: str) -> None:
+        self.asked.append((seconds, what))
+        raise BudgetExhausted(f"test stop before {what}")
+
+
 def test_a_bed_deposition_must_fit_the_budget_whole(tmp_path):
     """A Table 3 job whose bed is not deposited yet first asks the budget for the deposition, sized by the last
     deposition's recorded wall time (timings.json), and stops before it when that does not fit: no bed file is
     started (a deposition cannot be checkpointed)."""
-
-    class _Asked(Budget):
-        def __init__(self) -> None:
-            super().__init__(None)
-            self.asked: list[tuple[float, str]] = []
-
-        def require(self, seconds: float, what: str) -> None:
-            self.asked.append((seconds, what))
-            raise BudgetExhausted(f"test stop before {what}")
 
     wf = Workflow(tmp_path, _config())
     (tmp_path / "timings.json").write_text(json.dumps({"deposit": 123.0}))
@@ -298,15 +301,6 @@ def test_the_draught_calibrations_bed_must_fit_the_budget_whole(tmp_path):
     """The draught calibration's bed is deposited before its first generation: that deposition asks the budget first
     too, sized by its own last recorded time or, before there is one, a Table 3 bed's (timings.json), and stops
     before depositing anything when it does not fit."""
-
-    class _Asked(Budget):
-        def __init__(self) -> None:
-            super().__init__(None)
-            self.asked: list[tuple[float, str]] = []
-
-        def require(self, seconds: float, what: str) -> None:
-            self.asked.append((seconds, what))
-            raise BudgetExhausted(f"test stop before {what}")
 
     wf = Workflow(tmp_path, _config())
     for timings, expected in (({"deposit": 123.0}, 123.0), ({"deposit": 123.0, "deposit_draught": 45.0}, 45.0)):
