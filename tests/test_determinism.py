@@ -231,3 +231,54 @@ def test_cpu_threads_report_the_fault_one_thread_reports(monkeypatch: object) ->
     one = fault(1)
     assert one[3] == 1
     assert fault(3) == one
+
+
+def test_several_steps_per_graph_give_the_steps_of_one_at_a_time() -> None:
+    # Reference: the same run one step at a time (graph_steps=1: the step's launches replayed from Python, the
+    # host reading the rebuild flag before every step). The several-steps path (what advance runs on CUDA: a
+    # captured graph whose steps after the first run in conditional nodes that skip once a step flags a rebuild,
+    # the host then rebuilding and going on) must give the same states, forces, step and rebuild counts to the bit.
+    # On the CPU it is driven directly (there, advance uses one Warp CPU graph per step); the scene (spheres, clumps,
+    # a mesh, a spring, falling: a rebuild every 100-200 steps) makes the graphs end early and change length.
+    def make(graph_steps: int) -> wd.Simulation:
+        model, state = _threaded_scene().finalize(DEVICE, n_worlds=2)
+        return wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), cohesion_on_new_contacts=True,
+                             graph_steps=graph_steps)
+
+    one = make(1)
+    one.advance(2500)
+    many = make(64)
+    for n in (1700, 1, 799):  # a fault check every 64 steps and at the end of each call, as advance does
+        many._advance_graphs(n)
+    assert one.rebuild_count > 10
+    assert many.state.step == one.state.step == 2500 and many.state.time == one.state.time
+    np.testing.assert_array_equal(many.data.counters.numpy(), one.data.counters.numpy())
+    for name in ("body_pos", "body_quat", "body_vel", "body_angvel"):
+        np.testing.assert_array_equal(getattr(many.state, name).numpy(), getattr(one.state, name).numpy())
+    for name in ("body_force", "body_torque", "mesh_force", "spring_force"):
+        np.testing.assert_array_equal(getattr(many.data, name).numpy(), getattr(one.data, name).numpy())
+    assert len(many._graph) > 1  # graphs of several lengths were captured
+
+
+def test_several_steps_per_graph_name_the_faulty_step() -> None:
+    # Reference: the same blow-up one step at a time (the scene of test_cpu_threads_report_the_fault_one_thread_
+    # reports): the fault recorded on the device inside a graph of several steps names the same body, cause, step.
+    def fault(graph_steps: int) -> tuple[int, str, int, int]:
+        b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
+        b.add_material("m", wd.Material(young=1e7, poisson=0.3, density=2700, friction_angle=30))
+        b.add_sphere((0, 0, 0), 0.01, "m")
+        b.add_sphere((0.03, 0, 0), 0.01, "m")
+        model, state = b.finalize(DEVICE, n_worlds=3)
+        pos = state.body_pos.numpy()
+        pos[3] = pos[2] + np.array([0.012, 0.0, 0.0])
+        state.body_pos.assign(pos)
+        sim = wd.Simulation(model, state, dt=30 * wd.pwave_timestep(model), force_dt=True, graph_steps=graph_steps)
+        try:
+            sim._advance_graphs(200) if graph_steps > 1 else sim.advance(200)
+        except wd.SimulationError as e:
+            return e.body, e.cause, e.step, e.world
+        raise AssertionError("the run did not blow up")
+
+    one = fault(1)
+    assert one[3] == 1
+    assert fault(32) == one

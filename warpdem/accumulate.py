@@ -56,6 +56,21 @@ def add_wrench(
     wp.atomic_add(torque_acc, b, to_fixed(t, torque_scale[b]))
 
 
+@wp.func
+def take_float(acc: wp.array(dtype=vec3l), scale: wp.array(dtype=wp.float64), i: int, n: int, parts: int
+               ) -> wp.vec3f:
+    """Slot i of ``parts`` accumulators of n slots each (acc[p * n + i], one per CPU thread), summed and converted
+    to float32 (x resolution = 1 / scale[i]); the slots are zeroed for the next step. Integer sums: the result
+    does not depend on how the contributions were shared out."""
+    a = acc[i]
+    acc[i] = vec3l()
+    for p in range(1, parts):
+        a = a + acc[p * n + i]
+        acc[p * n + i] = vec3l()
+    r = wp.float64(1.0) / scale[i]
+    return wp.vec3f(float(wp.float64(a[0]) * r), float(wp.float64(a[1]) * r), float(wp.float64(a[2]) * r))
+
+
 @wp.kernel
 def to_float_kernel(
     first: int,  # the first slot of this launch (a CPU thread's share)
@@ -65,19 +80,25 @@ def to_float_kernel(
     out: wp.array(dtype=wp.vec3f),
 ):
     """out[i] = (sum over the parts p of acc[p * n + i]) x resolution, in float32, n = len(out); the slots read are
-    zeroed for the next step.
-
-    ``acc`` holds ``parts`` accumulators of n slots one after another (one per CPU thread, summed here: integer
-    sums, so the result does not depend on how the contributions were shared out)."""
+    zeroed for the next step (:func:`take_float`)."""
     i = wp.tid() + first
-    n = out.shape[0]
-    a = acc[i]
-    acc[i] = vec3l()
-    for p in range(1, parts):
-        a = a + acc[p * n + i]
-        acc[p * n + i] = vec3l()
-    r = wp.float64(1.0) / scale[i]
-    out[i] = wp.vec3f(float(wp.float64(a[0]) * r), float(wp.float64(a[1]) * r), float(wp.float64(a[2]) * r))
+    out[i] = take_float(acc, scale, i, out.shape[0], parts)
+
+
+@wp.kernel
+def wrench_to_float_kernel(
+    force_acc: wp.array(dtype=vec3l),
+    force_scale: wp.array(dtype=wp.float64),
+    torque_acc: wp.array(dtype=vec3l),
+    torque_scale: wp.array(dtype=wp.float64),
+    parts: int,
+    force: wp.array(dtype=wp.vec3f),
+    torque: wp.array(dtype=wp.vec3f),
+):
+    """Both sums of slot i to float32 (:func:`take_float`): force[i] [N] and torque[i] [N m]."""
+    i = wp.tid()
+    force[i] = take_float(force_acc, force_scale, i, force.shape[0], parts)
+    torque[i] = take_float(torque_acc, torque_scale, i, torque.shape[0], parts)
 
 
 @wp.kernel

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from .accumulate import add_wrench, vec3l
+from .accumulate import add_wrench, take_float, vec3l
 from .contacts import E_DAMPING, E_DRIVEN, E_SPRING_DAMPER, N_ENERGY
 from .model import ALL_DOFS, FLAG_ASPHERICAL, FLAG_PIVOT, ROT_DOFS
 
@@ -144,6 +144,40 @@ def integrate_hinged(
     return work
 
 
+@wp.func
+def check_body(
+    b: int,
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_vel: wp.array(dtype=wp.vec3d),
+    body_angvel: wp.array(dtype=wp.vec3d),
+    max_speed: wp.float64,
+    lower: wp.vec3d,
+    upper: wp.vec3d,
+    step: int,
+    base: int,
+    fault: wp.array(dtype=int),
+):
+    """If body b is NaN, faster than max_speed [m/s] or outside [lower, upper] [m], record it unless a body of
+    lower index failed: fault[base:base + 3] = (body, cause (1 NaN, 2 speed, 3 bounds), step)."""
+    x = body_pos[b]
+    v = body_vel[b]
+    cause = int(0)
+    s = x[0] + x[1] + x[2] + v[0] + v[1] + v[2] + body_angvel[b][0] + body_angvel[b][1] + body_angvel[b][2]
+    if wp.isnan(s) or wp.isinf(s):
+        cause = 1
+    elif wp.length(v) > max_speed:
+        cause = 2
+    else:
+        for k in range(3):
+            if x[k] < lower[k] or x[k] > upper[k]:
+                cause = 3
+    if cause != 0:
+        old = wp.atomic_min(fault, base, b)
+        if b < old:
+            fault[base + 1] = cause
+            fault[base + 2] = step
+
+
 @wp.kernel
 def integrate_bodies_kernel(
     first: int,  # the first body of this launch (a CPU thread's share)
@@ -161,43 +195,62 @@ def integrate_bodies_kernel(
     gravity: wp.vec3d,
     dt: wp.float64,
     track_energy: int,
-    # Data in:
-    body_force: wp.array(dtype=wp.vec3f),
-    body_torque: wp.array(dtype=wp.vec3f),
+    force_scale: wp.array(dtype=wp.float64),
+    torque_scale: wp.array(dtype=wp.float64),
+    parts: int,
+    max_speed: wp.float64,
+    lower: wp.vec3d,
+    upper: wp.vec3d,
+    counters: wp.array(dtype=int),
+    fault_base: int,
     # Data in/out:
+    force_acc: wp.array(dtype=vec3l),
+    torque_acc: wp.array(dtype=vec3l),
     body_pos: wp.array(dtype=wp.vec3d),
     body_quat: wp.array(dtype=wp.quatd),
     body_vel: wp.array(dtype=wp.vec3d),
     body_angvel: wp.array(dtype=wp.vec3d),
     body_angmom: wp.array(dtype=wp.vec3d),
     energy: wp.array(dtype=wp.float64),
+    # Data out:
+    body_force: wp.array(dtype=wp.vec3f),
+    body_torque: wp.array(dtype=wp.vec3f),
+    fault: wp.array(dtype=int),
 ):
+    """The motion of each body in one launch: its force and torque sums to float32 (accumulate.take_float, also
+    written to ``body_force``, ``body_torque`` for the observers; the accumulators are cleared), one leapfrog
+    step (see the module docstring), then the fault check (:func:`check_body`, into fault[fault_base:+3], the step
+    being completed as counted at its end)."""
     b = wp.tid() + first
+    n = body_force.shape[0]
+    force = take_float(force_acc, force_scale, b, n, parts)
+    torque = take_float(torque_acc, torque_scale, b, n, parts)
+    body_force[b] = force
+    body_torque[b] = torque
     flags = body_flags[b]
     v = body_vel[b]
     omega = body_angvel[b]
     w = body_world[b]
     m = body_mass[b]
-    f = wp.vec3d(body_force[b])
+    f = wp.vec3d(force)
     if (flags & ALL_DOFS) == ALL_DOFS:
         # fully prescribed motion; the driver's work: against the contact and spring forces, plus the change of
         # the body's own rotational kinetic energy (gravity on such a body is not in the balance)
         q_new = quat_integrate(body_quat[b], omega, dt)
         if track_energy != 0:
-            t = wp.vec3d(body_torque[b])
+            t = wp.vec3d(torque)
             work = -(wp.dot(f, v) + wp.dot(t, omega)) * dt
             work += rotational_energy(body_inertia[b], q_new, omega) - rotational_energy(body_inertia[b],
                                                                                           body_quat[b], omega)
             wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, work)
         body_pos[b] = body_pos[b] + dt * v
         body_quat[b] = q_new
-        return
-    lam = wp.float64(group_damping[w * n_groups + body_group[b]])
-    if (flags & FLAG_PIVOT) != 0:
+    elif (flags & FLAG_PIVOT) != 0:
+        lam = wp.float64(group_damping[w * n_groups + body_group[b]])
         friction = body_pivot_friction[b]
         pivot_vel = body_pivot_vel[b]
         work = integrate_hinged(b, flags, m, body_inertia[b], body_pivot[b], pivot_vel, friction, gravity,
-                                dt, lam, f, wp.vec3d(body_torque[b]), body_pos, body_quat, body_vel, body_angvel,
+                                dt, lam, f, wp.vec3d(torque), body_pos, body_quat, body_vel, body_angvel,
                                 body_angmom)
         if track_energy != 0:
             if lam > wp.float64(0.0) or friction > wp.float64(0.0):
@@ -205,90 +258,93 @@ def integrate_bodies_kernel(
             # the carriage's work: the pivot reaction m a - f - m g times the pivot's velocity
             reaction = m * (body_vel[b] - v) - (f + m * gravity) * dt
             wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, wp.dot(reaction, pivot_vel))
-        return
-    a = f / m + gravity
-    driven = wp.float64(0.0)
-    for k in range(3):
-        if (flags & (1 << k)) != 0:
-            a[k] = wp.float64(0.0)
-            driven -= (f[k] + m * gravity[k]) * v[k] * dt  # the driver holds the imposed velocity
-    a_d = damp(a, v, dt, lam)
-    if track_energy != 0 and lam > wp.float64(0.0):
-        e = wp.float64(0.0)
+    else:
+        lam = wp.float64(group_damping[w * n_groups + body_group[b]])
+        a = f / m + gravity
+        driven = wp.float64(0.0)
         for k in range(3):
-            e += m * wp.abs(a_d[k] - a[k]) * wp.abs(v[k] + wp.float64(0.5) * dt * a[k]) * dt
-        wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, e)
-    v = v + dt * a_d
-    body_vel[b] = v
-    body_pos[b] = body_pos[b] + dt * v
-
-    t = wp.vec3d(body_torque[b])
-    inertia = body_inertia[b]
-    q = body_quat[b]
-    rot_blocked = flags & ROT_DOFS
-    if rot_blocked == ROT_DOFS:
-        q_new = quat_integrate(q, omega, dt)
-        if track_energy != 0:
-            driven += -wp.dot(t, omega) * dt + rotational_energy(inertia, q_new, omega) - rotational_energy(
-                inertia, q, omega)
-            wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, driven)
-        body_quat[b] = q_new
-        return
-    if track_energy != 0 and (flags & 7) != 0:  # a blocked translation
-        wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, driven)
-    if rot_blocked != 0:
-        # constrained rotation about the free world axes
-        r = wp.quat_to_matrix(q)
-        iw = r * wp.diag(inertia) * wp.transpose(r)
-        alpha = solve_free_rotations(iw, t - wp.cross(omega, iw * omega), flags)
-        if track_energy != 0:
-            # the driver's torque on the blocked axes, iw alpha - (t - omega x iw omega), times their velocity
-            c = iw * alpha - (t - wp.cross(omega, iw * omega))
-            e = wp.float64(0.0)
-            for k in range(3):
-                if (flags & (1 << (k + 3))) != 0:
-                    e += c[k] * omega[k] * dt
-            wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, e)
-        alpha_d = damp(alpha, omega, dt, lam)
-        if track_energy != 0 and lam > wp.float64(0.0):
-            wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, wp.abs(wp.dot(iw * (alpha - alpha_d), omega)) * dt)
-        omega = omega + dt * alpha_d
-        body_angvel[b] = omega
-        body_angmom[b] = iw * omega
-        body_quat[b] = quat_integrate(q, omega, dt)
-        return
-    if (flags & FLAG_ASPHERICAL) == 0:
-        alpha = damp(t / inertia[0], omega, dt, lam)
+            if (flags & (1 << k)) != 0:
+                a[k] = wp.float64(0.0)
+                driven -= (f[k] + m * gravity[k]) * v[k] * dt  # the driver holds the imposed velocity
+        a_d = damp(a, v, dt, lam)
         if track_energy != 0 and lam > wp.float64(0.0):
             e = wp.float64(0.0)
             for k in range(3):
-                e += inertia[0] * wp.abs(alpha[k] - t[k] / inertia[0]) * wp.abs(omega[k]) * dt
+                e += m * wp.abs(a_d[k] - a[k]) * wp.abs(v[k] + wp.float64(0.5) * dt * a[k]) * dt
             wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, e)
-        omega = omega + dt * alpha
-        body_angvel[b] = omega
-        body_angmom[b] = inertia[0] * omega
-        body_quat[b] = quat_integrate(q, omega, dt)
-        return
-    # aspherical, free: Yade's leapfrogAsphericalRotate with the torque damped first (cundallDamp1st)
-    t_d = t
-    for k in range(3):
-        s = t[k] * omega[k]
-        if s > wp.float64(0.0):
-            t_d[k] = t[k] * (wp.float64(1.0) - lam)
-        elif s < wp.float64(0.0):
-            t_d[k] = t[k] * (wp.float64(1.0) + lam)
-    if track_energy != 0 and lam > wp.float64(0.0):
-        wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, wp.abs(wp.dot(t - t_d, omega)) * dt)
-    l_mom = body_angmom[b]
-    l_n = l_mom + wp.float64(0.5) * dt * t_d
-    w_b_n = cw_div(wp.quat_rotate_inv(q, l_n), inertia)
-    q_half = q + wp.float64(0.5) * dt * dot_q(w_b_n, q)
-    l_mom = l_mom + dt * t_d
-    w_b_half = cw_div(wp.quat_rotate_inv(q, l_mom), inertia)
-    q_new = wp.normalize(q + dt * dot_q(w_b_half, q_half))
-    body_angmom[b] = l_mom
-    body_angvel[b] = wp.quat_rotate(q_new, w_b_half)
-    body_quat[b] = q_new
+        v = v + dt * a_d
+        body_vel[b] = v
+        body_pos[b] = body_pos[b] + dt * v
+
+        t = wp.vec3d(torque)
+        inertia = body_inertia[b]
+        q = body_quat[b]
+        rot_blocked = flags & ROT_DOFS
+        if rot_blocked == ROT_DOFS:
+            q_new = quat_integrate(q, omega, dt)
+            if track_energy != 0:
+                driven += -wp.dot(t, omega) * dt + rotational_energy(inertia, q_new, omega) - rotational_energy(
+                    inertia, q, omega)
+                wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, driven)
+            body_quat[b] = q_new
+        else:
+            if track_energy != 0 and (flags & 7) != 0:  # a blocked translation
+                wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, driven)
+            if rot_blocked != 0:
+                # constrained rotation about the free world axes
+                r = wp.quat_to_matrix(q)
+                iw = r * wp.diag(inertia) * wp.transpose(r)
+                alpha = solve_free_rotations(iw, t - wp.cross(omega, iw * omega), flags)
+                if track_energy != 0:
+                    # the driver's torque on the blocked axes, iw alpha - (t - omega x iw omega), times their
+                    # velocity
+                    c = iw * alpha - (t - wp.cross(omega, iw * omega))
+                    e = wp.float64(0.0)
+                    for k in range(3):
+                        if (flags & (1 << (k + 3))) != 0:
+                            e += c[k] * omega[k] * dt
+                    wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, e)
+                alpha_d = damp(alpha, omega, dt, lam)
+                if track_energy != 0 and lam > wp.float64(0.0):
+                    e = wp.abs(wp.dot(iw * (alpha - alpha_d), omega)) * dt
+                    wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, e)
+                omega = omega + dt * alpha_d
+                body_angvel[b] = omega
+                body_angmom[b] = iw * omega
+                body_quat[b] = quat_integrate(q, omega, dt)
+            elif (flags & FLAG_ASPHERICAL) == 0:
+                alpha = damp(t / inertia[0], omega, dt, lam)
+                if track_energy != 0 and lam > wp.float64(0.0):
+                    e = wp.float64(0.0)
+                    for k in range(3):
+                        e += inertia[0] * wp.abs(alpha[k] - t[k] / inertia[0]) * wp.abs(omega[k]) * dt
+                    wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, e)
+                omega = omega + dt * alpha
+                body_angvel[b] = omega
+                body_angmom[b] = inertia[0] * omega
+                body_quat[b] = quat_integrate(q, omega, dt)
+            else:
+                # aspherical, free: Yade's leapfrogAsphericalRotate with the torque damped first (cundallDamp1st)
+                t_d = t
+                for k in range(3):
+                    s = t[k] * omega[k]
+                    if s > wp.float64(0.0):
+                        t_d[k] = t[k] * (wp.float64(1.0) - lam)
+                    elif s < wp.float64(0.0):
+                        t_d[k] = t[k] * (wp.float64(1.0) + lam)
+                if track_energy != 0 and lam > wp.float64(0.0):
+                    wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, wp.abs(wp.dot(t - t_d, omega)) * dt)
+                l_mom = body_angmom[b]
+                l_n = l_mom + wp.float64(0.5) * dt * t_d
+                w_b_n = cw_div(wp.quat_rotate_inv(q, l_n), inertia)
+                q_half = q + wp.float64(0.5) * dt * dot_q(w_b_n, q)
+                l_mom = l_mom + dt * t_d
+                w_b_half = cw_div(wp.quat_rotate_inv(q, l_mom), inertia)
+                q_new = wp.normalize(q + dt * dot_q(w_b_half, q_half))
+                body_angmom[b] = l_mom
+                body_angvel[b] = wp.quat_rotate(q_new, w_b_half)
+                body_quat[b] = q_new
+    check_body(b, body_pos, body_vel, body_angvel, max_speed, lower, upper, counters[0] + 1, fault_base, fault)
 
 
 @wp.kernel

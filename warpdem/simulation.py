@@ -3,11 +3,11 @@
     sim = Simulation(model, state, dt=1e-5)
     sim.run(10_000, record_every=100, observers={"ke": observers.kinetic_energy})
 
-The caller picks the device through the Model. On CUDA the kernels of a step are captured once in a CUDA graph and
-replayed; the broad-phase rebuild (whose hash-grid build cannot live in a conditional graph node) runs between
-graphs when the previous step flagged it. On the CPU the same kernels run on Warp's CPU backend; a large scene's step is
-shared out between CPU threads (cpu_threads.py) in ranges of spheres and bodies, and its force sums are integers, so
-a CPU run gives the same bits whatever the number of threads.
+The caller picks the device through the Model. On CUDA the kernels of several steps are captured in one CUDA graph
+(steps after the first in conditional nodes that stop once a step flags a list rebuild); the broad-phase rebuild
+(whose hash-grid build cannot live in a conditional node) runs between graphs. On the CPU the same kernels run on
+Warp's CPU backend; a large scene's step is shared out between CPU threads (cpu_threads.py) in ranges of spheres
+and bodies, and its force sums are integers, so a CPU run gives the same bits whatever the number of threads.
 """
 
 from __future__ import annotations
@@ -48,11 +48,13 @@ def _end_step_kernel(
     flag_out: wp.array(dtype=int),
     counters: wp.array(dtype=int),
     fault: wp.array(dtype=int),
+    cohesion_now: wp.array(dtype=int),
 ):
     """At the end of a step: decide whether to rebuild the candidate lists before the next one, count steps
-    (counters: steps, rebuilds), and keep the step's first body fault unless an earlier step had one. disp: the
-    meshes' largest displacement, then the spheres' of each CPU thread; fault_parts: each thread's (body, cause,
-    step), for bodies in thread order; one slot per DISP_STRIDE entries in both."""
+    (counters: steps, rebuilds), keep the step's first body fault unless an earlier step had one, and clear the
+    one-step request for cohesion (``cohesion_now``). disp: the meshes' largest displacement, then the spheres' of
+    each CPU thread; fault_parts: each thread's (body, cause, step), for bodies in thread order; one slot per
+    DISP_STRIDE entries in both."""
     for base in range(0, fault_parts.shape[0], DISP_STRIDE):
         if fault_parts[base] != NO_FAULT_C:
             if fault[0] == NO_FAULT_C:
@@ -71,42 +73,7 @@ def _end_step_kernel(
         flag_out[0] = 0
     disp[0] = 0.0
     counters[0] = counters[0] + 1
-
-
-@wp.kernel
-def _check_bodies_kernel(
-    first: int,  # the first body of this launch (a CPU thread's share)
-    body_flags: wp.array(dtype=int),
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_vel: wp.array(dtype=wp.vec3d),
-    body_angvel: wp.array(dtype=wp.vec3d),
-    max_speed: wp.float64,
-    lower: wp.vec3d,
-    upper: wp.vec3d,
-    counters: wp.array(dtype=int),
-    base: int,
-    fault: wp.array(dtype=int),
-):
-    """Record the body of lowest index that is NaN, too fast or out of bounds: fault[base:base + 3] = (body, cause,
-    step)."""
-    b = wp.tid() + first
-    x = body_pos[b]
-    v = body_vel[b]
-    cause = int(0)
-    s = x[0] + x[1] + x[2] + v[0] + v[1] + v[2] + body_angvel[b][0] + body_angvel[b][1] + body_angvel[b][2]
-    if wp.isnan(s) or wp.isinf(s):
-        cause = 1
-    elif wp.length(v) > max_speed:
-        cause = 2
-    else:
-        for k in range(3):
-            if x[k] < lower[k] or x[k] > upper[k]:
-                cause = 3
-    if cause != 0:
-        old = wp.atomic_min(fault, base, b)
-        if b < old:
-            fault[base + 1] = cause
-            fault[base + 2] = counters[0] + 1  # the step being completed (counted at its end)
+    cohesion_now[0] = 0
 
 
 def _cpu_graph(ops: list[Callable[[], object]]) -> Callable[[], object]:
@@ -141,7 +108,8 @@ class Simulation:
             grown by its size plus 1 m on every side).
         capacity_factor: candidate-list capacity as a multiple of the first build's needs.
         graph_steps: the host checks for faults and list capacity every ``graph_steps`` steps of :meth:`advance`
-            (:meth:`step` checks after every step).
+            (:meth:`step` checks after every step); on CUDA a captured graph holds up to this many steps (the
+            largest power of two, at most 256); 1: no captured graphs (each step's launches replayed).
         cpu_threads: on the CPU, threads that share a step (default: ``WARPDEM_CPU_THREADS`` or the cores this
             process may use); each gets at least cpu_threads.MIN_SPHERES_PER_THREAD spheres, so a small scene runs
             on one. Positions, velocities and forces do not depend on it; the tracked energies may differ in their
@@ -217,7 +185,8 @@ class Simulation:
         self.grid = wp.HashGrid(dim, dim, dim, device=dev, dtype=wp.float64) if ns else None
         if self.grid is not None:
             self.grid.reserve(ns, with_groups=True)
-        self._graph = None
+        self._graph = None  # the step's captured graphs by length, or its recorded launches
+        self._chunk = 1 << 30  # steps in the next captured graph (capped; see advance)
         self._rebuild_checked()
 
     # ------------------------------------------------------------------ helpers
@@ -373,12 +342,6 @@ class Simulation:
             elif parts:
                 ops.extend(parts[0])
 
-        def zero(arr: wp.array) -> None:
-            if record:
-                ops.append(arr.zero_)
-            else:
-                arr.zero_()
-
         def part_sums(p: int) -> tuple[list[wp.array], list[wp.array], wp.array]:
             """Part p's slots: body accumulators, mesh accumulators, energy terms."""
             nb, nm, ne = m.n_bodies, max(m.n_meshes, 1), d.energy.shape[0]
@@ -430,44 +393,36 @@ class Simulation:
                 device=dev,
             ))
         if m.n_meshes:
-            for total, scale, out in ((d.mesh_force_acc, d.mesh_force_scale, d.mesh_force),
-                                      (d.mesh_torque_acc, d.mesh_torque_scale, d.mesh_torque)):
-                serial(launch(accumulate.to_float_kernel, m.n_meshes, inputs=[0, total, scale, P], outputs=[out],
-                              device=dev))
-        # integration: each part sums its bodies' forces, moves them and updates their spheres
+            serial(launch(accumulate.wrench_to_float_kernel, m.n_meshes,
+                          inputs=[d.mesh_force_acc, d.mesh_force_scale, d.mesh_torque_acc, d.mesh_torque_scale, P],
+                          outputs=[d.mesh_force, d.mesh_torque], device=dev))
+        # motion: each part sums its bodies' forces, moves and checks them, and updates their spheres
         motion: list[list[Callable[[], object] | None]] = []
+        lower, upper = wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1])
         for p in range(P):
             _, _, energy = part_sums(p)
-            part = [launch(accumulate.to_float_kernel, bc[p + 1] - bc[p], inputs=[bc[p], total, scale, P],
-                           outputs=[out], device=dev)
-                    for total, scale, out in ((d.force_acc, d.force_scale, d.body_force),
-                                              (d.torque_acc, d.torque_scale, d.body_torque))]
-            part.append(launch(
-                integrate_bodies_kernel, bc[p + 1] - bc[p],
-                inputs=[bc[p], m.body_world, m.body_group, m.body_flags, m.body_mass, m.body_inertia, m.body_pivot,
-                        m.body_pivot_vel, m.body_pivot_friction, m.group_damping,
-                        m.n_groups, wp.vec3d(*m.gravity), wp.float64(self.dt), int(self.track_energy),
-                        d.body_force, d.body_torque],
-                outputs=[s.body_pos, s.body_quat, s.body_vel, s.body_angvel, s.body_angmom, energy],
-                device=dev,
-            ))
-            part.append(self._update_spheres(launch, sc[p], sc[p + 1] - sc[p], disp_slot=(1 + p) * DISP_STRIDE))
-            part.append(launch(
-                _check_bodies_kernel, bc[p + 1] - bc[p],
-                inputs=[bc[p], m.body_flags, s.body_pos, s.body_vel, s.body_angvel, wp.float64(self.max_speed),
-                        wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1]), d.counters, p * DISP_STRIDE],
-                outputs=[d.fault_parts], device=dev,
-            ))
-            motion.append(part)
+            motion.append([
+                launch(
+                    integrate_bodies_kernel, bc[p + 1] - bc[p],
+                    inputs=[bc[p], m.body_world, m.body_group, m.body_flags, m.body_mass, m.body_inertia,
+                            m.body_pivot, m.body_pivot_vel, m.body_pivot_friction, m.group_damping, m.n_groups,
+                            wp.vec3d(*m.gravity), wp.float64(self.dt), int(self.track_energy), d.force_scale,
+                            d.torque_scale, P, wp.float64(self.max_speed), lower, upper, d.counters,
+                            p * DISP_STRIDE],
+                    outputs=[d.force_acc, d.torque_acc, s.body_pos, s.body_quat, s.body_vel, s.body_angvel,
+                             s.body_angmom, energy, d.body_force, d.body_torque, d.fault_parts],
+                    device=dev,
+                ),
+                self._update_spheres(launch, sc[p], sc[p + 1] - sc[p], disp_slot=(1 + p) * DISP_STRIDE),
+            ])
         phase("motion", motion)
-        zero(d.cohesion_now)
         # broad phase next step? when the displacements since the last build could hide a contact
         if m.n_meshes:
             serial(launch(bp.mesh_displacement_kernel, m.n_meshes,
                           inputs=[m.mesh_body, d.mesh_rmax, s.body_pos, s.body_quat, d.mesh_build_pos,
                                   d.mesh_build_quat], outputs=[d.disp], device=dev))
         serial(launch(_end_step_kernel, 1, inputs=[self.skin, d.disp, d.fault_parts],
-                      outputs=[d.rebuild_flag, d.counters, d.fault], device=dev))
+                      outputs=[d.rebuild_flag, d.counters, d.fault, d.cohesion_now], device=dev))
         if P > 1 and self.track_energy:
             serial(launch(accumulate.fold_energy_kernel, d.energy.shape[0], inputs=[d.energy_extra, P],
                           outputs=[d.energy], device=dev))
@@ -551,13 +506,17 @@ class Simulation:
         self.data.cohesion_now.fill_(1)
 
     def advance(self, n_steps: int) -> None:
-        """Advance ``n_steps`` steps. Between steps the host reads the rebuild flag (one small synchronisation per
-        step, only in scenes with spheres) and rebuilds when asked; every ``graph_steps`` steps, and after the
-        last, it checks for faults (a fault names the step where it happened) and list capacity. Each step is one
-        captured graph: a CUDA graph, or on the CPU a Warp CPU graph (replayed in C++, no Python per launch) when
-        one thread runs the step; a step shared between CPU threads replays its recorded launches and phases."""
-        cpu_graph = self.device.is_cpu and self.parts == 1 and _CPU_GRAPHS
-        graph = (cpu_graph or not self.device.is_cpu) and self.graph_steps > 1
+        """Advance ``n_steps`` steps; every ``graph_steps`` steps, and after the last, check for faults (a fault
+        names the step where it happened) and list capacity.
+
+        On CUDA several steps run per graph launch (:meth:`_advance_graphs`). On the CPU the host reads the
+        rebuild flag before each step and rebuilds when asked; a step run by one thread is one Warp CPU graph
+        (replayed in C++, no Python per launch), a step shared between threads replays its recorded launches and
+        phases. (A CPU graph of several steps costs ~4 ms of recording per step, more than it saves.)"""
+        if not self.device.is_cpu and self.graph_steps > 1:
+            self._advance_graphs(n_steps)
+            return
+        graph = self.parts == 1 and _CPU_GRAPHS and self.graph_steps > 1
         every = max(self.graph_steps, 1)
         spheres = self.model.n_spheres > 0
         for k in range(n_steps):
@@ -579,6 +538,56 @@ class Simulation:
             self.state.time += self.dt
             if (k + 1) % every == 0 or k == n_steps - 1:
                 self._check()
+
+    def _steps_graph(self, n: int) -> object:
+        """The captured graph of ``n`` steps (cached until arrays move): step 1, then steps 2 .. n each in a
+        conditional node that runs it only while no rebuild is flagged."""
+        if self._graph is None:
+            self._graph = {}
+        graph = self._graph.get(n)
+        if graph is None:
+            spheres = self.model.n_spheres > 0
+            with wp.ScopedCapture(device=self.device) as capture:
+                self._launch_step()
+                for _ in range(n - 1):
+                    if spheres:
+                        wp.capture_if(self.data.rebuild_flag, on_false=self._launch_step)
+                    else:
+                        self._launch_step()
+            graph = self._graph[n] = capture.graph
+        return graph
+
+    def _advance_graphs(self, n_steps: int) -> None:
+        """:meth:`advance` on CUDA, several steps per graph launch: the first step unconditionally, each further
+        one in a conditional node that skips it once a step has flagged a list rebuild (``rebuild_flag``). The host
+        then reads how many steps ran, rebuilds the lists (growing them as needed) and goes on: the same steps and
+        rebuilds as one step at a time, with one host synchronisation per rebuild instead of one per step. The
+        number of steps per graph follows the rebuild interval (powers of two up to ``graph_steps``)."""
+        d = self.data
+        spheres = self.model.n_spheres > 0
+        every = max(self.graph_steps, 1)
+        cap = 1 << (min(self.graph_steps, 256).bit_length() - 1)  # steps per graph: a power of two <= graph_steps
+        device_steps = int(d.counters.numpy()[0]) if spheres else 0
+        left, since_check = n_steps, 0
+        while left > 0:
+            if spheres:
+                self._rebuild_if_flagged()
+            n = 1 << (min(self._chunk, cap, left).bit_length() - 1)
+            wp.capture_launch(self._steps_graph(n))
+            done = n
+            if spheres:  # steps after a flagged rebuild were skipped
+                now = int(d.counters.numpy()[0])
+                done, device_steps = now - device_steps, now
+                # the next graph: as long as this rebuild interval (rounded up), or twice as long if none ended it
+                self._chunk = 2 * n if done == n else 1 << max(done - 1, 0).bit_length()
+            self.state.step += done
+            for _ in range(done):
+                self.state.time += self.dt
+            left -= done
+            since_check += done
+            if since_check >= every or left == 0:
+                self._check()
+                since_check = 0
 
     def run(
         self,
