@@ -198,6 +198,7 @@ def integrate_bodies_kernel(
     force_scale: wp.array(dtype=wp.float64),
     torque_scale: wp.array(dtype=wp.float64),
     parts: int,
+    float_sums: int,
     max_speed: wp.float64,
     lower: wp.vec3d,
     upper: wp.vec3d,
@@ -218,15 +219,22 @@ def integrate_bodies_kernel(
     fault: wp.array(dtype=int),
 ):
     """The motion of each body in one launch: its force and torque sums to float32 (accumulate.take_float, also
-    written to ``body_force``, ``body_torque`` for the observers; the accumulators are cleared), one leapfrog
+    written to ``body_force``, ``body_torque`` for the observers; the accumulators are cleared; with
+    ``float_sums`` != 0 they were converted before, by accumulate.wrench_to_float_kernel, and are read), one leapfrog
     step (see the module docstring), then the fault check (:func:`check_body`, into fault[fault_base:+3], the step
     being completed as counted at its end)."""
     b = wp.tid() + first
-    n = body_force.shape[0]
-    force = take_float(force_acc, force_scale, b, n, parts)
-    torque = take_float(torque_acc, torque_scale, b, n, parts)
-    body_force[b] = force
-    body_torque[b] = torque
+    force = wp.vec3f()
+    torque = wp.vec3f()
+    if float_sums != 0:  # converted by accumulate.wrench_to_float_kernel
+        force = body_force[b]
+        torque = body_torque[b]
+    else:
+        n = body_force.shape[0]
+        force = take_float(force_acc, force_scale, b, n, parts)
+        torque = take_float(torque_acc, torque_scale, b, n, parts)
+        body_force[b] = force
+        body_torque[b] = torque
     flags = body_flags[b]
     v = body_vel[b]
     omega = body_angvel[b]
