@@ -1,12 +1,17 @@
-"""Where a step's time goes: each launch of a step timed on its own, on the deposited bed of ``bed_throughput.py``.
+"""Where a step's time goes: each launch of a step timed on its own, on the deposited bed of ``bed_throughput.py`` or
+on a calibration's ringing batch.
 
     python benchmarks/step_profile.py --device cpu --steps 300
     python benchmarks/step_profile.py --device cuda --bed BED.npz --size 4000000 --steps 100
+    python benchmarks/step_profile.py --device cuda --scene ringing --worlds 13 --steps 2000
 
 The step is the one :meth:`warpdem.Simulation.advance` replays (its recorded launches), run op by op with a device
 synchronisation after each, so each op's wall time is its own (on CUDA this adds a launch latency per op that a
-captured graph does not pay: read the CUDA column as kernel time plus ~5-10 us). Rebuilds of the candidate lists are
-timed as one op ("rebuild"). Prints a table, milliseconds per step and share of the step, largest first.
+captured graph does not pay: read the CUDA column as kernel time plus ~5-10 us). On CUDA the kernels' own execution
+times (CUDA events, ``wp.timing_begin``) are printed beside it. Rebuilds of the candidate lists are timed as one op
+("rebuild"). ``--scene ringing``: the 16-spring ringing rig with the paper's spring spheres, one world per
+individual (``--worlds``), at the step a calibration uses (scenes/ringing.py). Prints a table, milliseconds per step
+and share of the step, largest first.
 """
 
 from __future__ import annotations
@@ -36,23 +41,45 @@ def op_name(op: object) -> str:
     return getattr(op, "__name__", repr(op))
 
 
-def profile(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: str, steps: int, warmup: int,
-            threads: int | None = None) -> tuple[dict[str, float], float, int]:
-    """Per-op wall seconds summed over ``steps`` steps, the total, and the number of rebuilds."""
-    import warp as wp
-
+def bed_simulation(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: str, threads: int | None
+                   ) -> object:
+    """The bonded bed of ``bed_throughput.py`` as a Simulation (cohesion set at its first step)."""
     import warpdem as wd
 
     model, state = bed_scene(pos, rad, particle).finalize(device)
     sim = wd.Simulation(model, state, dt=0.3 * wd.pwave_timestep(model), always_use_moment_law=True,
                         cpu_threads=threads)
     sim.set_cohesion_now()
+    return sim
+
+
+def ringing_simulation(worlds: int, device: str) -> object:
+    """The ringing rig of ``warpdem calibrate ringing`` (16 springs, the paper's spring spheres), ``worlds`` copies,
+    at the time step of scenes.ringing.run_ringing."""
+    import warpdem as wd
+    from scenes.ringing import RingingConfig, build_ringing
+
+    cfg = RingingConfig(springs=(16,) * worlds, spring_model="paper")
+    rig = build_ringing(cfg)
+    model, state = rig.builder.finalize(device, n_worlds=worlds, overrides=rig.overrides)
+    return wd.Simulation(model, state, dt=min(0.5 * wd.critical_timestep(model), 0.5 / cfg.sample_rate))
+
+
+def profile(sim: object, device: str, steps: int, warmup: int
+            ) -> tuple[dict[str, float], float, int, dict[str, float]]:
+    """Per-op wall seconds summed over ``steps`` steps, the total, the number of rebuilds, and on CUDA each
+    kernel's own execution seconds (CUDA events)."""
+    import warp as wp
+
     sim.advance(warmup)
     ops = sim._launch_step(record=True)
     names = [op_name(op) for op in ops]
     times: dict[str, float] = defaultdict(float)
     rebuilds = 0
     wp.synchronize_device(device)
+    cuda = wp.get_device(device).is_cuda
+    if cuda:
+        wp.timing_begin(cuda_filter=wp.TIMING_KERNEL)
     t_all = time.perf_counter()
     for _ in range(steps):
         t = time.perf_counter()
@@ -69,12 +96,18 @@ def profile(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: str,
             wp.synchronize_device(device)
             times[name] += time.perf_counter() - t
     total = time.perf_counter() - t_all
-    return dict(times), total, rebuilds
+    kernels: dict[str, float] = defaultdict(float)
+    if cuda:
+        for r in wp.timing_end():
+            kernels[r.name.removeprefix("forward kernel ")] += 1e-3 * r.elapsed  # elapsed in ms
+    return dict(times), total, rebuilds, dict(kernels)
 
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--device", default="cpu")
+    p.add_argument("--scene", default="bed", choices=("bed", "ringing"))
+    p.add_argument("--worlds", type=int, default=13, help="ringing: worlds (individuals) in the batch")
     p.add_argument("--size", type=int, default=0, help="sphere count (0: the bed once)")
     p.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"), help="the deposited bed's scale")
     p.add_argument("--bed", default=None, help="a saved bed (.npz) to use instead")
@@ -85,21 +118,31 @@ def main() -> None:
     p.add_argument("--threads", type=int, default=None, help="CPU threads sharing a step (default: all cores)")
     p.add_argument("--json", default=None, help="append the result to this JSON-lines file")
     args = p.parse_args()
-    pos, rad, part = deposited_bed(args.scale, 0, Path(args.cache), args.bed)
-    if args.size > len(rad):
-        pos, rad, part = tiled(pos, rad, part, args.size)
-    times, total, rebuilds = profile(pos, rad, part, args.device, args.steps, args.warmup, args.threads)
-    print(f"{len(rad):,} spheres, {args.steps} steps on {args.device}: {1e3 * total / args.steps:.3f} ms/step "
-          f"({len(rad) * args.steps / total:.3g} particle-steps/s op by op), {rebuilds} rebuilds")
+    if args.scene == "ringing":
+        sim = ringing_simulation(args.worlds, args.device)
+    else:
+        pos, rad, part = deposited_bed(args.scale, 0, Path(args.cache), args.bed)
+        if args.size > len(rad):
+            pos, rad, part = tiled(pos, rad, part, args.size)
+        sim = bed_simulation(pos, rad, part, args.device, args.threads)
+    n = sim.model.n_spheres
+    times, total, rebuilds, kernels = profile(sim, args.device, args.steps, args.warmup)
+    print(f"{args.scene}: {n:,} spheres, {args.steps} steps on {args.device}: {1e3 * total / args.steps:.3f} ms/step "
+          f"({n * args.steps / total:.3g} particle-steps/s op by op), {rebuilds} rebuilds")
     print(f"{'op':<60} {'ms/step':>9} {'share':>7}")
     for name, sec in sorted(times.items(), key=lambda kv: -kv[1]):
         print(f"{name:<60} {1e3 * sec / args.steps:9.4f} {100 * sec / total:6.1f}%")
+    if kernels:
+        print(f"{'kernel (its own execution, CUDA events)':<60} {'ms/step':>9}")
+        for name, sec in sorted(kernels.items(), key=lambda kv: -kv[1]):
+            print(f"{name:<60} {1e3 * sec / args.steps:9.4f}")
     if args.json:
         with open(args.json, "a") as f:
-            f.write(json.dumps({"device": args.device, "threads": args.threads, "spheres": len(rad),
-                                "steps": args.steps,
-                                "rebuilds": rebuilds, "ms_per_step": 1e3 * total / args.steps,
-                                "ops_ms_per_step": {k: 1e3 * v / args.steps for k, v in times.items()}}) + "\n")
+            f.write(json.dumps({"scene": args.scene, "device": args.device, "threads": args.threads, "spheres": n,
+                                "steps": args.steps, "rebuilds": rebuilds, "ms_per_step": 1e3 * total / args.steps,
+                                "ops_ms_per_step": {k: 1e3 * v / args.steps for k, v in times.items()},
+                                "kernels_ms_per_step": {k: 1e3 * v / args.steps for k, v in kernels.items()}})
+                    + "\n")
 
 
 if __name__ == "__main__":
