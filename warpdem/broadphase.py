@@ -27,8 +27,9 @@ wp.set_module_options({"enable_backward": False})
 
 
 # ----------------------------------------------------------------------------- displacement check
-@wp.kernel
-def mesh_displacement_kernel(
+@wp.func
+def mesh_displacement(
+    m: int,
     # Model:
     mesh_body: wp.array(dtype=int),
     mesh_rmax: wp.array(dtype=float),
@@ -37,16 +38,14 @@ def mesh_displacement_kernel(
     body_quat_in: wp.array(dtype=wp.quatd),
     build_pos_in: wp.array(dtype=wp.vec3d),
     build_quat_in: wp.array(dtype=wp.quatd),
-    # Data out:
-    disp_out: wp.array(dtype=float),
-):
-    m = wp.tid()
+) -> float:
+    """How far [m] any point of mesh instance m may have moved since the last list build: its body's translation
+    plus the rotation angle times the mesh's largest vertex distance from the body's centre of mass."""
     b = mesh_body[m]
     dq = body_quat_in[b] * wp.quat_inverse(build_quat_in[m])
     s = wp.min(wp.length(wp.vec3d(dq[0], dq[1], dq[2])), wp.float64(1.0))
     angle = 2.0 * float(wp.asin(s))
-    d = float(wp.length(body_pos_in[b] - build_pos_in[m])) + angle * mesh_rmax[m]
-    wp.atomic_max(disp_out, 0, d)
+    return float(wp.length(body_pos_in[b] - build_pos_in[m])) + angle * mesh_rmax[m]
 
 
 @wp.kernel

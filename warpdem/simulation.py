@@ -20,6 +20,7 @@ import warp as wp
 
 from . import accumulate, cpu_threads
 from . import broadphase as bp
+from .accumulate import take_float, vec3l
 from .contacts import (
     LawOptions,
     Materials,
@@ -80,6 +81,33 @@ def _end_step_kernel(
     disp[0] = 0.0
     counters[0] = counters[0] + 1
     cohesion_now[0] = 0
+
+
+@wp.kernel
+def _mesh_end_kernel(
+    mesh_body: wp.array(dtype=int),
+    mesh_rmax: wp.array(dtype=float),
+    force_scale: wp.array(dtype=wp.float64),
+    torque_scale: wp.array(dtype=wp.float64),
+    parts: int,
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    build_pos: wp.array(dtype=wp.vec3d),
+    build_quat: wp.array(dtype=wp.quatd),
+    force_acc: wp.array(dtype=vec3l),
+    torque_acc: wp.array(dtype=vec3l),
+    force: wp.array(dtype=wp.vec3f),
+    torque: wp.array(dtype=wp.vec3f),
+    disp: wp.array(dtype=float),
+):
+    """Per mesh instance at the end of a step: its contact force and torque sums to float32 (``mesh_force``,
+    ``mesh_torque``, accumulate.take_float; read by the observers only) and its displacement since the last list
+    build into disp[0] (atomic max)."""
+    m = wp.tid()
+    force[m] = take_float(force_acc, force_scale, m, force.shape[0], parts)
+    torque[m] = take_float(torque_acc, torque_scale, m, torque.shape[0], parts)
+    d = bp.mesh_displacement(m, mesh_body, mesh_rmax, body_pos, body_quat, build_pos, build_quat)
+    wp.atomic_max(disp, 0, d)
 
 
 def _cpu_graph(ops: list[Callable[[], object]]) -> Callable[[], object]:
@@ -399,10 +427,6 @@ class Simulation:
                 outputs=[*acc, d.spring_force, d.energy],
                 device=dev,
             ))
-        if m.n_meshes:
-            serial(launch(accumulate.wrench_to_float_kernel, m.n_meshes,
-                          inputs=[d.mesh_force_acc, d.mesh_force_scale, d.mesh_torque_acc, d.mesh_torque_scale, P],
-                          outputs=[d.mesh_force, d.mesh_torque], device=dev))
         # motion: each part sums its bodies' forces, moves and checks them, and updates their spheres
         motion: list[list[Callable[[], object] | None]] = []
         lower, upper = wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1])
@@ -429,10 +453,12 @@ class Simulation:
             ])
         phase("motion", motion)
         # broad phase next step? when the displacements since the last build could hide a contact
-        if m.n_meshes:
-            serial(launch(bp.mesh_displacement_kernel, m.n_meshes,
-                          inputs=[m.mesh_body, d.mesh_rmax, s.body_pos, s.body_quat, d.mesh_build_pos,
-                                  d.mesh_build_quat], outputs=[d.disp], device=dev))
+        if m.n_meshes:  # the meshes' sums to float (for the observers) and their displacement
+            serial(launch(_mesh_end_kernel, m.n_meshes,
+                          inputs=[m.mesh_body, d.mesh_rmax, d.mesh_force_scale, d.mesh_torque_scale, P, s.body_pos,
+                                  s.body_quat, d.mesh_build_pos, d.mesh_build_quat],
+                          outputs=[d.mesh_force_acc, d.mesh_torque_acc, d.mesh_force, d.mesh_torque, d.disp],
+                          device=dev))
         serial(launch(_end_step_kernel, 1, inputs=[self.skin, d.disp, d.fault_parts],
                       outputs=[d.rebuild_flag, d.counters, d.fault, d.cohesion_now], device=dev))
         if P > 1 and self.track_energy:
