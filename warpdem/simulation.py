@@ -548,14 +548,14 @@ class Simulation:
         names the step where it happened) and list capacity.
 
         On CUDA several steps run per graph launch (:meth:`_advance_graphs`), in scenes of fewer than
-        LARGE_STEP_SPHERES spheres; a larger one runs one captured step per launch. On the CPU the host reads the
-        rebuild flag before each step and rebuilds when asked; a step run by one thread is one Warp CPU graph
-        (replayed in C++, no Python per launch), a step shared between threads replays its recorded launches and
-        phases. (A CPU graph of several steps costs ~4 ms of recording per step, more than it saves.)"""
+        LARGE_STEP_SPHERES spheres. Otherwise the host reads the rebuild flag before each step and rebuilds when
+        asked, and the step is one captured graph (CUDA; the CPU with one thread: a Warp CPU graph, replayed in C++
+        with no Python per launch) or, shared between CPU threads, its recorded launches and phases. (A CPU graph of
+        several steps costs ~4 ms of recording per step, more than it saves.)"""
         if not self.device.is_cpu and self.graph_steps > 1 and not self._large:
             self._advance_graphs(n_steps)
             return
-        graph = self.parts == 1 and _CPU_GRAPHS and self.graph_steps > 1
+        graph = (not self.device.is_cpu or (self.parts == 1 and _CPU_GRAPHS)) and self.graph_steps > 1
         every = max(self.graph_steps, 1)
         spheres = self.model.n_spheres > 0
         for k in range(n_steps):
