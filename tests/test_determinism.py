@@ -35,10 +35,12 @@ def _sums(order: np.ndarray, body: np.ndarray, force: np.ndarray, res: np.ndarra
                                                   wp.array(body, dtype=int, device=DEVICE),
                                                   wp.array(force, dtype=wp.vec3f, device=DEVICE),
                                                   acc_f, acc_t, scale, scale, plain], device=DEVICE)
-    out = wp.zeros(n, dtype=wp.vec3f, device=DEVICE)
+    out, out_t = wp.zeros(n, dtype=wp.vec3f, device=DEVICE), wp.zeros(n, dtype=wp.vec3f, device=DEVICE)
     sums = acc_f.numpy()
-    wp.launch(accumulate.to_float_kernel, n, inputs=[0, acc_f, scale, 1], outputs=[out], device=DEVICE)
-    assert not acc_f.numpy().any()  # read and cleared for the next step
+    wp.launch(accumulate.wrench_to_float_kernel, n, inputs=[acc_f, scale, acc_t, scale, 1], outputs=[out, out_t],
+              device=DEVICE)
+    assert not acc_f.numpy().any() and not acc_t.numpy().any()  # read and cleared for the next step
+    np.testing.assert_array_equal(out_t.numpy(), out.numpy())  # the same contributions, the same resolution
     return sums, out.numpy(), plain.numpy()
 
 

@@ -4,8 +4,9 @@ Every contribution to a body's force [N] or torque [N m] (a contact, a spring) i
 of the body's resolution and added to an int64 accumulator with an integer atomic. Integer addition is
 associative, so the sum does not depend on the order in which threads add: a run repeats to the bit on CUDA, and
 a world gives the same bits whatever other worlds share its batch. After the contacts and springs, the sums are
-converted back to float32 (``body_force``, ``body_torque``, ``mesh_force``, ``mesh_torque``), which is what the
-integrator and the observers read. On the CPU, where a step's large kernels are shared out between threads, each
+converted back to float32 (:func:`take_float`: by the integration kernel itself, or before it by
+:func:`wrench_to_float_kernel` in a large CUDA scene) into ``body_force``, ``body_torque``, ``mesh_force`` and
+``mesh_torque``, which the observers read. On the CPU, where a step's large kernels are shared out between threads, each
 thread adds into its own accumulators and the conversion sums them: the same integers in any split.
 
 Resolutions (:func:`resolutions`): a body of mass m has the force resolution 2^floor(log2(m g0 2^-32)) [N] with
@@ -69,20 +70,6 @@ def take_float(acc: wp.array(dtype=vec3l), scale: wp.array(dtype=wp.float64), i:
         acc[p * n + i] = vec3l()
     r = wp.float64(1.0) / scale[i]
     return wp.vec3f(float(wp.float64(a[0]) * r), float(wp.float64(a[1]) * r), float(wp.float64(a[2]) * r))
-
-
-@wp.kernel
-def to_float_kernel(
-    first: int,  # the first slot of this launch (a CPU thread's share)
-    acc: wp.array(dtype=vec3l),
-    scale: wp.array(dtype=wp.float64),
-    parts: int,
-    out: wp.array(dtype=wp.vec3f),
-):
-    """out[i] = (sum over the parts p of acc[p * n + i]) x resolution, in float32, n = len(out); the slots read are
-    zeroed for the next step (:func:`take_float`)."""
-    i = wp.tid() + first
-    out[i] = take_float(acc, scale, i, out.shape[0], parts)
 
 
 @wp.kernel
