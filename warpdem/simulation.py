@@ -37,13 +37,13 @@ wp.set_module_options({"enable_backward": False})
 
 FAULT_NAMES = {1: "nan", 2: "speed", 3: "escaped"}
 _CPU_GRAPHS = tuple(int(x) for x in wp.__version__.split(".")[:2]) >= (1, 19)
+"""Warp captures CPU graphs (launches and memsets replayed in C++) from 1.19 on."""
 LARGE_STEP_SPHERES = 1 << 17
 """On CUDA, a scene of at least this many spheres converts its force sums to float in a launch of their own (a
 streaming kernel that runs faster apart from the integration: -9 % of a 4 M-sphere bed's step when fused) and runs
 one step per graph (the conditional nodes of several steps per graph cost more than the one host synchronisation
 per step that they save: 3-6 % at 1-4 M spheres); a smaller scene, whose step is bound by launch latency, fuses
 both (a 52-sphere ringing batch on one H100: 81 -> 67 us per step)."""
-"""Warp captures CPU graphs (launches and memsets replayed in C++) from 1.19 on."""
 NO_FAULT_C = wp.constant(NO_FAULT)
 
 
