@@ -1,0 +1,32 @@
+# The CUDA checks and measurements of the engine issue in one device call (at most ~9 minutes), from the project
+# root on the GPU machine after its staging (see the project's guide):
+#
+#     sh benchmarks/gpu_checks.sh            # results (test logs, JSON lines, calibration summaries) under $OUT
+#
+# Carry benchmarks/.beds (the cpu-scale bed, deposited once on this machine by bed_throughput.py) or the bed is
+# deposited again there first.
+# 1. the tests that compare CUDA runs with themselves, with Yade and with closed forms (WARPDEM_TEST_DEVICE=cuda),
+#    stopped by SIGINT at their time limit so that pytest still prints which failed;
+# 2. the deposited-bed throughput at 1, 4 and 16 M spheres and each op of a 4 M step;
+# 3. the ringing batch of a calibration, each kernel's own time, and the two ringing calibrations of the engine
+#    issue's goals (85 individuals: spring spheres < 60 s, linear < 15 s).
+# The GPU image lacks meshio (VTK output) unless staged with it: the shear box and demo tests need it.
+OUT=${OUT:-/tmp/gpu_checks}; mkdir -p "$OUT"
+export WARPDEM_TEST_DEVICE=cuda
+timeout -s INT 200 python3 -m pytest -q -n 12 --dist loadfile --tb=short -p no:cacheprovider -W ignore \
+  tests/test_determinism.py tests/test_worlds.py tests/test_yade.py tests/test_closed_form.py tests/test_dynamics.py \
+  tests/test_rigs.py tests/test_checkpoint.py tests/test_broadphase.py > "$OUT/pytest_cuda.txt" 2>&1
+echo "pytest rc=$?" >> "$OUT/pytest_cuda.txt"; tail -15 "$OUT/pytest_cuda.txt"
+unset WARPDEM_TEST_DEVICE
+cd benchmarks
+timeout 120 python3 bed_throughput.py --device cuda --sizes 1000000 4000000 16000000 --json "$OUT/results_bed_cuda.jsonl"
+timeout 45 python3 step_profile.py --device cuda --size 4000000 --steps 100 --json "$OUT/step_profile_cuda.jsonl"
+timeout 45 python3 step_profile.py --device cuda --scene ringing --worlds 13 --steps 2000 \
+  --json "$OUT/step_profile_cuda.jsonl"
+cd ..
+for model in linear paper; do
+  t0=$(date +%s)
+  timeout 150 python3 -m calibration.cli calibrate ringing --quiet --device cuda --spring-model $model \
+    --out "/tmp/gpu_checks_ringing_$model" --overwrite > "$OUT/calibrate_ringing_$model.txt" 2>&1
+  echo "calibrate ringing --spring-model $model: rc=$? $(( $(date +%s) - t0 )) s" | tee -a "$OUT/calibrate_ringing_$model.txt"
+done
