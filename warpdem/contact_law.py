@@ -82,7 +82,7 @@ def make_phys(
     r2: float,
     young: wp.array(dtype=float),
     poisson: wp.array(dtype=float),
-    friction: wp.array(dtype=float),
+    tan_friction: wp.array(dtype=float),
     normal_coh: wp.array(dtype=float),
     shear_coh: wp.array(dtype=float),
     eta_roll: wp.array(dtype=float),
@@ -103,7 +103,7 @@ def make_phys(
         p.ks = 2.0 * b1 * b2 / (b1 + b2)
     p.kr = r1 * r2 * p.ks * hmean(alpha_kr[mi], alpha_kr[mj])
     p.ktw = r1 * r2 * p.ks * hmean(alpha_ktw[mi], alpha_ktw[mj])
-    p.tan_phi = wp.tan(wp.min(friction[mi], friction[mj]))
+    p.tan_phi = wp.min(tan_friction[mi], tan_friction[mj])  # tan(min(phi_i, phi_j)): tan is increasing
     p.max_roll = wp.min(eta_roll[mi] * r1, eta_roll[mj] * r2)
     p.max_twist = wp.min(eta_twist[mi] * r1, eta_twist[mj] * r2)
     fi = mat_flags[mi]

@@ -48,7 +48,7 @@ class Materials:
 
     young: wp.array(dtype=float)
     poisson: wp.array(dtype=float)
-    friction: wp.array(dtype=float)
+    tan_friction: wp.array(dtype=float)
     normal_coh: wp.array(dtype=float)
     shear_coh: wp.array(dtype=float)
     eta_roll: wp.array(dtype=float)
@@ -70,11 +70,18 @@ class LawOptions:
     track_energy: int
 
 
+@wp.kernel
+def tan_kernel(angle: wp.array(dtype=float), out: wp.array(dtype=float)):
+    """out = tan(angle) (float32, the tangent the contact law used to take per contact)."""
+    i = wp.tid()
+    out[i] = wp.tan(angle[i])
+
+
 @wp.func
 def phys_of(mats: Materials, world: int, mi: int, mj: int, r1: float, r2: float):
     off = world * mats.n_materials
     return make_phys(
-        off + mi, off + mj, r1, r2, mats.young, mats.poisson, mats.friction, mats.normal_coh, mats.shear_coh,
+        off + mi, off + mj, r1, r2, mats.young, mats.poisson, mats.tan_friction, mats.normal_coh, mats.shear_coh,
         mats.eta_roll, mats.eta_twist, mats.alpha_kr, mats.alpha_ktw, mats.flags
     )
 

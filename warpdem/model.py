@@ -99,7 +99,7 @@ class Model:
     mat_young: wp.array
     mat_poisson: wp.array
     mat_friction: wp.array
-    """friction angle [rad]."""
+    """friction angle [rad] (a Simulation takes its tangent once, when it is made)."""
     mat_normal_cohesion: wp.array
     mat_shear_cohesion: wp.array
     mat_eta_roll: wp.array

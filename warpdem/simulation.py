@@ -26,6 +26,7 @@ from .contacts import (
     Materials,
     sphere_sphere_kernel,
     sphere_triangle_kernel,
+    tan_kernel,
 )
 from .data import DISP_STRIDE, NO_FAULT, Data
 from .errors import InputError, SimulationError, check_finite, check_positive
@@ -195,8 +196,10 @@ class Simulation:
         self.data = Data.zeros(model, self.parts)  # the per-step arrays (data.py)
 
         self.materials = Materials()
+        tan_friction = wp.empty_like(model.mat_friction)  # taken once here, not per contact and step
+        wp.launch(tan_kernel, tan_friction.shape[0], inputs=[model.mat_friction], outputs=[tan_friction], device=dev)
         for name, arr in (
-            ("young", model.mat_young), ("poisson", model.mat_poisson), ("friction", model.mat_friction),
+            ("young", model.mat_young), ("poisson", model.mat_poisson), ("tan_friction", tan_friction),
             ("normal_coh", model.mat_normal_cohesion), ("shear_coh", model.mat_shear_cohesion),
             ("eta_roll", model.mat_eta_roll), ("eta_twist", model.mat_eta_twist),
             ("alpha_kr", model.mat_alpha_kr), ("alpha_ktw", model.mat_alpha_ktw), ("flags", model.mat_flags),
