@@ -241,7 +241,7 @@ def test_several_steps_per_graph_give_the_steps_of_one_at_a_time() -> None:
     # captured graph whose steps after the first run in conditional nodes that skip once a step flags a rebuild,
     # the host then rebuilding and going on) must give the same states, forces, step and rebuild counts to the bit.
     # On the CPU it is driven directly (there, advance uses one Warp CPU graph per step); the scene (spheres, clumps,
-    # a mesh, a spring, falling: a rebuild every 100-200 steps) makes the graphs end early and change length.
+    # a mesh, a spring, falling: 49 rebuilds in 2,500 steps) makes the graphs end early and change length.
     def make(graph_steps: int) -> wd.Simulation:
         model, state = _threaded_scene().finalize(DEVICE, n_worlds=2)
         return wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), cohesion_on_new_contacts=True,
