@@ -11,8 +11,19 @@
 # 3. the ringing batch of a calibration, each kernel's own time, and the two ringing calibrations of the engine
 #    issue's goals (85 individuals: spring spheres < 60 s, linear < 15 s).
 # The GPU image lacks meshio (VTK output) unless staged with it: the shear box and demo tests need it.
+#
+#     sh benchmarks/gpu_checks.sh suite K N  # instead: the K-th of N shards (K = 1 .. N) of the whole test suite on
+#                                            # CUDA, test files dealt out in turn, each shard within one call
 OUT=${OUT:-/tmp/gpu_checks}; mkdir -p "$OUT"
 export WARPDEM_TEST_DEVICE=cuda
+if [ "$1" = "suite" ]; then
+  files=$(ls tests/test_*.py | awk -v k="$2" -v n="$3" '(NR - 1) % n == k - 1')
+  timeout -s INT 560 python3 -m pytest -v -n 14 --dist loadfile --tb=short -p no:cacheprovider -W ignore $files \
+    > "$OUT/pytest_cuda_shard_$2_of_$3.txt" 2>&1
+  echo "shard $2 of $3 rc=$?" >> "$OUT/pytest_cuda_shard_$2_of_$3.txt"
+  grep -E "FAILED|ERROR|passed|failed|rc=" "$OUT/pytest_cuda_shard_$2_of_$3.txt" | tail -30
+  exit 0
+fi
 timeout -s INT 200 python3 -m pytest -q -n 12 --dist loadfile --tb=short -p no:cacheprovider -W ignore \
   tests/test_determinism.py tests/test_worlds.py tests/test_yade.py tests/test_closed_form.py tests/test_dynamics.py \
   tests/test_rigs.py tests/test_checkpoint.py tests/test_broadphase.py > "$OUT/pytest_cuda.txt" 2>&1
