@@ -125,6 +125,8 @@ def sphere_sphere_kernel(
     r1 = float(r1d)
     vi = sphere_vel[i]
     wi = sphere_angvel[i]
+    mi = sphere_material[i]
+    arm_i0 = sphere_arm[i]
     f_i = wp.vec3f(0.0)
     t_i = wp.vec3f(0.0)
     now = cohesion_now[0]
@@ -140,7 +142,7 @@ def sphere_sphere_kernel(
         if active == 0 and un < 0.0:
             continue
         n = wp.vec3f(d / dist)
-        p = phys_of(mats, w, sphere_material[i], sphere_material[j], r1, r2)
+        p = phys_of(mats, w, mi, sphere_material[j], r1, r2)
         is_new = int(0)
         if active == 0:
             h = new_hist(p, n, wp.max(opts.cohesion_on_new, now))
@@ -154,7 +156,7 @@ def sphere_sphere_kernel(
         hist[k] = out.hist
         if out.alive == 0:
             continue
-        arm_i = sphere_arm[i] + (r1 - 0.5 * un) * n
+        arm_i = arm_i0 + (r1 - 0.5 * un) * n
         arm_j = sphere_arm[j] - (r2 - 0.5 * un) * n
         f_i += out.force
         t_i += wp.cross(arm_i, out.force) - out.moment
