@@ -617,11 +617,15 @@ class Simulation:
             n = 1 << (min(self._chunk, cap, left).bit_length() - 1)
             wp.capture_launch(self._steps_graph(n))
             done = n
-            if spheres:  # steps after a flagged rebuild were skipped
+            if spheres and n > 1:  # steps after a flagged rebuild were skipped (a graph's first step always runs)
                 now = int(d.counters.numpy()[0])
                 done, device_steps = now - device_steps, now
                 # the next graph: as long as this rebuild interval (rounded up), or twice as long if none ended it
                 self._chunk = 2 * n if done == n else 1 << max(done - 1, 0).bit_length()
+            elif spheres:
+                device_steps += 1
+                if self._chunk <= 1:  # grow again, as a graph that no rebuild ended would
+                    self._chunk = 2
             self.state.step += done
             for _ in range(done):
                 self.state.time += self.dt
