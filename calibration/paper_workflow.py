@@ -35,7 +35,7 @@ import shutil
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -49,98 +49,11 @@ from warpdem.files import write_atomic
 
 from .archive import write_json_atomic
 from .ga import accepted_records, calibrate
-from .genes import GASettings
 from .problems import DraughtProblem, RingingProblem
 from .report import write_report
 from .screening import screen
-
-CALIBRATION_SCALE = {"ci": "ci", "cpu": "cpu", "paper": "paper_1m", "strip": "strip"}
-"""soil-bin scale of the draught calibration for each workflow scale: the paper calibrated in its first, 1 m long
-bin (section 2.1.2); ``paper_1m`` is that bin at the paper scale's particle size."""
-SCREEN_SCALE = {"ci": "ci", "cpu": "cpu", "paper": "paper", "strip": "paper"}
-"""shear-box scale (:func:`scenes.shear_box.preset`) of the screening for each workflow scale."""
-VARIANTS = ("offset", "no_offset")
-"""Table 3 variants: the passive tool with Table 2's support offsets (the paper's final model) and without."""
-
-
-@dataclass
-class WorkflowConfig:
-    """What a workflow run does. Every field is recorded in ``workflow.json``; a folder holding another
-    configuration is refused."""
-
-    scale: str = "paper"
-    """soil-bin scale of the Table 3 runs (:data:`scenes.soil_bin.SCALES`)."""
-    assembly: str = "C"
-    springs: tuple[int, ...] = paper.SPRING_COUNTS
-    """passive configurations of the ringing calibration and of Table 3."""
-    ringing_models: tuple[str, ...] = ("linear", "paper")
-    ringing_ga: GASettings = field(default_factory=GASettings)
-    ringing_fitness: dict[str, str] = field(default_factory=lambda: {"linear": "max", "paper": "paper"})
-    """fitness of each model's ringing GA: "paper" (eq. 7, 1/(REf REd)) or "max" (1/max(REf, REd)). Eq. 7 rewards
-    one tiny error as much as two balanced ones (the paper's GA took 0.37 % / 99 % for the linear 4-spring stack),
-    and the linear springs' stiffness and dashpot are what the Table 3 runs use: their GA ranks by the larger error."""
-    ringing_refine: dict[str, int] = field(default_factory=lambda: {"linear": 20, "paper": 0})
-    """batched pattern-search iterations after each model's ringing GA (:class:`GASettings.refine_iterations`)."""
-    ringing_time: float = 2.0
-    """[s] of free ringing per simulation."""
-    draught_ga: GASettings = field(default_factory=GASettings)
-    screen_top: int = 6
-    """shear-box screening of at most this many sets (the accepted ones, fittest first)."""
-    screen_changes: dict[str, object] = field(default_factory=dict)
-    """further :class:`scenes.shear_box.ShearBoxConfig` fields of the screening (e.g. ``shear_displacement``)."""
-    replicas_min: int = 3
-    replicas_max: int = 8
-    target_sem: float = 1.0
-    """[percentage points]: replicas are added until every reduction's standard error is below this."""
-    settle_time: float = 0.5
-    """[s] each soil-bin bed settles under the run's soil set before the tool moves (``SoilBinConfig``)."""
-    worlds_per_job: int = 4
-    """soil-bin worlds per simulation (at most): smaller jobs fit a shorter budget."""
-    travel: float | None = None
-    """[m] of the Table 3 runs (default: the scale's)."""
-    steady_travel: float | None = None
-    calibration_travel: float | None = None
-    """[m] of the draught calibration's runs (default: its scale's)."""
-    seed: int = 0
-    """first bed's deposition seed; replica r uses seed + r."""
-
-    def __post_init__(self) -> None:
-        if self.scale not in CALIBRATION_SCALE:
-            raise InputError(f"scale must be one of {sorted(CALIBRATION_SCALE)}, got {self.scale!r}")
-        for n in self.springs:
-            if n not in paper.SPRING_COUNTS:
-                raise InputError(f"springs must be among {paper.SPRING_COUNTS}, got {n!r}")
-        if not self.springs:
-            raise InputError("springs must name at least one passive configuration, got ()")
-        for m in self.ringing_models:
-            if m not in ("linear", "paper"):
-                raise InputError(f"ringing_models must be among ('linear', 'paper'), got {m!r}")
-            fit, ref = self.ringing_fitness.get(m), self.ringing_refine.get(m, 0)
-            if fit not in ("paper", "max"):
-                raise InputError(f"ringing_fitness[{m!r}] must be 'paper' or 'max', got {fit!r}")
-            if not isinstance(ref, int) or ref < 0:
-                raise InputError(f"ringing_refine[{m!r}] must be an integer >= 0, got {ref!r}")
-        if not 1 <= self.replicas_min <= self.replicas_max:
-            raise InputError(f"replicas must satisfy 1 <= replicas_min <= replicas_max, got {self.replicas_min}, "
-                             f"{self.replicas_max}")
-        if not (math.isfinite(self.target_sem) and self.target_sem > 0):
-            raise InputError(f"target_sem must be a positive number of percentage points, got {self.target_sem!r}")
-        if not (math.isfinite(self.settle_time) and self.settle_time >= 0):
-            raise InputError(f"settle_time must be a finite number of seconds >= 0, got {self.settle_time!r}")
-        if self.worlds_per_job < 1:
-            raise InputError(f"worlds_per_job must be >= 1, got {self.worlds_per_job!r}")
-
-    def to_dict(self) -> dict[str, object]:
-        return json.loads(json.dumps(asdict(self), default=str))
-
-    def speeds(self) -> dict[int, float]:
-        """Table 3's mean carriage speed [m/s] of each passive configuration."""
-        t3 = paper.table("soil_bin_measured")
-        return {n: float(t3["speed_mean_m_s"][t3["springs"] == n][0]) for n in self.springs}
-
-    def rigid_speeds(self) -> list[float]:
-        """The distinct speeds [m/s] of the configurations, ascending: the rigid runs of a replica."""
-        return sorted({sb.speed_key(v) for v in self.speeds().values()})
+from .workflow_config import CALIBRATION_SCALE, SCREEN_SCALE, VARIANTS, WorkflowConfig
+from .workflow_report import write_workflow_report
 
 
 class Budget:
@@ -646,7 +559,6 @@ class Workflow:
 
     def write_interim_report(self) -> Path:
         """report.md of the stages done so far, saying what is still to come (after a budget stop)."""
-        from .workflow_report import write_workflow_report
 
         c = self.config
         summary: dict[str, object] = {"ringing": {m: r for m in c.ringing_models
@@ -674,7 +586,6 @@ class Workflow:
         summary = {"ringing": ring, "draught": draught, "screening": screening, "table3": table3,
                    "wall_s_last_call": time.perf_counter() - t0}
         write_json_atomic(self._path("summary.json"), sb.json_safe(summary))
-        from .workflow_report import write_workflow_report
 
         write_workflow_report(self.out, self.config, summary, device=self.device)
         return summary

@@ -13,7 +13,7 @@ from scenes import paper
 from scenes.soil_bin import SCALES
 from warpdem.files import write_text_atomic
 
-from .paper_workflow import CALIBRATION_SCALE, SCREEN_SCALE, VARIANTS, WorkflowConfig
+from .workflow_config import CALIBRATION_SCALE, SCREEN_SCALE, VARIANTS, WorkflowConfig
 
 
 def _f(v: object, digits: int = 4) -> str:
