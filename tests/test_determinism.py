@@ -4,6 +4,7 @@ which contributions arrive, so a run repeats to the bit on CUDA as it does on th
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import warp as wp
@@ -112,6 +113,33 @@ def _threaded_scene() -> wd.ModelBuilder:
     return b
 
 
+def _assert_same_bits(sim: wd.Simulation, ref: wd.Simulation) -> None:
+    """Positions, orientations, velocities and the force sums of ``sim`` equal ``ref``'s to the bit."""
+    for name in ("body_pos", "body_quat", "body_vel", "body_angvel"):
+        np.testing.assert_array_equal(getattr(sim.state, name).numpy(), getattr(ref.state, name).numpy())
+    for name in ("body_force", "body_torque", "mesh_force", "spring_force"):
+        np.testing.assert_array_equal(getattr(sim.data, name).numpy(), getattr(ref.data, name).numpy())
+
+
+def _blow_up(advance: Callable[[wd.Simulation], None], **sim_kwargs: object) -> tuple[int, str, int, int]:
+    """(body, cause, step, world) of the SimulationError of tests/test_errors.py's scene: three worlds of two
+    spheres, world 1's pushed deep into each other, run with a step 30x the critical one by ``advance``."""
+    b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
+    b.add_material("m", wd.Material(young=1e7, poisson=0.3, density=2700, friction_angle=30))
+    b.add_sphere((0, 0, 0), 0.01, "m")
+    b.add_sphere((0.03, 0, 0), 0.01, "m")
+    model, state = b.finalize(DEVICE, n_worlds=3)
+    pos = state.body_pos.numpy()
+    pos[3] = pos[2] + np.array([0.012, 0.0, 0.0])
+    state.body_pos.assign(pos)
+    sim = wd.Simulation(model, state, dt=30 * wd.pwave_timestep(model), force_dt=True, **sim_kwargs)
+    try:
+        advance(sim)
+    except wd.SimulationError as e:
+        return e.body, e.cause, e.step, e.world
+    raise AssertionError("the run did not blow up")
+
+
 def test_cpu_threads_give_the_same_bits(monkeypatch: object) -> None:
     # Reference: the same run on one thread. A step shared out between CPU threads (each thread a range of
     # spheres for the contacts, a range of bodies and their spheres for the motion, its own fixed-point
@@ -143,10 +171,7 @@ def test_cpu_threads_give_the_same_bits(monkeypatch: object) -> None:
     assert one.parts == 1 and three.parts == 3
     assert one.rebuild_count > 0  # the lists were rebuilt (and the contacts cut again)
     for sim in (three, stepped):
-        for name in ("body_pos", "body_quat", "body_vel", "body_angvel"):
-            np.testing.assert_array_equal(getattr(sim.state, name).numpy(), getattr(one.state, name).numpy())
-        for name in ("body_force", "body_torque", "mesh_force", "spring_force"):
-            np.testing.assert_array_equal(getattr(sim.data, name).numpy(), getattr(one.data, name).numpy())
+        _assert_same_bits(sim, one)
         np.testing.assert_allclose(sim.data.energy.numpy(), one.data.energy.numpy(), rtol=1e-12, atol=1e-18)
     for key in ("floor", "tie"):
         np.testing.assert_array_equal(rec_three[key], rec_one[key])
@@ -214,21 +239,11 @@ def test_cpu_threads_report_the_fault_one_thread_reports(monkeypatch: object) ->
     monkeypatch.setattr(cpu_threads, "MIN_SPHERES_PER_THREAD", 1)
 
     def fault(threads: int) -> tuple[int, str, int, int]:
-        b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
-        b.add_material("m", wd.Material(young=1e7, poisson=0.3, density=2700, friction_angle=30))
-        b.add_sphere((0, 0, 0), 0.01, "m")
-        b.add_sphere((0.03, 0, 0), 0.01, "m")
-        model, state = b.finalize(DEVICE, n_worlds=3)
-        pos = state.body_pos.numpy()
-        pos[3] = pos[2] + np.array([0.012, 0.0, 0.0])
-        state.body_pos.assign(pos)
-        sim = wd.Simulation(model, state, dt=30 * wd.pwave_timestep(model), force_dt=True, cpu_threads=threads)
-        assert sim.parts == threads
-        try:
+        def advance(sim: wd.Simulation) -> None:
+            assert sim.parts == threads
             sim.advance(200)
-        except wd.SimulationError as e:
-            return e.body, e.cause, e.step, e.world
-        raise AssertionError("the run did not blow up")
+
+        return _blow_up(advance, cpu_threads=threads)
 
     one = fault(1)
     assert one[3] == 1
@@ -255,10 +270,7 @@ def test_several_steps_per_graph_give_the_steps_of_one_at_a_time() -> None:
     assert one.rebuild_count > 10
     assert many.state.step == one.state.step == 2500 and many.state.time == one.state.time
     np.testing.assert_array_equal(many.data.counters.numpy(), one.data.counters.numpy())
-    for name in ("body_pos", "body_quat", "body_vel", "body_angvel"):
-        np.testing.assert_array_equal(getattr(many.state, name).numpy(), getattr(one.state, name).numpy())
-    for name in ("body_force", "body_torque", "mesh_force", "spring_force"):
-        np.testing.assert_array_equal(getattr(many.data, name).numpy(), getattr(one.data, name).numpy())
+    _assert_same_bits(many, one)
     assert len(many._graph) > 1  # graphs of several lengths were captured
 
 
@@ -266,20 +278,10 @@ def test_several_steps_per_graph_name_the_faulty_step() -> None:
     # Reference: the same blow-up one step at a time (the scene of test_cpu_threads_report_the_fault_one_thread_
     # reports): the fault recorded on the device inside a graph of several steps names the same body, cause, step.
     def fault(graph_steps: int) -> tuple[int, str, int, int]:
-        b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
-        b.add_material("m", wd.Material(young=1e7, poisson=0.3, density=2700, friction_angle=30))
-        b.add_sphere((0, 0, 0), 0.01, "m")
-        b.add_sphere((0.03, 0, 0), 0.01, "m")
-        model, state = b.finalize(DEVICE, n_worlds=3)
-        pos = state.body_pos.numpy()
-        pos[3] = pos[2] + np.array([0.012, 0.0, 0.0])
-        state.body_pos.assign(pos)
-        sim = wd.Simulation(model, state, dt=30 * wd.pwave_timestep(model), force_dt=True, graph_steps=graph_steps)
-        try:
+        def advance(sim: wd.Simulation) -> None:
             sim._advance_graphs(200) if graph_steps > 1 else sim.advance(200)
-        except wd.SimulationError as e:
-            return e.body, e.cause, e.step, e.world
-        raise AssertionError("the run did not blow up")
+
+        return _blow_up(advance, graph_steps=graph_steps)
 
     one = fault(1)
     assert one[3] == 1
@@ -298,8 +300,5 @@ def test_large_scene_motion_gives_the_bits_of_the_fused_one() -> None:
         return sim
 
     fused, split = run(False), run(True)
-    for name in ("body_pos", "body_quat", "body_vel", "body_angvel"):
-        np.testing.assert_array_equal(getattr(split.state, name).numpy(), getattr(fused.state, name).numpy())
-    for name in ("body_force", "body_torque", "mesh_force", "spring_force"):
-        np.testing.assert_array_equal(getattr(split.data, name).numpy(), getattr(fused.data, name).numpy())
+    _assert_same_bits(split, fused)
     assert np.abs(fused.state.body_vel.numpy()).max() > 1e-3  # it moved
