@@ -57,12 +57,12 @@ def ringing_simulation(worlds: int, device: str) -> object:
     """The ringing rig of ``warpdem calibrate ringing`` (16 springs, the paper's spring spheres), ``worlds`` copies,
     at the time step of scenes.ringing.run_ringing."""
     import warpdem as wd
-    from scenes.ringing import RingingConfig, build_ringing
+    from scenes.ringing import RingingConfig, build_ringing, ringing_dt
 
     cfg = RingingConfig(springs=(16,) * worlds, spring_model="paper")
     rig = build_ringing(cfg)
     model, state = rig.builder.finalize(device, n_worlds=worlds, overrides=rig.overrides)
-    return wd.Simulation(model, state, dt=min(0.5 * wd.critical_timestep(model), 0.5 / cfg.sample_rate))
+    return wd.Simulation(model, state, dt=ringing_dt(cfg, model))
 
 
 def profile(sim: object, device: str, steps: int, warmup: int

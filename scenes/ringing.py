@@ -398,6 +398,12 @@ def _re(sim: float, target: float) -> float:
     return float(analysis.relative_error(sim, target)) if np.isfinite(sim) else math.nan
 
 
+def ringing_dt(cfg: RingingConfig, model: wd.Model) -> float:
+    """The ringing run's time step [s]: ``cfg.dt``, or half the critical step of ``model`` and at least two steps a
+    sample (``cfg.sample_rate``)."""
+    return cfg.dt or min(0.5 * wd.critical_timestep(model), 0.5 / cfg.sample_rate)
+
+
 def run_ringing(config: RingingConfig | None = None, *, device: str | None = None, tool: SweepTool | None = None,
                 progress: object | None = None) -> RingingResult:
     """Build, settle, hit and record the ringing rig for every configuration; fit eqs. (3)-(5)."""
@@ -408,7 +414,7 @@ def run_ringing(config: RingingConfig | None = None, *, device: str | None = Non
         return _run_twin(cfg, device, progress)
     rig = build_ringing(cfg, tool)
     model, state = rig.builder.finalize(device, n_worlds=len(cfg.springs), overrides=rig.overrides)
-    dt = cfg.dt or min(0.5 * wd.critical_timestep(model), 0.5 / cfg.sample_rate)  # at least two steps a sample
+    dt = ringing_dt(cfg, model)
     wd.check_step_count("ringing run", cfg.settle_time + cfg.ring_time, dt,
                         "cfg.dt" if cfg.dt else "0.5 x the critical step (spring stiffness, Young's moduli)")
     sim = wd.Simulation(model, state, dt=dt)
