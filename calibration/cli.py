@@ -11,6 +11,7 @@
     warpdem demo      [--device] [--particles N] [--out DIR]
     warpdem calibrate ringing --springs 16 [--spring-model paper|linear] [--fitness paper|max] [--refine N]
     warpdem calibrate draught --assembly C [--scale ci|cpu|paper] [--speed 0.62] [--screen-scale ci|cpu|paper]
+                      [--no-screen] [--beds DIR]
                       (both: [--generations 5] [--population 20] [--parents 7] [--seed 0] [--device] [--out DIR]
                        [--gene NAME=LOW:HIGH] [--archive FILE] [--no-resume] [--ray-workers N] [--ray-address A])
     warpdem diagnose MEASURED --rig ringing|soil-bin [--rig-file rig.toml] [--params FILE] [--mechanisms a,b]
@@ -176,7 +177,8 @@ def _write_config(out: Path, command: str, device: str, **fields: object) -> Non
 CLAIM = ".warpdem-run.json"
 """The file that marks a results folder as one run's: the command and every parameter that makes the run (not the
 device: a run may continue on another one, and output options such as --quiet do not count)."""
-_NOT_IDENTITY = {"argv", "out", "verbose", "quiet", "debug", "overwrite", "budget", "no_resume", "device", "vtk"}
+_NOT_IDENTITY = {"argv", "out", "verbose", "quiet", "debug", "overwrite", "budget", "no_resume", "device", "vtk",
+                 "beds"}
 
 
 def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) -> Path:
@@ -481,6 +483,8 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
         kw: dict[str, object] = {"springs": args.springs, "spring_model": args.spring_model, "fitness": args.fitness}
     else:
         kw = {"assembly": args.assembly, "scale": args.scale, "speed": args.speed, "seed": args.seed}
+        if args.beds:
+            kw["cache_dir"] = str(args.beds)
     out = _claim(args, args.out or f"results/calibrate/{args.kind}_" + (str(args.springs) if args.kind == "ringing"
                                                                         else args.assembly))
     _write_config(out, f"calibrate {args.kind}", device, settings=settings.to_dict(), problem=kw, genes=genes)
@@ -494,7 +498,8 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
     result, summary = run_calibration(
         args.kind, out, settings=settings, device=device, ray_workers=args.ray_workers, ray_address=args.ray_address,
         gpus_per_worker=1.0 if (device.startswith("cuda") and (args.ray_workers or args.ray_address)) else 0.0,
-        screen_scale=(args.screen_scale or args.scale) if args.kind == "draught" else None, archive=args.archive,
+        screen_scale=(args.screen_scale or args.scale) if args.kind == "draught" and not args.no_screen else None,
+        archive=args.archive,
         resume=not args.no_resume, progress=show, genes=genes,
         screen_progress=lambda ph, d, n: _bar(f"screening: shear box {ph}", int(1e6 * d), int(1e6 * n)), **kw)
     best = result.best
@@ -714,6 +719,9 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--speed", type=_number(float, gt=0, unit="m/s"), default=0.62, help="draught: carriage speed [m/s]")
     c.add_argument("--screen-scale", default=None, choices=("ci", "cpu", "paper"),
                    help="draught: shear-box scale of the screening (default: --scale)")
+    c.add_argument("--no-screen", action="store_true", help="draught: calibrate only, no shear-box screening")
+    c.add_argument("--beds", default=None,
+                   help="draught: folder of deposited beds to read and add to (default OUT/beds)")
     c.add_argument("--archive", default=None, help="archive.json of an earlier calibration to reuse")
     c.add_argument("--no-resume", action="store_true", help="start afresh even if --out holds a saved state")
     c.add_argument("--ray-workers", type=_number(int, ge=1), default=None,

@@ -48,6 +48,17 @@ class _Worker:
 
         return default_threads()
 
+    def placement(self) -> dict[str, object]:
+        """Where this worker simulates: its Ray GPU ids, CUDA_VISIBLE_DEVICES, and the Warp device its problem
+        runs on (name, PCI bus id: tells two workers on one machine apart)."""
+        import ray
+        import warp as wp
+
+        dev = wp.get_device(getattr(self.problem, "device", None))
+        return {"ray_gpu_ids": [str(g) for g in ray.get_gpu_ids()],
+                "cuda_visible_devices": os.environ.get("CUDA_VISIBLE_DEVICES"), "device": str(dev),
+                "device_name": dev.name, "pci_bus_id": getattr(dev, "pci_bus_id", None)}
+
 
 class RayEvaluator:
     """Spread each population over ``workers`` Ray actors, one batched simulation each.
@@ -88,6 +99,10 @@ class RayEvaluator:
     def cpu_threads(self) -> list[int]:
         """The CPU threads each worker's simulations use per step."""
         return self._ray.get([a.cpu_threads.remote() for a in self.actors])
+
+    def placements(self) -> list[dict[str, object]]:
+        """Each worker's device (see ``_Worker.placement``): with one GPU per worker, distinct PCI bus ids."""
+        return self._ray.get([a.placement.remote() for a in self.actors])
 
     def __call__(self, values: np.ndarray) -> list[dict[str, float]]:
         values = np.atleast_2d(np.asarray(values, dtype=np.float64))

@@ -38,15 +38,19 @@ def run_calibration(kind: str, out: str | Path, *, settings: GASettings | None =
         problem_kwargs.setdefault("cache_dir", str(out / "beds"))
     problem = make_problem(kind, device=device, **problem_kwargs)
     use_ray = ray_workers is not None or ray_address is not None
+    extra: dict[str, object] = {"device": device, "evaluator": "ray" if use_ray else "local"}
+    if use_ray and kind == "draught":
+        problem.bed()  # deposited (or read) once here, into cache_dir, which the workers then read
     evaluator = (RayEvaluator(problem, ray_workers, address=ray_address, gpus_per_worker=gpus_per_worker)
                  if use_ray else LocalEvaluator(problem))
     try:
+        if use_ray:
+            extra["workers"] = evaluator.placements()
         result = calibrate(problem, settings, out=out, evaluator=evaluator, resume=resume, archive=archive,
                            progress=progress)
     finally:
         evaluator.close()
     screening = None
-    extra: dict[str, object] = {"device": device, "evaluator": "ray" if use_ray else "local"}
     if kind == "draught":
         accepted = accepted_records(result, problem)
         extra["n_accepted"] = len(accepted)

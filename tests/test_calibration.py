@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+import warp as wp
 from conftest import DEVICE
 
 from calibration.archive import Archive
@@ -215,6 +216,7 @@ def test_ray_workers_give_the_in_process_result() -> None:
     try:
         assert ray_eval.workers == 2
         assert ray_eval.cpu_threads() == [1, 1]
+        assert [w["device"] for w in ray_eval.placements()] == [str(wp.get_device(DEVICE))] * 2
         remote = ray_eval(pop)
     finally:
         ray_eval.close()
