@@ -278,6 +278,28 @@ def test_calibrate_command_writes_a_table_2_report(tmp_path) -> None:
     assert (out / "convergence.png").stat().st_size > 0 and "| index |" in (out / "report.md").read_text()
 
 
+def test_calibrations_share_a_bed_folder_and_can_skip_screening(tmp_path) -> None:
+    # `--beds DIR`: the first draught calibration deposits its bed there, the second reads it (the file is not
+    # written again) and, on the same bed with the same GA seed, simulates the same individuals to the same bits.
+    # `--no-screen`: no shear-box screening in the result. (warpdem against itself: plumbing, not physics.)
+    import json
+
+    from calibration.cli import main
+
+    beds = tmp_path / "beds"
+    args = ["calibrate", "draught", "--scale", "ci", "--generations", "1", "--population", "2", "--parents", "1",
+            "--no-screen", "--beds", str(beds), "--device", DEVICE]
+    assert main([*args, "--out", str(tmp_path / "one")]) == 0
+    (bed,) = beds.glob("bed_ci_C_*.npz")
+    written = bed.stat().st_mtime_ns
+    assert main([*args, "--out", str(tmp_path / "two")]) == 0
+    assert bed.stat().st_mtime_ns == written and not (tmp_path / "one" / "beds").exists()
+    runs = [json.loads((tmp_path / r / "result.json").read_text()) for r in ("one", "two")]
+    assert all(r["screening"] is None for r in runs)
+    obs = [[x.observables for x in Archive.load(tmp_path / r / "archive.json")] for r in ("one", "two")]
+    assert obs[0] == obs[1] and len(obs[0]) >= 2
+
+
 def test_a_gene_range_that_collapses_the_time_step_is_refused_before_it_runs() -> None:
     """Spring spheres up to E = 1e20 Pa would need dt ~ 1e-11 s (critical step ~ sqrt(m / k), k ~ E r): 1e11 steps per
     ringing simulation. The problem refuses it when its time step is first asked for, naming the time step, the step
