@@ -271,7 +271,7 @@ def test_several_steps_per_graph_give_the_steps_of_one_at_a_time() -> None:
     assert many.state.step == one.state.step == 2500 and many.state.time == one.state.time
     np.testing.assert_array_equal(many.data.counters.numpy(), one.data.counters.numpy())
     _assert_same_bits(many, one)
-    assert len(many._graph) > 1  # graphs of several lengths were captured
+    assert len(many._graphs) > 1  # graphs of several lengths were captured
 
 
 def test_several_steps_per_graph_name_the_faulty_step() -> None:

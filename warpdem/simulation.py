@@ -223,7 +223,8 @@ class Simulation:
         if self.grid is not None:
             self.grid.reserve(ns, with_groups=True)
         self._large = not dev.is_cpu and ns >= LARGE_STEP_SPHERES  # see LARGE_STEP_SPHERES
-        self._graph = None  # the step's captured graphs by length, or its recorded launches
+        self._graphs: dict[int, object] = {}  # captured graphs (CUDA, or a CPU thread) by steps per graph
+        self._step_ops: list[Callable[[], object]] | None = None  # a step's recorded launches (CPU threads)
         self._chunk = 1 << 30  # steps in the next captured graph (capped; see advance)
         self._rebuild_checked()
 
@@ -261,7 +262,7 @@ class Simulation:
         cut = cpu_threads.split(before, int(before[-1]), self.parts)
         if cut != self._contact_cut:
             self._contact_cut = cut
-            self._graph = None  # record the step again
+            self.recapture()
 
     def _set_bounds(self, bounds: tuple[object, object] | None) -> None:
         if bounds is None:
@@ -322,7 +323,7 @@ class Simulation:
                     cap = int(need * self._capacity_factor) + 64
                     lst.grow(cap)
                     new.grow(cap)
-                    self._graph = None  # the arrays moved: recapture
+                    self.recapture()  # the arrays moved
         raise SimulationError("candidate lists could not be sized", cause="capacity")
 
     def _rebuild_if_flagged(self) -> None:
@@ -341,7 +342,7 @@ class Simulation:
                 new.grow(cap)
                 grew = True
         if grew:
-            self._graph = None
+            self.recapture()
         return grew
 
     # ------------------------------------------------------------------ the step
@@ -564,29 +565,28 @@ class Simulation:
         for k in range(n_steps):
             if spheres:
                 self._rebuild_if_flagged()
-            if self._graph is None:  # the captured graph or the recorded launches; None when arrays moved
-                if graph:
-                    with wp.ScopedCapture(device=self.device) as capture:
-                        self._launch_step()
-                    self._graph = capture.graph
-                else:
-                    self._graph = self._launch_step(record=True)
             if graph:
-                wp.capture_launch(self._graph)
+                wp.capture_launch(self._steps_graph(1))
             else:
-                for op in self._graph:
+                if self._step_ops is None:
+                    self._step_ops = self._launch_step(record=True)
+                for op in self._step_ops:
                     op()
             self.state.step += 1
             self.state.time += self.dt
             if (k + 1) % every == 0 or k == n_steps - 1:
                 self._check()
 
+    def recapture(self) -> None:
+        """Forget the captured graphs and recorded launches of the step (its arrays moved or were replaced, or the
+        CPU threads' shares changed): the next step captures or records them again."""
+        self._graphs = {}
+        self._step_ops = None
+
     def _steps_graph(self, n: int) -> object:
         """The captured graph of ``n`` steps (cached until arrays move): step 1, then steps 2 .. n each in a
         conditional node that runs it only while no rebuild is flagged."""
-        if self._graph is None:
-            self._graph = {}
-        graph = self._graph.get(n)
+        graph = self._graphs.get(n)
         if graph is None:
             spheres = self.model.n_spheres > 0
             with wp.ScopedCapture(device=self.device) as capture:
@@ -596,7 +596,7 @@ class Simulation:
                         wp.capture_if(self.data.rebuild_flag, on_false=self._launch_step)
                     else:
                         self._launch_step()
-            graph = self._graph[n] = capture.graph
+            graph = self._graphs[n] = capture.graph
         return graph
 
     def _advance_graphs(self, n_steps: int) -> None:
