@@ -1,6 +1,7 @@
 # A draught calibration (cpu scale, 85 individuals, no screening) three ways on one machine with two GPUs:
 # in process on GPU 0, on two Ray workers (one per GPU), on one Ray worker (GPU 0), with nvidia-smi sampling both
-# GPUs; then benchmarks/ray_compare.py. Run from the project root on the GPU machine (after . /root/gpu-env.sh):
+# GPUs; then benchmarks/ray_compare.py. Run from the project root on the GPU machine (after . /root/gpu-env.sh,
+# with Ray staged by benchmarks/ray_wheels.sh):
 #   sh benchmarks/ray_gpus.sh [SCALE] [LIMIT_S] [RUNS] [GA_ARGS]   # results in $OUT/ray (or /tmp/ray)
 # RUNS: which of the three, e.g. "a b c" (default) or "b c"; GA_ARGS e.g. "--generations 1 --population 10".
 S=${1:-cpu}; L=${2:-240}; RUNS=${3:-a b c}; GA=${4:-}
