@@ -223,6 +223,23 @@ def test_ray_workers_give_the_in_process_result() -> None:
     assert remote == local
 
 
+@pytest.mark.skipif(importlib.util.find_spec("ray") is None, reason="Ray (optional extra) not installed")
+def test_a_draught_calibration_on_ray_workers_gives_the_in_process_one(tmp_path) -> None:
+    # A soil bin is chaotic: a world's draught repeats only if its force sums do not depend on its batch. The GA's
+    # generation 0 of 4 individuals runs as one batch of 4 in process and as two batches of 2 on two Ray workers
+    # (which read the bed the driver deposited); every individual's observables must be the same bits.
+    from calibration.workflow import run_calibration
+
+    kw = {"settings": GASettings(generations=1, population=4, parents=2, seed=0), "device": DEVICE,
+          "assembly": "A", "scale": "ci", "travel": 0.2, "steady_travel": 0.1, "cache_dir": str(tmp_path / "beds")}
+    local, _ = run_calibration("draught", tmp_path / "local", **kw)
+    remote, summary = run_calibration("draught", tmp_path / "ray", ray_workers=2, **kw)
+    assert [w["device"] for w in summary["workers"]] == [str(wp.get_device(DEVICE))] * 2
+    obs = [[r.observables for r in Archive.load(tmp_path / r / "archive.json")] for r in ("local", "ray")]
+    assert obs[0] == obs[1] and len(obs[0]) >= 4
+    assert len(list((tmp_path / "beds").glob("*.npz"))) == 1
+
+
 def test_draught_problem_orders_weak_and_strong_soil(tmp_path) -> None:
     # Physics: a frictional, cohesive, rolling-resistant soil resists the tine more than a nearly frictionless,
     # cohesionless one (5 deg, 10 Pa, eta 0.001 vs 45 deg, 5e4 Pa, 0.9): the strong soil's mean draught after the
