@@ -131,16 +131,16 @@ def sphere_sphere_kernel(
     t_i = wp.vec3f(0.0)
     now = cohesion_now[0]
     for k in range(start[i], start[i] + n_i):
-        h = hist[k]
         j = other[k]
         d = sphere_pos[j] - xi
         dist = wp.length(d)
         r2d = radius[j]
         r2 = float(r2d)
         un = float(r1d + r2d - dist)
-        active = h.flags & ACTIVE
+        active = hist[k].flags & ACTIVE  # the whole history only for a contact (most candidates are none)
         if active == 0 and un < 0.0:
             continue
+        h = hist[k]
         n = wp.vec3f(d / dist)
         p = phys_of(mats, w, mi, sphere_material[j], r1, r2)
         is_new = int(0)
@@ -324,10 +324,10 @@ def sphere_triangle_kernel(
     # pass 1: contacts that exist now (inheriting history where the owning face changed) get the law
     for k in range(k0, k1):
         g = entry_geom(k, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos, body_quat)
-        h = hist[k]
-        active = h.flags & ACTIVE
+        active = hist[k].flags & ACTIVE
         if active == 0 and g.un < 0.0:
             continue
+        h = hist[k]
         if suppressed(k, g, k0, k1, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
                       body_quat) == 1:
             continue
