@@ -86,9 +86,9 @@ def phys_of(mats: Materials, world: int, mi: int, mj: int, r1: float, r2: float)
     )
 
 
-@wp.kernel
-def sphere_sphere_kernel(
-    first: int,  # the first sphere of this launch (a CPU thread's share)
+@wp.func
+def sphere_sphere_one(
+    i: int,
     # Model:
     sphere_body: wp.array(dtype=int),
     sphere_world: wp.array(dtype=int),
@@ -114,7 +114,7 @@ def sphere_sphere_kernel(
     torque_scale: wp.array(dtype=wp.float64),
     energy: wp.array(dtype=wp.float64),
 ):
-    i = wp.tid() + first
+    """Sphere i against its sphere candidates (one thread of sphere_sphere_kernel, or a world's loop)."""
     n_i = count[i]
     if n_i == 0:
         return
@@ -166,6 +166,40 @@ def sphere_sphere_kernel(
             wp.atomic_add(energy, w * N_ENERGY + E_SLIDING, wp.float64(out.dissip_slide))
             wp.atomic_add(energy, w * N_ENERGY + E_ROLLING, wp.float64(out.dissip_roll))
     add_wrench(force_acc, torque_acc, force_scale, torque_scale, bi, f_i, t_i)
+
+
+@wp.kernel
+def sphere_sphere_kernel(
+    first: int,  # the first sphere of this launch (a CPU thread's share)
+    # Model:
+    sphere_body: wp.array(dtype=int),
+    sphere_world: wp.array(dtype=int),
+    sphere_material: wp.array(dtype=int),
+    radius: wp.array(dtype=wp.float64),
+    mats: Materials,
+    opts: LawOptions,
+    # Data in:
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    sphere_vel: wp.array(dtype=wp.vec3f),
+    sphere_angvel: wp.array(dtype=wp.vec3f),
+    sphere_arm: wp.array(dtype=wp.vec3f),
+    start: wp.array(dtype=int),
+    count: wp.array(dtype=int),
+    other: wp.array(dtype=int),
+    cohesion_now: wp.array(dtype=int),
+    # Data in/out:
+    hist: wp.array(dtype=Hist),
+    # Data out (fixed-point sums, accumulate.py):
+    force_acc: wp.array(dtype=vec3l),
+    torque_acc: wp.array(dtype=vec3l),
+    force_scale: wp.array(dtype=wp.float64),
+    torque_scale: wp.array(dtype=wp.float64),
+    energy: wp.array(dtype=wp.float64),
+):
+    sphere_sphere_one(
+        wp.tid() + first, sphere_body, sphere_world, sphere_material, radius, mats, opts, sphere_pos, sphere_vel,
+        sphere_angvel, sphere_arm, start, count, other, cohesion_now, hist, force_acc, torque_acc, force_scale,
+        torque_scale, energy)
 
 
 # ----------------------------------------------------------------------------- sphere-triangle
@@ -265,9 +299,9 @@ def suppressed(
     return 0
 
 
-@wp.kernel
-def sphere_triangle_kernel(
-    first: int,  # the first sphere of this launch (a CPU thread's share)
+@wp.func
+def sphere_triangle_one(
+    i: int,
     # Model:
     sphere_body: wp.array(dtype=int),
     sphere_world: wp.array(dtype=int),
@@ -306,7 +340,7 @@ def sphere_triangle_kernel(
     mesh_torque_scale: wp.array(dtype=wp.float64),
     energy: wp.array(dtype=wp.float64),
 ):
-    i = wp.tid() + first
+    """Sphere i against its triangle candidates (one thread of sphere_triangle_kernel, or a world's loop)."""
     n_i = count[i]
     if n_i == 0:
         return
@@ -379,6 +413,54 @@ def sphere_triangle_kernel(
                       body_quat) == 1:
             hist[k] = empty_hist()
     add_wrench(force_acc, torque_acc, force_scale, torque_scale, sphere_body[i], f_s, t_s)
+
+
+@wp.kernel
+def sphere_triangle_kernel(
+    first: int,  # the first sphere of this launch (a CPU thread's share)
+    # Model:
+    sphere_body: wp.array(dtype=int),
+    sphere_world: wp.array(dtype=int),
+    sphere_material: wp.array(dtype=int),
+    radius: wp.array(dtype=wp.float64),
+    mesh_body: wp.array(dtype=int),
+    mesh_material: wp.array(dtype=int),
+    mesh_tri_offset: wp.array(dtype=int),
+    tri_vertices: wp.array(dtype=wp.vec3d),
+    mats: Materials,
+    opts: LawOptions,
+    # Data in:
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    sphere_vel: wp.array(dtype=wp.vec3f),
+    sphere_angvel: wp.array(dtype=wp.vec3f),
+    sphere_arm: wp.array(dtype=wp.vec3f),
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    body_vel: wp.array(dtype=wp.vec3d),
+    body_angvel: wp.array(dtype=wp.vec3d),
+    start: wp.array(dtype=int),
+    count: wp.array(dtype=int),
+    mesh: wp.array(dtype=int),
+    face: wp.array(dtype=int),
+    cohesion_now: wp.array(dtype=int),
+    # Data in/out:
+    hist: wp.array(dtype=Hist),
+    # Data out (fixed-point sums, accumulate.py):
+    force_acc: wp.array(dtype=vec3l),
+    torque_acc: wp.array(dtype=vec3l),
+    force_scale: wp.array(dtype=wp.float64),
+    torque_scale: wp.array(dtype=wp.float64),
+    mesh_force_acc: wp.array(dtype=vec3l),
+    mesh_torque_acc: wp.array(dtype=vec3l),
+    mesh_force_scale: wp.array(dtype=wp.float64),
+    mesh_torque_scale: wp.array(dtype=wp.float64),
+    energy: wp.array(dtype=wp.float64),
+):
+    sphere_triangle_one(
+        wp.tid() + first, sphere_body, sphere_world, sphere_material, radius, mesh_body, mesh_material,
+        mesh_tri_offset, tri_vertices, mats, opts, sphere_pos, sphere_vel, sphere_angvel, sphere_arm, body_pos,
+        body_quat, body_vel, body_angvel, start, count, mesh, face, cohesion_now, hist, force_acc, torque_acc,
+        force_scale, torque_scale, mesh_force_acc, mesh_torque_acc, mesh_force_scale, mesh_torque_scale, energy)
 
 
 # ----------------------------------------------------------------------------- elastic energy (observer)

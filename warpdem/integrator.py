@@ -178,9 +178,9 @@ def check_body(
             fault[base + 2] = step
 
 
-@wp.kernel
-def integrate_bodies_kernel(
-    first: int,  # the first body of this launch (a CPU thread's share)
+@wp.func
+def integrate_body(
+    b: int,
     # Model:
     body_world: wp.array(dtype=int),
     body_group: wp.array(dtype=int),
@@ -202,7 +202,7 @@ def integrate_bodies_kernel(
     max_speed: wp.float64,
     lower: wp.vec3d,
     upper: wp.vec3d,
-    counters: wp.array(dtype=int),
+    step: int,
     fault_base: int,
     # Data in/out:
     force_acc: wp.array(dtype=vec3l),
@@ -218,12 +218,8 @@ def integrate_bodies_kernel(
     body_torque: wp.array(dtype=wp.vec3f),
     fault: wp.array(dtype=int),
 ):
-    """The motion of each body in one launch: its force and torque sums to float32 (accumulate.take_float, also
-    written to ``body_force``, ``body_torque`` for the observers; the accumulators are cleared; with
-    ``float_sums`` != 0 they were converted before, by accumulate.wrench_to_float_kernel, and are read), one leapfrog
-    step (see the module docstring), then the fault check (:func:`check_body`, into fault[fault_base:+3], the step
-    being completed as counted at its end)."""
-    b = wp.tid() + first
+    """Body b's motion for one step (one thread of integrate_bodies_kernel, or a world's loop); ``step``: the step
+    being completed, for a fault record."""
     force = wp.vec3f()
     torque = wp.vec3f()
     if float_sums != 0:  # converted by accumulate.wrench_to_float_kernel
@@ -352,7 +348,93 @@ def integrate_bodies_kernel(
                 body_angmom[b] = l_mom
                 body_angvel[b] = wp.quat_rotate(q_new, w_b_half)
                 body_quat[b] = q_new
-    check_body(b, body_pos, body_vel, body_angvel, max_speed, lower, upper, counters[0] + 1, fault_base, fault)
+    check_body(b, body_pos, body_vel, body_angvel, max_speed, lower, upper, step, fault_base, fault)
+
+
+@wp.kernel
+def integrate_bodies_kernel(
+    first: int,  # the first body of this launch (a CPU thread's share)
+    # Model:
+    body_world: wp.array(dtype=int),
+    body_group: wp.array(dtype=int),
+    body_flags: wp.array(dtype=int),
+    body_mass: wp.array(dtype=wp.float64),
+    body_inertia: wp.array(dtype=wp.vec3d),
+    body_pivot: wp.array(dtype=wp.vec3d),
+    body_pivot_vel: wp.array(dtype=wp.vec3d),
+    body_pivot_friction: wp.array(dtype=wp.float64),
+    group_damping: wp.array(dtype=float),
+    n_groups: int,
+    gravity: wp.vec3d,
+    dt: wp.float64,
+    track_energy: int,
+    force_scale: wp.array(dtype=wp.float64),
+    torque_scale: wp.array(dtype=wp.float64),
+    parts: int,
+    float_sums: int,
+    max_speed: wp.float64,
+    lower: wp.vec3d,
+    upper: wp.vec3d,
+    counters: wp.array(dtype=int),
+    fault_base: int,
+    # Data in/out:
+    force_acc: wp.array(dtype=vec3l),
+    torque_acc: wp.array(dtype=vec3l),
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    body_vel: wp.array(dtype=wp.vec3d),
+    body_angvel: wp.array(dtype=wp.vec3d),
+    body_angmom: wp.array(dtype=wp.vec3d),
+    energy: wp.array(dtype=wp.float64),
+    # Data out:
+    body_force: wp.array(dtype=wp.vec3f),
+    body_torque: wp.array(dtype=wp.vec3f),
+    fault: wp.array(dtype=int),
+):
+    """The motion of each body in one launch: its force and torque sums to float32 (accumulate.take_float, also
+    written to ``body_force``, ``body_torque`` for the observers; the accumulators are cleared; with
+    ``float_sums`` != 0 they were converted before, by accumulate.wrench_to_float_kernel, and are read), one leapfrog
+    step (see the module docstring), then the fault check (:func:`check_body`, into fault[fault_base:+3], the step
+    being completed as counted at its end)."""
+    integrate_body(
+        wp.tid() + first, body_world, body_group, body_flags, body_mass, body_inertia, body_pivot, body_pivot_vel,
+        body_pivot_friction, group_damping, n_groups, gravity, dt, track_energy, force_scale, torque_scale, parts,
+        float_sums, max_speed, lower, upper, counters[0] + 1, fault_base, force_acc, torque_acc, body_pos, body_quat,
+        body_vel, body_angvel, body_angmom, energy, body_force, body_torque, fault)
+
+
+@wp.func
+def update_sphere(
+    i: int,
+    # Model:
+    sphere_body: wp.array(dtype=int),
+    sphere_offset: wp.array(dtype=wp.vec3f),
+    # Data in:
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    body_vel: wp.array(dtype=wp.vec3d),
+    body_angvel: wp.array(dtype=wp.vec3d),
+    # Data out:
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    sphere_vel: wp.array(dtype=wp.vec3f),
+    sphere_angvel: wp.array(dtype=wp.vec3f),
+    sphere_arm: wp.array(dtype=wp.vec3f),
+    # the broad phase's displacement check (disp_slot < 0: none):
+    build_pos: wp.array(dtype=wp.vec3d),
+    disp_slot: int,
+    disp_out: wp.array(dtype=float),
+):
+    """Sphere i from its body (one thread of update_spheres_kernel, or a world's loop)."""
+    b = sphere_body[i]
+    arm = wp.quat_rotate(body_quat[b], wp.vec3d(sphere_offset[i]))
+    x = body_pos[b] + arm
+    sphere_pos[i] = x
+    if disp_slot >= 0:
+        wp.atomic_max(disp_out, disp_slot, float(wp.length(x - build_pos[i])))
+    omega = body_angvel[b]
+    sphere_vel[i] = wp.vec3f(body_vel[b] + wp.cross(omega, arm))
+    sphere_angvel[i] = wp.vec3f(omega)
+    sphere_arm[i] = wp.vec3f(arm)
 
 
 @wp.kernel
@@ -378,17 +460,64 @@ def update_spheres_kernel(
 ):
     """Sphere centres and velocities from their bodies: x = X + R(q) p, v = V + Omega x (x - X); and the largest
     distance of a sphere from its position at the last list build [m] into disp_out[disp_slot] (atomic max)."""
-    i = wp.tid() + first
-    b = sphere_body[i]
-    arm = wp.quat_rotate(body_quat[b], wp.vec3d(sphere_offset[i]))
-    x = body_pos[b] + arm
-    sphere_pos[i] = x
-    if disp_slot >= 0:
-        wp.atomic_max(disp_out, disp_slot, float(wp.length(x - build_pos[i])))
-    omega = body_angvel[b]
-    sphere_vel[i] = wp.vec3f(body_vel[b] + wp.cross(omega, arm))
-    sphere_angvel[i] = wp.vec3f(omega)
-    sphere_arm[i] = wp.vec3f(arm)
+    update_sphere(
+        wp.tid() + first, sphere_body, sphere_offset, body_pos, body_quat, body_vel, body_angvel, sphere_pos,
+        sphere_vel, sphere_angvel, sphere_arm, build_pos, disp_slot, disp_out)
+
+
+@wp.func
+def spring_one(
+    s: int,
+    # Model:
+    spring_body_a: wp.array(dtype=int),
+    spring_body_b: wp.array(dtype=int),
+    spring_point_a: wp.array(dtype=wp.vec3f),
+    spring_point_b: wp.array(dtype=wp.vec3f),
+    stiffness: wp.array(dtype=float),
+    damping: wp.array(dtype=float),
+    rest_length: wp.array(dtype=float),
+    preload: wp.array(dtype=float),
+    progressive: wp.array(dtype=float),
+    stop_stiffness: wp.array(dtype=float),
+    body_world: wp.array(dtype=int),
+    dt: float,
+    track_energy: int,
+    # Data in:
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    body_vel: wp.array(dtype=wp.vec3d),
+    body_angvel: wp.array(dtype=wp.vec3d),
+    # Data out (fixed-point sums, accumulate.py):
+    force_acc: wp.array(dtype=vec3l),
+    torque_acc: wp.array(dtype=vec3l),
+    force_scale: wp.array(dtype=wp.float64),
+    torque_scale: wp.array(dtype=wp.float64),
+    spring_force: wp.array(dtype=float),
+    energy: wp.array(dtype=wp.float64),
+):
+    """Spring s (one thread of spring_kernel, or a world's loop)."""
+    a = spring_body_a[s]
+    b = spring_body_b[s]
+    ra = wp.quat_rotate(body_quat[a], wp.vec3d(spring_point_a[s]))
+    rb = wp.quat_rotate(body_quat[b], wp.vec3d(spring_point_b[s]))
+    d = (body_pos[b] + rb) - (body_pos[a] + ra)
+    length = wp.length(d)
+    u = wp.vec3f(0.0, 0.0, 1.0)
+    if length > wp.float64(0.0):
+        u = wp.vec3f(d / length)
+    va = body_vel[a] + wp.cross(body_angvel[a], ra)
+    vb = body_vel[b] + wp.cross(body_angvel[b], rb)
+    rate = wp.dot(wp.vec3f(vb - va), u)
+    u_len = float(length) - rest_length[s]
+    f = preload[s] + stiffness[s] * u_len + progressive[s] * u_len * u_len * u_len + damping[s] * rate
+    if preload[s] * u_len < 0.0:
+        f = f + stop_stiffness[s] * u_len
+    spring_force[s] = f
+    fa = f * u
+    add_wrench(force_acc, torque_acc, force_scale, torque_scale, a, fa, wp.cross(wp.vec3f(ra), fa))
+    add_wrench(force_acc, torque_acc, force_scale, torque_scale, b, -fa, wp.cross(wp.vec3f(rb), -fa))
+    if track_energy != 0:
+        wp.atomic_add(energy, body_world[a] * N_ENERGY + E_SPRING_DAMPER, wp.float64(damping[s] * rate * rate * dt))
 
 
 @wp.kernel
@@ -422,26 +551,7 @@ def spring_kernel(
 ):
     """Spring-dashpot: F = preload + k u + k3 u^3 + c dL/dt, u = L - L0, along a->b (tension > 0 pulls a and b
     together); past a stop at u = 0 on the side the preload drives (preload u < 0), F gains k_stop u."""
-    s = wp.tid()
-    a = spring_body_a[s]
-    b = spring_body_b[s]
-    ra = wp.quat_rotate(body_quat[a], wp.vec3d(spring_point_a[s]))
-    rb = wp.quat_rotate(body_quat[b], wp.vec3d(spring_point_b[s]))
-    d = (body_pos[b] + rb) - (body_pos[a] + ra)
-    length = wp.length(d)
-    u = wp.vec3f(0.0, 0.0, 1.0)
-    if length > wp.float64(0.0):
-        u = wp.vec3f(d / length)
-    va = body_vel[a] + wp.cross(body_angvel[a], ra)
-    vb = body_vel[b] + wp.cross(body_angvel[b], rb)
-    rate = wp.dot(wp.vec3f(vb - va), u)
-    u_len = float(length) - rest_length[s]
-    f = preload[s] + stiffness[s] * u_len + progressive[s] * u_len * u_len * u_len + damping[s] * rate
-    if preload[s] * u_len < 0.0:
-        f = f + stop_stiffness[s] * u_len
-    spring_force[s] = f
-    fa = f * u
-    add_wrench(force_acc, torque_acc, force_scale, torque_scale, a, fa, wp.cross(wp.vec3f(ra), fa))
-    add_wrench(force_acc, torque_acc, force_scale, torque_scale, b, -fa, wp.cross(wp.vec3f(rb), -fa))
-    if track_energy != 0:
-        wp.atomic_add(energy, body_world[a] * N_ENERGY + E_SPRING_DAMPER, wp.float64(damping[s] * rate * rate * dt))
+    spring_one(
+        wp.tid(), spring_body_a, spring_body_b, spring_point_a, spring_point_b, stiffness, damping, rest_length,
+        preload, progressive, stop_stiffness, body_world, dt, track_energy, body_pos, body_quat, body_vel,
+        body_angvel, force_acc, torque_acc, force_scale, torque_scale, spring_force, energy)

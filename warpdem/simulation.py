@@ -84,6 +84,33 @@ def _end_step_kernel(
     cohesion_now[0] = 0
 
 
+@wp.func
+def mesh_end_one(
+    m: int,
+    slot: int,
+    mesh_body: wp.array(dtype=int),
+    mesh_rmax: wp.array(dtype=float),
+    force_scale: wp.array(dtype=wp.float64),
+    torque_scale: wp.array(dtype=wp.float64),
+    parts: int,
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    build_pos: wp.array(dtype=wp.vec3d),
+    build_quat: wp.array(dtype=wp.quatd),
+    force_acc: wp.array(dtype=vec3l),
+    torque_acc: wp.array(dtype=vec3l),
+    force: wp.array(dtype=wp.vec3f),
+    torque: wp.array(dtype=wp.vec3f),
+    disp: wp.array(dtype=float),
+):
+    """Mesh instance m at the end of a step (one thread of _mesh_end_kernel, or a world's loop); its displacement
+    into disp[slot]."""
+    force[m] = take_float(force_acc, force_scale, m, force.shape[0], parts)
+    torque[m] = take_float(torque_acc, torque_scale, m, torque.shape[0], parts)
+    d = bp.mesh_displacement(m, mesh_body, mesh_rmax, body_pos, body_quat, build_pos, build_quat)
+    wp.atomic_max(disp, slot, d)
+
+
 @wp.kernel
 def _mesh_end_kernel(
     mesh_body: wp.array(dtype=int),
@@ -104,11 +131,9 @@ def _mesh_end_kernel(
     """Per mesh instance at the end of a step: its contact force and torque sums to float32 (``mesh_force``,
     ``mesh_torque``, accumulate.take_float; read by the observers only) and its displacement since the last list
     build into disp[0] (atomic max)."""
-    m = wp.tid()
-    force[m] = take_float(force_acc, force_scale, m, force.shape[0], parts)
-    torque[m] = take_float(torque_acc, torque_scale, m, torque.shape[0], parts)
-    d = bp.mesh_displacement(m, mesh_body, mesh_rmax, body_pos, body_quat, build_pos, build_quat)
-    wp.atomic_max(disp, 0, d)
+    mesh_end_one(
+        wp.tid(), 0, mesh_body, mesh_rmax, force_scale, torque_scale, parts, body_pos, body_quat, build_pos, build_quat,
+        force_acc, torque_acc, force, torque, disp)
 
 
 def _cpu_graph(ops: list[Callable[[], object]]) -> Callable[[], object]:
