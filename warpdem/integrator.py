@@ -21,6 +21,7 @@ from __future__ import annotations
 import warp as wp
 
 from .accumulate import add_wrench, take_float, vec3l
+from .broadphase import mesh_displacement
 from .contacts import E_DAMPING, E_DRIVEN, E_SPRING_DAMPER, N_ENERGY
 from .model import ALL_DOFS, FLAG_ASPHERICAL, FLAG_PIVOT, ROT_DOFS
 
@@ -435,6 +436,33 @@ def update_sphere(
     sphere_vel[i] = wp.vec3f(body_vel[b] + wp.cross(omega, arm))
     sphere_angvel[i] = wp.vec3f(omega)
     sphere_arm[i] = wp.vec3f(arm)
+
+
+@wp.func
+def mesh_end_one(
+    m: int,
+    slot: int,
+    mesh_body: wp.array(dtype=int),
+    mesh_rmax: wp.array(dtype=float),
+    force_scale: wp.array(dtype=wp.float64),
+    torque_scale: wp.array(dtype=wp.float64),
+    parts: int,
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    build_pos: wp.array(dtype=wp.vec3d),
+    build_quat: wp.array(dtype=wp.quatd),
+    force_acc: wp.array(dtype=vec3l),
+    torque_acc: wp.array(dtype=vec3l),
+    force: wp.array(dtype=wp.vec3f),
+    torque: wp.array(dtype=wp.vec3f),
+    disp: wp.array(dtype=float),
+):
+    """Mesh instance m at the end of a step (one thread of _mesh_end_kernel, or a world's loop); its displacement
+    into disp[slot]."""
+    force[m] = take_float(force_acc, force_scale, m, force.shape[0], parts)
+    torque[m] = take_float(torque_acc, torque_scale, m, torque.shape[0], parts)
+    d = mesh_displacement(m, mesh_body, mesh_rmax, body_pos, body_quat, build_pos, build_quat)
+    wp.atomic_max(disp, slot, d)
 
 
 @wp.kernel

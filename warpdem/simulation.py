@@ -20,7 +20,8 @@ import warp as wp
 
 from . import accumulate, cpu_threads
 from . import broadphase as bp
-from .accumulate import take_float, vec3l
+from . import world_steps as world_steps_mod
+from .accumulate import vec3l
 from .contacts import (
     LawOptions,
     Materials,
@@ -30,7 +31,7 @@ from .contacts import (
 )
 from .data import DISP_STRIDE, NO_FAULT, Data
 from .errors import InputError, SimulationError, check_finite, check_positive
-from .integrator import integrate_bodies_kernel, spring_kernel, update_spheres_kernel
+from .integrator import integrate_bodies_kernel, mesh_end_one, spring_kernel, update_spheres_kernel
 from .model import FLAG_PIVOT, Model, State
 from .timestep import critical_timestep
 
@@ -82,33 +83,6 @@ def _end_step_kernel(
     disp[0] = 0.0
     counters[0] = counters[0] + 1
     cohesion_now[0] = 0
-
-
-@wp.func
-def mesh_end_one(
-    m: int,
-    slot: int,
-    mesh_body: wp.array(dtype=int),
-    mesh_rmax: wp.array(dtype=float),
-    force_scale: wp.array(dtype=wp.float64),
-    torque_scale: wp.array(dtype=wp.float64),
-    parts: int,
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-    build_pos: wp.array(dtype=wp.vec3d),
-    build_quat: wp.array(dtype=wp.quatd),
-    force_acc: wp.array(dtype=vec3l),
-    torque_acc: wp.array(dtype=vec3l),
-    force: wp.array(dtype=wp.vec3f),
-    torque: wp.array(dtype=wp.vec3f),
-    disp: wp.array(dtype=float),
-):
-    """Mesh instance m at the end of a step (one thread of _mesh_end_kernel, or a world's loop); its displacement
-    into disp[slot]."""
-    force[m] = take_float(force_acc, force_scale, m, force.shape[0], parts)
-    torque[m] = take_float(torque_acc, torque_scale, m, torque.shape[0], parts)
-    d = bp.mesh_displacement(m, mesh_body, mesh_rmax, body_pos, body_quat, build_pos, build_quat)
-    wp.atomic_max(disp, slot, d)
 
 
 @wp.kernel
@@ -174,6 +148,10 @@ class Simulation:
             process may use); each gets at least cpu_threads.MIN_SPHERES_PER_THREAD spheres, so a small scene runs
             on one. Positions, velocities and forces do not depend on it; the tracked energies may differ in their
             last bits (their float64 sums are grouped by thread). Ignored on CUDA.
+        world_steps: run :meth:`advance` a thread per world, many steps per launch (``warpdem.world_steps``): for
+            many small worlds (a GA population of small rigs), whose steps are bound by launch latency. The same
+            positions, velocities and forces; the lists are rebuilt at other steps (``rebuild_count`` differs).
+            On the CPU the whole batch then runs on one thread.
     """
 
     def __init__(
@@ -193,6 +171,7 @@ class Simulation:
         capacity_factor: float = 2.0,
         graph_steps: int = 200,
         cpu_threads: int | None = None,
+        world_steps: bool = False,
     ) -> None:
         check_positive("dt", dt)
         check_positive("max_speed", max_speed)
@@ -217,8 +196,17 @@ class Simulation:
         self._capacity_factor = float(capacity_factor)
         dev = self.device
         ns = model.n_spheres
-        self._share_out(cpu_threads)
+        self.world_steps = bool(world_steps)
+        self._share_out(1 if self.world_steps else cpu_threads)
         self.data = Data.zeros(model, self.parts)  # the per-step arrays (data.py)
+        if self.world_steps:  # each world's step count, rebuild request, displacements and faults (world_steps.py)
+            nw = model.n_worlds
+            self._world_step = wp.zeros(nw, dtype=int, device=dev)
+            self._world_flag = wp.zeros(nw, dtype=int, device=dev)
+            self._world_disp = wp.zeros(nw * world_steps_mod.DISP_SLOTS, dtype=float, device=dev)
+            self._world_fault = wp.array(np.full(nw * world_steps_mod.FAULT_SLOTS, NO_FAULT, np.int32), dtype=int,
+                                         device=dev)
+            self._no_cohesion = wp.zeros(1, dtype=int, device=dev)
 
         self.materials = Materials()
         tan_friction = wp.empty_like(model.mat_friction)  # taken once here, not per contact and step
@@ -581,6 +569,9 @@ class Simulation:
         asked, and the step is one captured graph (CUDA; the CPU with one thread: a Warp CPU graph, replayed in C++
         with no Python per launch) or, shared between CPU threads, its recorded launches and phases. (A CPU graph of
         several steps costs ~4 ms of recording per step, more than it saves.)"""
+        if self.world_steps:
+            self._advance_worlds(n_steps)
+            return
         if not self.device.is_cpu and self.graph_steps > 1 and not self._large:
             self._advance_graphs(n_steps)
             return
@@ -659,6 +650,73 @@ class Simulation:
             if since_check >= every or left == 0:
                 self._check()
                 since_check = 0
+
+    def _advance_worlds(self, n_steps: int) -> None:
+        """:meth:`advance` a thread per world (world_steps.py): each launch takes every world as far as ``n_steps``
+        steps or until its lists need a rebuild; the host rebuilds and launches again until all have arrived. A step
+        that must give cohesion (:meth:`set_cohesion_now`) runs first, the ordinary way."""
+        d, m = self.data, self.model
+        spheres = m.n_spheres > 0
+        if spheres:
+            self._rebuild_if_flagged()
+        if n_steps > 0 and d.cohesion_now.numpy()[0]:
+            self.step()
+            n_steps -= 1
+            if spheres:
+                self._rebuild_if_flagged()
+        if n_steps <= 0:
+            self._check()
+            return
+        self._world_step.zero_()
+        self._world_flag.zero_()
+        rebuilds = 0
+        while True:
+            self._launch_worlds(n_steps)
+            if int(self._world_step.numpy().min()) >= n_steps:
+                break
+            self._rebuild_checked()  # some world stopped: its lists no longer hold
+            self._world_flag.zero_()
+            rebuilds += 1
+        last = int(self._world_flag.numpy().max())  # a world's last step asked for a rebuild before the next
+        counters = d.counters.numpy()
+        counters[0] += n_steps
+        counters[1] += rebuilds + last
+        d.counters.assign(counters)
+        d.rebuild_flag.fill_(last)
+        faults = self._world_fault.numpy().reshape(m.n_worlds, world_steps_mod.FAULT_SLOTS)[:, 3:]
+        hit = np.flatnonzero(faults[:, 0] != NO_FAULT)
+        if len(hit) and d.fault.numpy()[0] == NO_FAULT:
+            first = hit[np.lexsort((faults[hit, 0], faults[hit, 2]))[0]]  # the earliest step, then the lowest body
+            d.fault.assign(faults[first].astype(np.int32))
+        self.state.step += n_steps
+        for _ in range(n_steps):
+            self.state.time += self.dt
+        self._check()
+
+    def _launch_worlds(self, target: int) -> None:
+        m, d, s = self.model, self.data, self.state
+        nw = m.n_worlds
+        per = [m.spheres_per_world, m.bodies_per_world, m.meshes_per_world, m.springs_per_world]
+        lower, upper = wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1])
+        wp.launch(
+            world_steps_mod.world_steps_kernel, nw,
+            inputs=[target, self.state.step, self.skin, wp.float64(self.dt), *per,
+                    m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, m.sphere_offset,
+                    m.mesh_body, m.mesh_material, m.mesh_tri_offset, d.mesh_rmax, m.tri_vertices,
+                    m.spring_body_a, m.spring_body_b, m.spring_point_a, m.spring_point_b, m.spring_stiffness,
+                    m.spring_damping, m.spring_rest_length, m.spring_preload, m.spring_progressive,
+                    m.spring_stop_stiffness, m.body_world, m.body_group, m.body_flags, m.body_mass, m.body_inertia,
+                    m.body_pivot, m.body_pivot_vel, m.body_pivot_friction, m.group_damping, m.n_groups,
+                    wp.vec3d(*m.gravity), self.materials, self.options, wp.float64(self.max_speed), lower, upper],
+            outputs=[d.sphere_pos, d.sphere_vel, d.sphere_angvel, d.sphere_arm, d.build_pos, d.mesh_build_pos,
+                     d.mesh_build_quat, d.ss.start, d.ss.count, d.ss.key_a, d.ss.hist, d.st.start, d.st.count,
+                     d.st.key_a, d.st.key_b, d.st.hist, self._no_cohesion, s.body_pos, s.body_quat, s.body_vel,
+                     s.body_angvel, s.body_angmom, d.force_acc, d.torque_acc, d.force_scale, d.torque_scale,
+                     d.mesh_force_acc, d.mesh_torque_acc, d.mesh_force_scale, d.mesh_torque_scale, d.energy,
+                     d.body_force, d.body_torque, d.mesh_force, d.mesh_torque, d.spring_force, self._world_step,
+                     self._world_flag, self._world_disp, self._world_fault],
+            device=self.device,
+        )
 
     def run(
         self,

@@ -1,0 +1,187 @@
+"""Many steps in one launch, a thread per world: for scenes of many small worlds (a GA population of ringing rigs).
+
+A step of a small world is a handful of spheres, contacts and bodies, while a launch costs the same however little
+it does: a batch of 13 ringing rigs (52 spheres) spends its step in the latency of its seven launches. Here one
+thread runs one world's whole step, the stages in the order of :meth:`Simulation._launch_step` (sphere-sphere and
+sphere-triangle contacts, springs, body motion with its fault check, sphere kinematics, the meshes' end of step),
+then decides as the end-of-step kernel does whether its candidate lists still hold (the world's own displacements
+against the skin), and goes on to the next step, up to ``target`` steps or until its lists need a rebuild. The host
+then rebuilds the lists of all worlds and launches again until every world has reached ``target``.
+
+Each stage is the same function that the one-stage kernels call per sphere, body or mesh, and a world's forces come
+only from its own bodies: with the fixed-point force sums (accumulate.py) every world's positions, velocities and
+forces are the bits of the stage-by-stage step. Worlds reach ``target`` after different rebuilds, which changes
+nothing but the candidates' order (a rebuild keeps every contact's history). A fault is kept per world (the first
+step's, lowest body) and the host reports the earliest.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from .accumulate import vec3l
+from .contact_law import Hist
+from .contacts import LawOptions, Materials, sphere_sphere_one, sphere_triangle_one
+from .data import NO_FAULT
+from .integrator import integrate_body, mesh_end_one, spring_one, update_sphere
+
+wp.set_module_options({"enable_backward": False})
+
+NO_FAULT_W = wp.constant(NO_FAULT)
+FAULT_SLOTS = 6
+"""per world in ``world_fault``: the step's fault (body, cause, step), then the world's first (body, cause, step)."""
+DISP_SLOTS = 2
+"""per world in ``world_disp``: the meshes' largest displacement, the spheres' (since the last list build) [m]."""
+
+
+@wp.kernel
+def world_steps_kernel(
+    target: int,
+    first_step: int,  # the simulation's step count when world_step was 0
+    skin: float,
+    dt: wp.float64,
+    spw: int,  # spheres, bodies, meshes and springs per world
+    bpw: int,
+    mpw: int,
+    kpw: int,
+    # Model:
+    sphere_body: wp.array(dtype=int),
+    sphere_world: wp.array(dtype=int),
+    sphere_material: wp.array(dtype=int),
+    sphere_radius: wp.array(dtype=wp.float64),
+    sphere_offset: wp.array(dtype=wp.vec3f),
+    mesh_body: wp.array(dtype=int),
+    mesh_material: wp.array(dtype=int),
+    mesh_tri_offset: wp.array(dtype=int),
+    mesh_rmax: wp.array(dtype=float),
+    tri_vertices: wp.array(dtype=wp.vec3d),
+    spring_body_a: wp.array(dtype=int),
+    spring_body_b: wp.array(dtype=int),
+    spring_point_a: wp.array(dtype=wp.vec3f),
+    spring_point_b: wp.array(dtype=wp.vec3f),
+    spring_stiffness: wp.array(dtype=float),
+    spring_damping: wp.array(dtype=float),
+    spring_rest_length: wp.array(dtype=float),
+    spring_preload: wp.array(dtype=float),
+    spring_progressive: wp.array(dtype=float),
+    spring_stop_stiffness: wp.array(dtype=float),
+    body_world: wp.array(dtype=int),
+    body_group: wp.array(dtype=int),
+    body_flags: wp.array(dtype=int),
+    body_mass: wp.array(dtype=wp.float64),
+    body_inertia: wp.array(dtype=wp.vec3d),
+    body_pivot: wp.array(dtype=wp.vec3d),
+    body_pivot_vel: wp.array(dtype=wp.vec3d),
+    body_pivot_friction: wp.array(dtype=wp.float64),
+    group_damping: wp.array(dtype=float),
+    n_groups: int,
+    gravity: wp.vec3d,
+    mats: Materials,
+    opts: LawOptions,
+    max_speed: wp.float64,
+    lower: wp.vec3d,
+    upper: wp.vec3d,
+    # Data in/out:
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    sphere_vel: wp.array(dtype=wp.vec3f),
+    sphere_angvel: wp.array(dtype=wp.vec3f),
+    sphere_arm: wp.array(dtype=wp.vec3f),
+    build_pos: wp.array(dtype=wp.vec3d),
+    mesh_build_pos: wp.array(dtype=wp.vec3d),
+    mesh_build_quat: wp.array(dtype=wp.quatd),
+    ss_start: wp.array(dtype=int),
+    ss_count: wp.array(dtype=int),
+    ss_other: wp.array(dtype=int),
+    ss_hist: wp.array(dtype=Hist),
+    st_start: wp.array(dtype=int),
+    st_count: wp.array(dtype=int),
+    st_mesh: wp.array(dtype=int),
+    st_face: wp.array(dtype=int),
+    st_hist: wp.array(dtype=Hist),
+    no_cohesion: wp.array(dtype=int),
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    body_vel: wp.array(dtype=wp.vec3d),
+    body_angvel: wp.array(dtype=wp.vec3d),
+    body_angmom: wp.array(dtype=wp.vec3d),
+    force_acc: wp.array(dtype=vec3l),
+    torque_acc: wp.array(dtype=vec3l),
+    force_scale: wp.array(dtype=wp.float64),
+    torque_scale: wp.array(dtype=wp.float64),
+    mesh_force_acc: wp.array(dtype=vec3l),
+    mesh_torque_acc: wp.array(dtype=vec3l),
+    mesh_force_scale: wp.array(dtype=wp.float64),
+    mesh_torque_scale: wp.array(dtype=wp.float64),
+    energy: wp.array(dtype=wp.float64),
+    # Data out:
+    body_force: wp.array(dtype=wp.vec3f),
+    body_torque: wp.array(dtype=wp.vec3f),
+    mesh_force: wp.array(dtype=wp.vec3f),
+    mesh_torque: wp.array(dtype=wp.vec3f),
+    spring_force: wp.array(dtype=float),
+    world_step: wp.array(dtype=int),
+    world_flag: wp.array(dtype=int),
+    world_disp: wp.array(dtype=float),
+    world_fault: wp.array(dtype=int),
+):
+    """World w's steps from world_step[w] up to ``target`` or until its candidate lists need a rebuild
+    (world_flag[w] = 1). The one-step request for cohesion (``Data.cohesion_now``) is not read: the caller runs
+    such a step the ordinary way; ``no_cohesion`` is a zero flag passed in its place."""
+    w = wp.tid()
+    k = world_step[w]
+    s0 = w * spw
+    b0 = w * bpw
+    m0 = w * mpw
+    c0 = w * kpw
+    fb = w * FAULT_SLOTS
+    dm = w * DISP_SLOTS
+    while k < target:
+        for i in range(s0, s0 + spw):
+            sphere_sphere_one(
+                i, sphere_body, sphere_world, sphere_material, sphere_radius, mats, opts, sphere_pos, sphere_vel,
+                sphere_angvel, sphere_arm, ss_start, ss_count, ss_other, no_cohesion, ss_hist, force_acc,
+                torque_acc, force_scale, torque_scale, energy)
+        if mpw > 0:
+            for i in range(s0, s0 + spw):
+                sphere_triangle_one(
+                    i, sphere_body, sphere_world, sphere_material, sphere_radius, mesh_body, mesh_material,
+                    mesh_tri_offset, tri_vertices, mats, opts, sphere_pos, sphere_vel, sphere_angvel, sphere_arm,
+                    body_pos, body_quat, body_vel, body_angvel, st_start, st_count, st_mesh, st_face, no_cohesion,
+                    st_hist, force_acc, torque_acc, force_scale, torque_scale, mesh_force_acc, mesh_torque_acc,
+                    mesh_force_scale, mesh_torque_scale, energy)
+        for c in range(c0, c0 + kpw):
+            spring_one(
+                c, spring_body_a, spring_body_b, spring_point_a, spring_point_b, spring_stiffness, spring_damping,
+                spring_rest_length, spring_preload, spring_progressive, spring_stop_stiffness, body_world, opts.dt,
+                opts.track_energy, body_pos, body_quat, body_vel, body_angvel, force_acc, torque_acc, force_scale,
+                torque_scale, spring_force, energy)
+        step = first_step + k + 1
+        for b in range(b0, b0 + bpw):
+            integrate_body(
+                b, body_world, body_group, body_flags, body_mass, body_inertia, body_pivot, body_pivot_vel,
+                body_pivot_friction, group_damping, n_groups, gravity, dt, opts.track_energy,
+                force_scale, torque_scale, 1, 0, max_speed, lower, upper, step, fb, force_acc, torque_acc, body_pos,
+                body_quat, body_vel, body_angvel, body_angmom, energy, body_force, body_torque, world_fault)
+        for i in range(s0, s0 + spw):
+            update_sphere(i, sphere_body, sphere_offset, body_pos, body_quat, body_vel, body_angvel, sphere_pos,
+                          sphere_vel, sphere_angvel, sphere_arm, build_pos, dm + 1, world_disp)
+        for m in range(m0, m0 + mpw):
+            mesh_end_one(m, dm, mesh_body, mesh_rmax, mesh_force_scale, mesh_torque_scale, 1, body_pos, body_quat,
+                         mesh_build_pos, mesh_build_quat, mesh_force_acc, mesh_torque_acc, mesh_force, mesh_torque,
+                         world_disp)
+        k += 1
+        # the end of the step, for this world (simulation._end_step_kernel)
+        if world_fault[fb] != NO_FAULT_W:
+            if world_fault[fb + 3] == NO_FAULT_W:
+                world_fault[fb + 3] = world_fault[fb]
+                world_fault[fb + 4] = world_fault[fb + 1]
+                world_fault[fb + 5] = world_fault[fb + 2]
+            world_fault[fb] = NO_FAULT_W
+        ds = world_disp[dm + 1]
+        rebuild = ds + wp.max(ds, world_disp[dm]) > skin
+        world_disp[dm] = 0.0
+        world_disp[dm + 1] = 0.0
+        if rebuild:
+            world_flag[w] = 1
+            break
+    world_step[w] = k
