@@ -53,16 +53,34 @@ def bed_simulation(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, devic
     return sim
 
 
-def ringing_simulation(worlds: int, device: str) -> object:
+def ringing_simulation(worlds: int, device: str, world_steps: bool = False) -> object:
     """The ringing rig of ``warpdem calibrate ringing`` (16 springs, the paper's spring spheres), ``worlds`` copies,
-    at the time step of scenes.ringing.run_ringing."""
+    at the time step of scenes.ringing.run_ringing (which runs it with ``world_steps``)."""
     import warpdem as wd
     from scenes.ringing import RingingConfig, build_ringing, ringing_dt
 
     cfg = RingingConfig(springs=(16,) * worlds, spring_model="paper")
     rig = build_ringing(cfg)
     model, state = rig.builder.finalize(device, n_worlds=worlds, overrides=rig.overrides)
-    return wd.Simulation(model, state, dt=ringing_dt(cfg, model))
+    return wd.Simulation(model, state, dt=ringing_dt(cfg, model), world_steps=world_steps)
+
+
+def advance_per_step(worlds: int, device: str, steps: int, every: int = 57) -> dict[str, float]:
+    """Wall seconds per step of the ringing batch as a calibration advances it (``every`` steps between records),
+    stage by stage (one launch per stage; several steps per CUDA graph) and a thread per world (world_steps)."""
+    import warp as wp
+
+    out = {}
+    for mode in ("stages", "world_steps"):
+        sim = ringing_simulation(worlds, device, world_steps=mode == "world_steps")
+        sim.advance(every)
+        wp.synchronize_device(device)
+        t = time.perf_counter()
+        for _ in range(max(1, steps // every)):
+            sim.advance(every)
+        wp.synchronize_device(device)
+        out[mode] = (time.perf_counter() - t) / (max(1, steps // every) * every)
+    return out
 
 
 def profile(sim: object, device: str, steps: int, warmup: int
@@ -117,7 +135,18 @@ def main() -> None:
     p.add_argument("--warmup", type=int, default=20)
     p.add_argument("--threads", type=int, default=None, help="CPU threads sharing a step (default: all cores)")
     p.add_argument("--json", default=None, help="append the result to this JSON-lines file")
+    p.add_argument("--advance", action="store_true",
+                   help="ringing: time advance() as a calibration runs it, stage by stage and a thread per world")
     args = p.parse_args()
+    if args.scene == "ringing" and args.advance:
+        per = advance_per_step(args.worlds, args.device, args.steps)
+        print(f"ringing, {args.worlds} worlds on {args.device}, advance() in 57-step records: "
+              + ", ".join(f"{k} {1e6 * v:.1f} us/step" for k, v in per.items()))
+        if args.json:
+            with open(args.json, "a") as f:
+                f.write(json.dumps({"scene": "ringing-advance", "device": args.device, "worlds": args.worlds,
+                                    "steps": args.steps, "us_per_step": {k: 1e6 * v for k, v in per.items()}}) + "\n")
+        return
     if args.scene == "ringing":
         sim = ringing_simulation(args.worlds, args.device)
     else:

@@ -417,7 +417,7 @@ def run_ringing(config: RingingConfig | None = None, *, device: str | None = Non
     dt = ringing_dt(cfg, model)
     wd.check_step_count("ringing run", cfg.settle_time + cfg.ring_time, dt,
                         "cfg.dt" if cfg.dt else "0.5 x the critical step (spring stiffness, Young's moduli)")
-    sim = wd.Simulation(model, state, dt=dt)
+    sim = wd.Simulation(model, state, dt=dt, world_steps=True)  # small worlds: a thread runs a world's steps
     t0 = time.perf_counter()
     sensor = wd.observers.body_point("sweep_lower", rig.tool.sensor_point)
     s0 = sensor(sim)[:, 1].copy()

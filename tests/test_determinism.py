@@ -302,3 +302,38 @@ def test_large_scene_motion_gives_the_bits_of_the_fused_one() -> None:
     fused, split = run(False), run(True)
     _assert_same_bits(split, fused)
     assert np.abs(fused.state.body_vel.numpy()).max() > 1e-3  # it moved
+
+
+def test_world_steps_give_the_bits_of_the_staged_step() -> None:
+    # Reference: the same run stage by stage, one step at a time (graph_steps=1). With world_steps a thread runs a
+    # world's whole steps (contacts, spring, motion, sphere update, the mesh's end of step, the world's own rebuild
+    # check) until its lists need a rebuild; the host then rebuilds all worlds' lists and goes on. Three worlds of
+    # different friction and damping (so they ask for rebuilds at different steps), spheres, clumps, a mesh and a
+    # spring, falling and colliding, and a step that turns every contact cohesive midway: the same states and force
+    # sums to the bit, at the same step and time. Only the rebuilds differ (each world's own, not any world's).
+    over = {"material:soil:friction_angle": np.array([20.0, 30.0, 40.0]),
+            "damping:soil": np.array([0.1, 0.3, 0.5])}
+
+    def run(world_steps: bool) -> wd.Simulation:
+        model, state = _threaded_scene().finalize(DEVICE, n_worlds=3, overrides=over)
+        sim = wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), graph_steps=1,
+                            world_steps=world_steps)
+        for n in (1200, 1, 57):
+            sim.advance(n)
+        sim.set_cohesion_now()
+        sim.advance(1242)
+        return sim
+
+    staged, worlds = run(False), run(True)
+    assert staged.rebuild_count > 10 and worlds.rebuild_count > 10
+    assert worlds.state.step == staged.state.step == 2500 and worlds.state.time == staged.state.time
+    _assert_same_bits(worlds, staged)
+    assert np.abs(staged.state.body_vel.numpy()).max() > 1e-2  # it moved
+
+
+def test_world_steps_name_the_faulty_step() -> None:
+    # Reference: the same blow-up one step at a time: the first fault of the earliest step, named by body, cause,
+    # step and world, whether each world ran its own steps or all ran stage by stage.
+    one = _blow_up(lambda sim: sim.advance(200), graph_steps=1)
+    assert one[3] == 1
+    assert _blow_up(lambda sim: sim.advance(200), world_steps=True) == one

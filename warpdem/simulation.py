@@ -198,6 +198,8 @@ class Simulation:
         ns = model.n_spheres
         self.world_steps = bool(world_steps)
         self._share_out(1 if self.world_steps else cpu_threads)
+        if self.world_steps:
+            self._share_worlds(cpu_threads)
         self.data = Data.zeros(model, self.parts)  # the per-step arrays (data.py)
         if self.world_steps:  # each world's step count, rebuild request, displacements and faults (world_steps.py)
             nw = model.n_worlds
@@ -263,6 +265,18 @@ class Simulation:
         self._sphere_cut = [int(before[b]) for b in self._body_cut]
         self._contact_cut = list(self._sphere_cut)
         self.parts = parts
+
+    def _share_worlds(self, threads: int | None) -> None:
+        """World-serial steps (``world_steps``): the worlds cut into ranges, one per CPU thread (worlds share no
+        force sums, so no thread's sums meet another's); one range on CUDA."""
+        nw = self.model.n_worlds
+        k = 1
+        if self.device.is_cpu:
+            threads = cpu_threads.default_threads() if threads is None else threads
+            if isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1:
+                raise InputError(f"cpu_threads must be a positive integer, got {threads!r}")
+            k = max(1, min(int(threads), nw))
+        self._world_cut = [round(j * nw / k) for j in range(k + 1)]
 
     def _balance_contacts(self) -> None:
         """Cut the spheres so that each CPU thread gets about the same number of contact candidates (plus one per
@@ -695,12 +709,12 @@ class Simulation:
 
     def _launch_worlds(self, target: int) -> None:
         m, d, s = self.model, self.data, self.state
-        nw = m.n_worlds
         per = [m.spheres_per_world, m.bodies_per_world, m.meshes_per_world, m.springs_per_world]
         lower, upper = wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1])
-        wp.launch(
-            world_steps_mod.world_steps_kernel, nw,
-            inputs=[target, self.state.step, self.skin, wp.float64(self.dt), *per,
+        cut = self._world_cut
+        launches = [wp.launch(
+            world_steps_mod.world_steps_kernel, cut[j + 1] - cut[j], record_cmd=len(cut) > 2,
+            inputs=[cut[j], target, self.state.step, self.skin, wp.float64(self.dt), *per,
                     m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, m.sphere_offset,
                     m.mesh_body, m.mesh_material, m.mesh_tri_offset, d.mesh_rmax, m.tri_vertices,
                     m.spring_body_a, m.spring_body_b, m.spring_point_a, m.spring_point_b, m.spring_stiffness,
@@ -716,7 +730,9 @@ class Simulation:
                      d.body_force, d.body_torque, d.mesh_force, d.mesh_torque, d.spring_force, self._world_step,
                      self._world_flag, self._world_disp, self._world_fault],
             device=self.device,
-        )
+        ) for j in range(len(cut) - 1)]
+        if len(cut) > 2:
+            cpu_threads.Parallel("worlds", [[op.launch] for op in launches])()
 
     def run(
         self,

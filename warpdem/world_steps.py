@@ -36,6 +36,7 @@ DISP_SLOTS = 2
 
 @wp.kernel
 def world_steps_kernel(
+    first_world: int,  # the first world of this launch (a CPU thread's share)
     target: int,
     first_step: int,  # the simulation's step count when world_step was 0
     skin: float,
@@ -127,7 +128,7 @@ def world_steps_kernel(
     """World w's steps from world_step[w] up to ``target`` or until its candidate lists need a rebuild
     (world_flag[w] = 1). The one-step request for cohesion (``Data.cohesion_now``) is not read: the caller runs
     such a step the ordinary way; ``no_cohesion`` is a zero flag passed in its place."""
-    w = wp.tid()
+    w = wp.tid() + first_world
     k = world_step[w]
     s0 = w * spw
     b0 = w * bpw
