@@ -317,7 +317,7 @@ def test_world_steps_give_the_bits_of_the_staged_step() -> None:
     def run(world_steps: bool) -> wd.Simulation:
         model, state = _threaded_scene().finalize(DEVICE, n_worlds=3, overrides=over)
         sim = wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), graph_steps=1,
-                            world_steps=world_steps)
+                            world_steps=world_steps, track_energy=True)
         for n in (1200, 1, 57):
             sim.advance(n)
         sim.set_cohesion_now()
@@ -328,6 +328,9 @@ def test_world_steps_give_the_bits_of_the_staged_step() -> None:
     assert staged.rebuild_count > 10 and worlds.rebuild_count > 10
     assert worlds.state.step == staged.state.step == 2500 and worlds.state.time == staged.state.time
     _assert_same_bits(worlds, staged)
+    # each world's energy terms get their contributions in the staged order (its spheres, then its bodies)
+    np.testing.assert_array_equal(worlds.data.energy.numpy(), staged.data.energy.numpy())
+    assert np.count_nonzero(staged.data.energy.numpy()) >= 6
     assert np.abs(staged.state.body_vel.numpy()).max() > 1e-2  # it moved
 
 

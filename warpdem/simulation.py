@@ -46,6 +46,9 @@ streaming kernel that runs faster apart from the integration: -9 % of a 4 M-sphe
 one step per graph (the conditional nodes of several steps per graph cost more than the one host synchronisation
 per step that they save: 3-6 % at 1-4 M spheres); a smaller scene, whose step is bound by launch latency, fuses
 both (a 52-sphere ringing batch on one H100: 81 -> 67 us per step)."""
+WORLD_STEPS_MIN = 32
+"""With ``world_steps``, an advance of fewer steps runs stage by stage (the same bits): each advance a thread per
+world costs a hand-over between CPU threads and a few small reads, more than a few steps save."""
 NO_FAULT_C = wp.constant(NO_FAULT)
 
 
@@ -150,8 +153,10 @@ class Simulation:
             last bits (their float64 sums are grouped by thread). Ignored on CUDA.
         world_steps: run :meth:`advance` a thread per world, many steps per launch (``warpdem.world_steps``): for
             many small worlds (a GA population of small rigs), whose steps are bound by launch latency. The same
-            positions, velocities and forces; the lists are rebuilt at other steps (``rebuild_count`` differs).
-            On the CPU the whole batch then runs on one thread.
+            positions, velocities and forces; the lists are rebuilt at other steps (``rebuild_count`` differs), and
+            faults and list capacity are checked at the end of each advance (of at least WORLD_STEPS_MIN steps;
+            shorter ones run stage by stage). On the CPU the worlds are shared out between ``cpu_threads``
+            threads.
     """
 
     def __init__(
@@ -239,6 +244,7 @@ class Simulation:
             self.grid.reserve(ns, with_groups=True)
         self._large = not dev.is_cpu and ns >= LARGE_STEP_SPHERES  # see LARGE_STEP_SPHERES
         self._graphs: dict[int, object] = {}  # captured graphs (CUDA, or a CPU thread) by steps per graph
+        self._world_ops: list[object] | None = None  # the recorded world_steps launches
         self._step_ops: list[Callable[[], object]] | None = None  # a step's recorded launches (CPU threads)
         self._chunk = 1 << 30  # steps in the next captured graph (capped; see advance)
         self._rebuild_checked()
@@ -583,7 +589,7 @@ class Simulation:
         asked, and the step is one captured graph (CUDA; the CPU with one thread: a Warp CPU graph, replayed in C++
         with no Python per launch) or, shared between CPU threads, its recorded launches and phases. (A CPU graph of
         several steps costs ~4 ms of recording per step, more than it saves.)"""
-        if self.world_steps:
+        if self.world_steps and n_steps >= WORLD_STEPS_MIN:
             self._advance_worlds(n_steps)
             return
         if not self.device.is_cpu and self.graph_steps > 1 and not self._large:
@@ -612,6 +618,7 @@ class Simulation:
         CPU threads' shares changed): the next step captures or records them again."""
         self._graphs = {}
         self._step_ops = None
+        self._world_ops = None
 
     def _steps_graph(self, n: int) -> object:
         """The captured graph of ``n`` steps (cached until arrays move): step 1, then steps 2 .. n each in a
@@ -708,13 +715,26 @@ class Simulation:
         self._check()
 
     def _launch_worlds(self, target: int) -> None:
+        """One launch of world_steps_kernel per CPU thread's range of worlds (one on CUDA), recorded once (until
+        arrays move, :meth:`recapture`): only the target and the step count change between advances."""
+        if self._world_ops is None:
+            self._world_ops = self._record_worlds()
+        for op in self._world_ops:
+            op.set_param_at_index(1, target)
+            op.set_param_at_index(2, self.state.step)
+        if len(self._world_ops) > 1:
+            cpu_threads.Parallel("worlds", [[op.launch] for op in self._world_ops])()
+        else:
+            self._world_ops[0].launch()
+
+    def _record_worlds(self) -> list[object]:
         m, d, s = self.model, self.data, self.state
         per = [m.spheres_per_world, m.bodies_per_world, m.meshes_per_world, m.springs_per_world]
         lower, upper = wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1])
         cut = self._world_cut
-        launches = [wp.launch(
-            world_steps_mod.world_steps_kernel, cut[j + 1] - cut[j], record_cmd=len(cut) > 2,
-            inputs=[cut[j], target, self.state.step, self.skin, wp.float64(self.dt), *per,
+        return [wp.launch(
+            world_steps_mod.world_steps_kernel, cut[j + 1] - cut[j], record_cmd=True,
+            inputs=[cut[j], 0, 0, self.skin, wp.float64(self.dt), *per,
                     m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, m.sphere_offset,
                     m.mesh_body, m.mesh_material, m.mesh_tri_offset, d.mesh_rmax, m.tri_vertices,
                     m.spring_body_a, m.spring_body_b, m.spring_point_a, m.spring_point_b, m.spring_stiffness,
@@ -731,8 +751,6 @@ class Simulation:
                      self._world_flag, self._world_disp, self._world_fault],
             device=self.device,
         ) for j in range(len(cut) - 1)]
-        if len(cut) > 2:
-            cpu_threads.Parallel("worlds", [[op.launch] for op in launches])()
 
     def run(
         self,

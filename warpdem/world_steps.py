@@ -179,7 +179,7 @@ def world_steps_kernel(
                 world_fault[fb + 5] = world_fault[fb + 2]
             world_fault[fb] = NO_FAULT_W
         ds = world_disp[dm + 1]
-        rebuild = ds + wp.max(ds, world_disp[dm]) > skin
+        rebuild = spw > 0 and ds + wp.max(ds, world_disp[dm]) > skin  # no spheres: no lists to rebuild
         world_disp[dm] = 0.0
         world_disp[dm + 1] = 0.0
         if rebuild:
