@@ -86,7 +86,7 @@ def phys_of(mats: Materials, world: int, mi: int, mj: int, r1: float, r2: float)
     )
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def sphere_sphere_one(
     i: int,
     # Model:
@@ -299,7 +299,7 @@ def suppressed(
     return 0
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def sphere_triangle_one(
     i: int,
     # Model:

@@ -179,7 +179,7 @@ def check_body(
             fault[base + 2] = step
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def integrate_body(
     b: int,
     # Model:
@@ -404,7 +404,7 @@ def integrate_bodies_kernel(
         body_vel, body_angvel, body_angmom, energy, body_force, body_torque, fault)
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def update_sphere(
     i: int,
     # Model:
@@ -438,7 +438,7 @@ def update_sphere(
     sphere_arm[i] = wp.vec3f(arm)
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def mesh_end_one(
     m: int,
     slot: int,
@@ -493,7 +493,7 @@ def update_spheres_kernel(
         sphere_vel, sphere_angvel, sphere_arm, build_pos, disp_slot, disp_out)
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def spring_one(
     s: int,
     # Model:
