@@ -34,6 +34,10 @@ timeout 120 python3 bed_throughput.py --device cuda --sizes 1000000 4000000 1600
 timeout 45 python3 step_profile.py --device cuda --size 4000000 --steps 100 --json "$OUT/step_profile_cuda.jsonl"
 timeout 45 python3 step_profile.py --device cuda --scene ringing --worlds 13 --steps 2000 \
   --json "$OUT/step_profile_cuda.jsonl"
+for w in 13 20; do  # the ringing batch advanced as a calibration does: staged, and a thread per world
+  timeout 60 python3 step_profile.py --device cuda --scene ringing --advance --worlds $w --steps 11400 \
+    --json "$OUT/step_profile_cuda.jsonl"
+done
 cd ..
 for model in linear paper; do
   t0=$(date +%s)
