@@ -203,10 +203,9 @@ class Simulation:
         ns = model.n_spheres
         self.world_steps = bool(world_steps)
         self._share_out(1 if self.world_steps else cpu_threads)
-        if self.world_steps:
-            self._share_worlds(cpu_threads)
         self.data = Data.zeros(model, self.parts)  # the per-step arrays (data.py)
         if self.world_steps:  # each world's step count, rebuild request, displacements and faults (world_steps.py)
+            self._share_worlds(cpu_threads)
             nw = model.n_worlds
             self._world_step = wp.zeros(nw, dtype=int, device=dev)
             self._world_flag = wp.zeros(nw, dtype=int, device=dev)
@@ -728,6 +727,7 @@ class Simulation:
             self._world_ops[0].launch()
 
     def _record_worlds(self) -> list[object]:
+        """The world_steps_kernel launches of :meth:`_launch_worlds`, recorded (target and step count left 0)."""
         m, d, s = self.model, self.data, self.state
         per = [m.spheres_per_world, m.bodies_per_world, m.meshes_per_world, m.springs_per_world]
         lower, upper = wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1])
