@@ -212,9 +212,9 @@ def test_cpu_threads_resume_from_a_checkpoint_to_the_bit(monkeypatch: object, tm
 def test_cpu_threads_must_be_a_positive_integer(monkeypatch: object) -> None:
     # Reference: the error path of README (a named InputError naming the parameter and its value).
     model, state = packing_scene(np.zeros(3)).finalize(DEVICE)
-    for bad in (0, -2, 1.5, "2"):
+    for bad, world_steps in ((0, False), (-2, False), (1.5, False), ("2", False), (0, True), ("2", True)):
         try:
-            wd.Simulation(model, state, dt=2e-5, cpu_threads=bad)
+            wd.Simulation(model, state, dt=2e-5, cpu_threads=bad, world_steps=world_steps)
         except wd.InputError as exc:
             assert "cpu_threads" in str(exc) and repr(bad) in str(exc)
         else:
