@@ -697,17 +697,9 @@ class Simulation:
             self._rebuild_checked()  # some world stopped: its lists no longer hold
             self._world_flag.zero_()
             rebuilds += 1
-        last = int(self._world_flag.numpy().max())  # a world's last step asked for a rebuild before the next
-        counters = d.counters.numpy()
-        counters[0] += n_steps
-        counters[1] += rebuilds + last
-        d.counters.assign(counters)
-        d.rebuild_flag.fill_(last)
-        faults = self._world_fault.numpy().reshape(m.n_worlds, world_steps_mod.FAULT_SLOTS)[:, 3:]
-        hit = np.flatnonzero(faults[:, 0] != NO_FAULT)
-        if len(hit) and d.fault.numpy()[0] == NO_FAULT:
-            first = hit[np.lexsort((faults[hit, 0], faults[hit, 2]))[0]]  # the earliest step, then the lowest body
-            d.fault.assign(faults[first].astype(np.int32))
+        wp.launch(world_steps_mod.world_end_kernel, 1, inputs=[n_steps, rebuilds, m.n_worlds, self._world_flag,
+                                                              self._world_fault],
+                  outputs=[d.counters, d.rebuild_flag, d.fault], device=self.device)
         self.state.step += n_steps
         for _ in range(n_steps):
             self.state.time += self.dt

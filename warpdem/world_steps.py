@@ -186,3 +186,37 @@ def world_steps_kernel(
             world_flag[w] = 1
             break
     world_step[w] = k
+
+
+@wp.kernel
+def world_end_kernel(
+    n_steps: int,
+    rebuilds: int,
+    n_worlds: int,
+    world_flag: wp.array(dtype=int),
+    world_fault: wp.array(dtype=int),
+    counters: wp.array(dtype=int),
+    rebuild_flag: wp.array(dtype=int),
+    fault: wp.array(dtype=int),
+):
+    """After an advance of ``n_steps`` by world_steps_kernel with ``rebuilds`` host rebuilds (one thread): count the
+    steps and rebuilds (``Data.counters``), ask for a rebuild before the next step if a world's last step needs one,
+    and keep the worlds' earliest first fault (the lowest body at that step) unless an earlier one is kept."""
+    last = int(0)
+    best = int(-1)
+    for w in range(n_worlds):
+        if world_flag[w] != 0:
+            last = 1
+        b = w * FAULT_SLOTS + 3
+        if world_fault[b] != NO_FAULT_W:
+            if best < 0:
+                best = b
+            elif world_fault[b + 2] < world_fault[best + 2]:
+                best = b
+    counters[0] = counters[0] + n_steps
+    counters[1] = counters[1] + rebuilds + last
+    rebuild_flag[0] = last
+    if best >= 0 and fault[0] == NO_FAULT_W:
+        fault[0] = world_fault[best]
+        fault[1] = world_fault[best + 1]
+        fault[2] = world_fault[best + 2]
