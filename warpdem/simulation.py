@@ -113,6 +113,15 @@ def _mesh_end_kernel(
         force_acc, torque_acc, force, torque, disp)
 
 
+def _thread_count(threads: object) -> int:
+    """The CPU threads a simulation may use: ``threads``, or by default cpu_threads.default_threads(); anything but
+    a positive integer is refused by name."""
+    threads = cpu_threads.default_threads() if threads is None else threads
+    if isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1:
+        raise InputError(f"cpu_threads must be a positive integer, got {threads!r}")
+    return int(threads)
+
+
 def _cpu_graph(ops: list[Callable[[], object]]) -> Callable[[], object]:
     """Recorded CPU launches captured as one Warp CPU graph; returns its replay."""
     with wp.ScopedCapture(device="cpu", force_module_load=False) as capture:
@@ -202,10 +211,11 @@ class Simulation:
         dev = self.device
         ns = model.n_spheres
         self.world_steps = bool(world_steps)
-        self._share_out(1 if self.world_steps else cpu_threads)
+        threads = _thread_count(cpu_threads) if dev.is_cpu else 1
+        self._share_out(1 if self.world_steps else threads)
         self.data = Data.zeros(model, self.parts)  # the per-step arrays (data.py)
         if self.world_steps:  # each world's step count, rebuild request, displacements and faults (world_steps.py)
-            self._share_worlds(cpu_threads)
+            self._share_worlds(threads)
             nw = model.n_worlds
             self._world_step = wp.zeros(nw, dtype=int, device=dev)
             self._world_flag = wp.zeros(nw, dtype=int, device=dev)
@@ -249,19 +259,14 @@ class Simulation:
         self._rebuild_checked()
 
     # ------------------------------------------------------------------ helpers
-    def _share_out(self, threads: int | None) -> None:
+    def _share_out(self, threads: int) -> None:
         """The CPU threads' shares of a step (``parts``), as cut points into the bodies and their spheres: spheres
         are stored in body order (ModelBuilder adds a body's spheres with it, world after world), so a thread sums
         the forces of its bodies, moves them and updates their spheres in one phase. The contacts are cut
         separately, by their work (:meth:`_balance_contacts`)."""
         m = self.model
         ns, nb = m.n_spheres, m.n_bodies
-        parts = 1
-        if self.device.is_cpu:
-            threads = cpu_threads.default_threads() if threads is None else threads
-            if isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1:
-                raise InputError(f"cpu_threads must be a positive integer, got {threads!r}")
-            parts = max(1, min(int(threads), ns // cpu_threads.MIN_SPHERES_PER_THREAD))
+        parts = max(1, min(threads, ns // cpu_threads.MIN_SPHERES_PER_THREAD))
         body_of = m.host["sphere_body"]
         if parts > 1 and np.any(np.diff(body_of) < 0):
             parts = 1  # not a ModelBuilder's order: one thread
@@ -271,16 +276,11 @@ class Simulation:
         self._contact_cut = list(self._sphere_cut)
         self.parts = parts
 
-    def _share_worlds(self, threads: int | None) -> None:
+    def _share_worlds(self, threads: int) -> None:
         """World-serial steps (``world_steps``): the worlds cut into ranges, one per CPU thread (worlds share no
         force sums, so no thread's sums meet another's); one range on CUDA."""
         nw = self.model.n_worlds
-        k = 1
-        if self.device.is_cpu:
-            threads = cpu_threads.default_threads() if threads is None else threads
-            if isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1:
-                raise InputError(f"cpu_threads must be a positive integer, got {threads!r}")
-            k = max(1, min(int(threads), nw))
+        k = max(1, min(threads, nw))
         self._world_cut = [round(j * nw / k) for j in range(k + 1)]
 
     def _balance_contacts(self) -> None:
