@@ -711,8 +711,8 @@ class Simulation:
         if self._world_ops is None:
             self._world_ops = self._record_worlds()
         for op in self._world_ops:
-            op.set_param_at_index(1, target)
-            op.set_param_at_index(2, self.state.step)
+            op.set_param_at_index(2, target)
+            op.set_param_at_index(3, self.state.step)
         if len(self._world_ops) > 1:
             cpu_threads.Parallel("worlds", [[op.launch] for op in self._world_ops])()
         else:
@@ -724,9 +724,10 @@ class Simulation:
         per = [m.spheres_per_world, m.bodies_per_world, m.meshes_per_world, m.springs_per_world]
         lower, upper = wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1])
         cut = self._world_cut
+        lanes = world_steps_mod.WORLD_LANES if self.device.is_cuda else 1
         return [wp.launch(
-            world_steps_mod.world_steps_kernel, cut[j + 1] - cut[j], record_cmd=True,
-            inputs=[cut[j], 0, 0, self.skin, wp.float64(self.dt), *per,
+            world_steps_mod.world_steps_kernel, (cut[j + 1] - cut[j], lanes), block_dim=lanes, record_cmd=True,
+            inputs=[cut[j], lanes, 0, 0, self.skin, wp.float64(self.dt), *per,
                     m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, m.sphere_offset,
                     m.mesh_body, m.mesh_material, m.mesh_tri_offset, d.mesh_rmax, m.tri_vertices,
                     m.spring_body_a, m.spring_body_b, m.spring_point_a, m.spring_point_b, m.spring_stiffness,

@@ -1,18 +1,21 @@
-"""Many steps in one launch, a thread per world: for scenes of many small worlds (a GA population of ringing rigs).
+"""Many steps in one launch, a block of threads per world: for scenes of many small worlds (a GA population of
+ringing rigs).
 
 A step of a small world is a handful of spheres, contacts and bodies, while a launch costs the same however little
 it does: a batch of 13 ringing rigs (52 spheres) spends its step in the latency of its seven launches. Here one
-thread runs one world's whole step, the stages in the order of :meth:`Simulation._launch_step` (sphere-sphere and
-sphere-triangle contacts, springs, body motion with its fault check, sphere kinematics, the meshes' end of step),
-then decides as the end-of-step kernel does whether its candidate lists still hold (the world's own displacements
-against the skin), and goes on to the next step, up to ``target`` steps or until its lists need a rebuild. The host
-then rebuilds the lists of all worlds and launches again until every world has reached ``target``.
+block runs one world's whole step, the stages in the order of :meth:`Simulation._launch_step` (sphere-sphere and
+sphere-triangle contacts and springs, body motion with its fault check, sphere kinematics and the meshes' end of
+step), each stage's items dealt out between the block's threads (``WORLD_LANES`` on CUDA, one on the CPU) with a
+barrier between stages; it then decides as the end-of-step kernel does whether its candidate lists still hold (the
+world's own displacements against the skin), and goes on to the next step, up to ``target`` steps or until its lists
+need a rebuild. The host then rebuilds the lists of all worlds and launches again until every world has reached
+``target``.
 
 Each stage is the same function that the one-stage kernels call per sphere, body or mesh, and a world's forces come
 only from its own bodies: with the fixed-point force sums (accumulate.py) every world's positions, velocities and
-forces are the bits of the stage-by-stage step. Worlds reach ``target`` after different rebuilds, which changes
-nothing but the candidates' order (a rebuild keeps every contact's history). A fault is kept per world (the first
-step's, lowest body) and the host reports the earliest.
+forces are the bits of the stage-by-stage step, however the items of a stage are dealt out. Worlds reach ``target``
+after different rebuilds, which changes nothing but the candidates' order (a rebuild keeps every contact's
+history). A fault is kept per world (the first step's, lowest body) and the host reports the earliest.
 """
 
 from __future__ import annotations
@@ -30,13 +33,31 @@ wp.set_module_options({"enable_backward": False})
 NO_FAULT_W = wp.constant(NO_FAULT)
 FAULT_SLOTS = 6
 """per world in ``world_fault``: the step's fault (body, cause, step), then the world's first (body, cause, step)."""
+WORLD_LANES = 32
+"""threads per world on CUDA (one warp): a world's items of a stage run side by side. A single GPU thread runs a
+step's contact law, leapfrog and kinematics one item after another at the latency of each dependent instruction."""
 DISP_SLOTS = 2
 """per world in ``world_disp``: the meshes' largest displacement, the spheres' (since the last list build) [m]."""
+
+
+_BLOCK_SYNC = """
+#if defined(__CUDA_ARCH__)
+__syncthreads();
+#endif
+"""
+
+
+@wp.func_native(_BLOCK_SYNC)
+def block_sync():
+    """A barrier for the threads of a block (CUDA's __syncthreads); nothing on the CPU, whose blocks are one
+    thread."""
+    ...
 
 
 @wp.kernel
 def world_steps_kernel(
     first_world: int,  # the first world of this launch (a CPU thread's share)
+    lanes: int,  # threads per world (the launch's block size): 1 on the CPU
     target: int,
     first_step: int,  # the simulation's step count when world_step was 0
     skin: float,
@@ -126,9 +147,11 @@ def world_steps_kernel(
     world_fault: wp.array(dtype=int),
 ):
     """World w's steps from world_step[w] up to ``target`` or until its candidate lists need a rebuild
-    (world_flag[w] = 1). The one-step request for cohesion (``Data.cohesion_now``) is not read: the caller runs
-    such a step the ordinary way; ``no_cohesion`` is a zero flag passed in its place."""
-    w = wp.tid() + first_world
+    (world_flag[w] = 1), by a block of ``lanes`` threads: each stage's items (spheres, bodies, meshes, springs) dealt
+    out between them, a barrier between stages. The one-step request for cohesion (``Data.cohesion_now``) is not
+    read: the caller runs such a step the ordinary way; ``no_cohesion`` is a zero flag passed in its place."""
+    t, lane = wp.tid()
+    w = t + first_world
     k = world_step[w]
     s0 = w * spw
     b0 = w * bpw
@@ -136,56 +159,68 @@ def world_steps_kernel(
     c0 = w * kpw
     fb = w * FAULT_SLOTS
     dm = w * DISP_SLOTS
+    contact_items = spw
+    if mpw > 0:
+        contact_items = 2 * spw
     while k < target:
-        for i in range(s0, s0 + spw):
-            sphere_sphere_one(
-                i, sphere_body, sphere_world, sphere_material, sphere_radius, mats, opts, sphere_pos, sphere_vel,
-                sphere_angvel, sphere_arm, ss_start, ss_count, ss_other, no_cohesion, ss_hist, force_acc,
-                torque_acc, force_scale, torque_scale, energy)
-        if mpw > 0:
-            for i in range(s0, s0 + spw):
+        # contacts and springs: they only add to the fixed-point sums, whose order does not matter
+        for q in range(lane, contact_items, lanes):
+            if q < spw:
+                sphere_sphere_one(
+                    s0 + q, sphere_body, sphere_world, sphere_material, sphere_radius, mats, opts, sphere_pos,
+                    sphere_vel, sphere_angvel, sphere_arm, ss_start, ss_count, ss_other, no_cohesion, ss_hist,
+                    force_acc, torque_acc, force_scale, torque_scale, energy)
+            else:
                 sphere_triangle_one(
-                    i, sphere_body, sphere_world, sphere_material, sphere_radius, mesh_body, mesh_material,
-                    mesh_tri_offset, tri_vertices, mats, opts, sphere_pos, sphere_vel, sphere_angvel, sphere_arm,
-                    body_pos, body_quat, body_vel, body_angvel, st_start, st_count, st_mesh, st_face, no_cohesion,
-                    st_hist, force_acc, torque_acc, force_scale, torque_scale, mesh_force_acc, mesh_torque_acc,
-                    mesh_force_scale, mesh_torque_scale, energy)
-        for c in range(c0, c0 + kpw):
+                    s0 + q - spw, sphere_body, sphere_world, sphere_material, sphere_radius, mesh_body,
+                    mesh_material, mesh_tri_offset, tri_vertices, mats, opts, sphere_pos, sphere_vel, sphere_angvel,
+                    sphere_arm, body_pos, body_quat, body_vel, body_angvel, st_start, st_count, st_mesh, st_face,
+                    no_cohesion, st_hist, force_acc, torque_acc, force_scale, torque_scale, mesh_force_acc,
+                    mesh_torque_acc, mesh_force_scale, mesh_torque_scale, energy)
+        for c in range(c0 + lane, c0 + kpw, lanes):
             spring_one(
                 c, spring_body_a, spring_body_b, spring_point_a, spring_point_b, spring_stiffness, spring_damping,
                 spring_rest_length, spring_preload, spring_progressive, spring_stop_stiffness, body_world, opts.dt,
                 opts.track_energy, body_pos, body_quat, body_vel, body_angvel, force_acc, torque_acc, force_scale,
                 torque_scale, spring_force, energy)
+        block_sync()
         step = first_step + k + 1
-        for b in range(b0, b0 + bpw):
+        for b in range(b0 + lane, b0 + bpw, lanes):
             integrate_body(
                 b, body_world, body_group, body_flags, body_mass, body_inertia, body_pivot, body_pivot_vel,
                 body_pivot_friction, group_damping, n_groups, gravity, dt, opts.track_energy,
                 force_scale, torque_scale, 1, 0, max_speed, lower, upper, step, fb, force_acc, torque_acc, body_pos,
                 body_quat, body_vel, body_angvel, body_angmom, energy, body_force, body_torque, world_fault)
-        for i in range(s0, s0 + spw):
+        block_sync()
+        for i in range(s0 + lane, s0 + spw, lanes):
             update_sphere(i, sphere_body, sphere_offset, body_pos, body_quat, body_vel, body_angvel, sphere_pos,
                           sphere_vel, sphere_angvel, sphere_arm, build_pos, dm + 1, world_disp)
-        for m in range(m0, m0 + mpw):
+        for m in range(m0 + lane, m0 + mpw, lanes):
             mesh_end_one(m, dm, mesh_body, mesh_rmax, mesh_force_scale, mesh_torque_scale, 1, body_pos, body_quat,
                          mesh_build_pos, mesh_build_quat, mesh_force_acc, mesh_torque_acc, mesh_force, mesh_torque,
                          world_disp)
         k += 1
-        # the end of the step, for this world (simulation._end_step_kernel)
-        if world_fault[fb] != NO_FAULT_W:
-            if world_fault[fb + 3] == NO_FAULT_W:
-                world_fault[fb + 3] = world_fault[fb]
-                world_fault[fb + 4] = world_fault[fb + 1]
-                world_fault[fb + 5] = world_fault[fb + 2]
-            world_fault[fb] = NO_FAULT_W
+        block_sync()
+        # the end of the step, for this world (simulation._end_step_kernel): every lane reads the displacements
+        # and takes the same decision; then lane 0 resets them and files the step's fault
         ds = world_disp[dm + 1]
         rebuild = spw > 0 and ds + wp.max(ds, world_disp[dm]) > skin  # no spheres: no lists to rebuild
-        world_disp[dm] = 0.0
-        world_disp[dm + 1] = 0.0
+        block_sync()
+        if lane == 0:
+            if world_fault[fb] != NO_FAULT_W:
+                if world_fault[fb + 3] == NO_FAULT_W:
+                    world_fault[fb + 3] = world_fault[fb]
+                    world_fault[fb + 4] = world_fault[fb + 1]
+                    world_fault[fb + 5] = world_fault[fb + 2]
+                world_fault[fb] = NO_FAULT_W
+            world_disp[dm] = 0.0
+            world_disp[dm + 1] = 0.0
+            if rebuild:
+                world_flag[w] = 1
         if rebuild:
-            world_flag[w] = 1
             break
-    world_step[w] = k
+    if lane == 0:
+        world_step[w] = k
 
 
 @wp.kernel
