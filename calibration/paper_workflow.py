@@ -17,13 +17,20 @@ Stages, each writing its result into the run folder when it ends:
    reduction is paired with the rigid run of the same bed and speed; its standard error comes from the scatter
    over replicas. Replicas are added (up to ``replicas_max``) until every reduction's standard error is below
    ``target_sem``.
-5. ``report.md`` beside Tables 2, 3 and 7, with figures.
+5. ``diagnosis``: ``warpdem diagnose`` of Table 3 (its configurations of ``springs``; reductions and displacements)
+   with the soil of the Table 3 runs, in the draught calibration's bin on its bed: the baseline and each soil-bin
+   mechanism fitted, compared on held-out configurations, the cause named and re-simulated
+   (``calibration.diagnosis``; report, figures and checkpoint in ``diagnosis/``). Every fitted point is one run of
+   every configuration; ``WorkflowConfig.diagnosis_rounds`` and ``diagnosis_grid`` size it (``diagnose=False``
+   leaves it out).
+6. ``report.md`` beside Tables 2, 3 and 7, with figures.
 
 Pieces and resume: the GA stages save their state after every generation, every soil-bin job checkpoints (into
-``checkpoints/``) and every finished job writes its rows. Given a budget [s] of wall time, the workflow stops with
-:class:`warpdem.errors.BudgetExhausted` at the first point where the next piece would not fit (a GA batch as long
-as the last one, or a soil-bin run at its deadline, which saves its checkpoint first); the same call continues
-where it stopped and ends with the same result (bit for bit on the CPU).
+``checkpoints/``), every finished job writes its rows, and every simulation of the diagnosis is kept
+(``checkpoints/diagnosis_runs/``) with its fitted points (``diagnosis/checkpoint.json``). Given a budget [s] of wall
+time, the workflow stops with :class:`warpdem.errors.BudgetExhausted` at the first point where the next piece would
+not fit (a GA batch as long as the last one, or a soil-bin run at its deadline, which saves its checkpoint first);
+the same call continues where it stopped and ends with the same result (bit for bit on the CPU).
 """
 
 from __future__ import annotations
@@ -35,7 +42,7 @@ import shutil
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
@@ -47,10 +54,13 @@ from scenes.ringing import RingingConfig, build_ringing, run_ringing
 from warpdem.errors import BudgetExhausted, InputError, SimulationError
 from warpdem.files import write_atomic
 
+from . import diagnosis as diagnosis_mod
+from . import diagnosis_report, measured
 from .archive import write_json_atomic
 from .ga import accepted_records, calibrate
 from .problems import DraughtProblem, RingingProblem
 from .report import write_report
+from .rig_models import SoilBinRigModel
 from .screening import screen
 from .workflow_config import CALIBRATION_SCALE, SCREEN_SCALE, VARIANTS, WorkflowConfig
 from .workflow_report import write_workflow_report
@@ -255,6 +265,32 @@ def replicas_needed(sems: list[float], n: int, target: float, most: int) -> int:
 
 
 # ------------------------------------------------------------------------------------------------ the run
+def _save_run(path: Path, run: sb.SoilBinRun) -> None:
+    """A soil-bin run into one .npz (its arrays, and the rest as JSON)."""
+    meta = {"springs": list(run.springs), "speeds": list(run.speeds), "steady": run.steady,
+            "n_particles": run.n_particles, "n_spheres": run.n_spheres, "dt": run.dt, "steps": run.steps,
+            "wall_s": run.wall_s, "series": sorted(run.series)}
+    arrays = {"time": run.time, "travel": run.travel, **{f"series_{k}": v for k, v in run.series.items()}}
+    write_atomic(path, lambda tmp: np.savez_compressed(tmp, meta=json.dumps(sb.json_safe(meta)), **arrays))
+
+
+def _load_run(path: Path) -> sb.SoilBinRun:
+    """What :func:`_save_run` wrote."""
+    with np.load(path) as z:
+        meta = json.loads(str(z["meta"]))
+        return sb.SoilBinRun(tuple(meta["springs"]), tuple(meta["speeds"]), z["time"], z["travel"],
+                             {k: z[f"series_{k}"] for k in meta["series"]}, meta["steady"], meta["n_particles"],
+                             meta["n_spheres"], meta["dt"], meta["steps"], meta["wall_s"])
+
+
+def _same_config(saved: dict, current: dict) -> bool:
+    """Whether a run folder's saved configuration is ``current``: equal in every saved field, and every field added
+    to :class:`WorkflowConfig` since the folder was made (absent from ``saved``) at its default."""
+    default = WorkflowConfig().to_dict()
+    return (set(saved) <= set(current) and all(saved[k] == current[k] for k in saved)
+            and all(current[k] == default[k] for k in current if k not in saved))
+
+
 class Workflow:
     """One run folder of the workflow (see the module's docstring). ``log`` receives one line per event."""
 
@@ -268,7 +304,7 @@ class Workflow:
         spec = {"config": self.config.to_dict()}
         if meta.exists():
             saved = json.loads(meta.read_text())
-            if saved.get("config") != spec["config"]:
+            if not _same_config(saved.get("config", {}), spec["config"]):
                 raise InputError(f"{str(self.out)!r} holds a workflow with another configuration; choose another "
                                  "--out (or remove that folder)")
         else:
@@ -547,6 +583,84 @@ class Workflow:
         out["comparison"] = {v: compare(t, c.assembly) for v, t in out["variants"].items()}
         return out
 
+    # ---- stage 5: diagnosis ------------------------------------------------------------------------------------
+    def diagnosis_rig(self, soil: dict, budget: Budget) -> SoilBinRigModel:
+        """The soil-bin rig model of the diagnosis: Table 3's rows of this run's configurations, the soil of the
+        Table 3 runs, in the draught calibration's bin on its bed; each simulation must fit the budget whole."""
+        c = self.config
+        t3 = measured.from_paper("soil-bin")
+        keep = np.isin(t3.summary["springs"], c.springs)
+        data = measured.Measured({k: v[keep] for k, v in t3.summary.items()}, t3.units, [], t3.source)
+        knobs = {"friction_angle": soil["friction_angle"], "normal_cohesion": soil["normal_cohesion"],
+                 "shear_cohesion": 0.5 * soil["normal_cohesion"], "eta_roll": soil["eta_roll"],
+                 "eta_twist": soil["eta_roll"]}
+
+        runs = self.out / "checkpoints" / "diagnosis_runs"
+
+        def simulator(config: sb.SoilBinConfig, springs: list[int], speeds: list[float],
+                      knobs: dict[str, list[float]] | None, soil_overrides: dict[str, list[float]] | None
+                      ) -> sb.SoilBinRun:
+            """run_soil_bin, each run kept (``checkpoints/diagnosis_runs/``) so that a stopped diagnosis does not
+            simulate it again, whatever it had saved."""
+            bed = rig.bed()
+            what = json.dumps(sb.json_safe([asdict(config), springs, speeds, knobs, soil_overrides,
+                                            self._bed_fingerprint("diagnosis", bed)[0]]), sort_keys=True)
+            path = runs / f"{hashlib.sha1(what.encode()).hexdigest()[:20]}.npz"
+            if path.exists():
+                return _load_run(path)
+            per_world = self._timing("diagnosis_per_world", self._timing("draught_per_world"))
+            budget.require(per_world * len(springs), f"a diagnosis simulation of {len(springs)} worlds")
+            t0 = time.perf_counter()
+            run = sb.run_soil_bin(config, springs, bed=bed, device=self.device, speeds=speeds, knobs=knobs,
+                                  soil_overrides=soil_overrides)
+            self._timed("diagnosis_per_world", (time.perf_counter() - t0) / len(springs))
+            runs.mkdir(parents=True, exist_ok=True)
+            _save_run(path, run)
+            return run
+
+        rig = SoilBinRigModel(data, device=self.device, scale=CALIBRATION_SCALE[c.scale], assembly=c.assembly,
+                              seed=c.seed, travel=c.calibration_travel, steady_travel=c.steady_travel,
+                              settle_time=c.settle_time, soil=knobs, max_worlds=len(c.springs),
+                              cache_dir=str(self.out / "beds"), simulator=simulator)
+        return rig
+
+    def diagnosis(self, soil: dict, budget: Budget) -> dict | None:
+        """``warpdem diagnose`` of Table 3 (``diagnosis/``: its report, figures and checkpoint): every fitted point
+        is one soil-bin run per configuration, saved after each; the same call continues a stopped one."""
+        c = self.config
+        if not c.diagnose:
+            return None
+        if (done := self._done("diagnosis.json")) is not None:
+            return done
+        rig = self.diagnosis_rig(soil, budget)
+        folder = self.out / "diagnosis"
+        folder.mkdir(exist_ok=True)
+        checkpoint = folder / "checkpoint.json"
+        deposits = not sb.bed_path(rig.config, self.out / "beds").exists()
+        if deposits:
+            budget.require(self._timing("deposit_draught", self._timing("deposit")), "depositing the diagnosis's bed")
+        _, old = self._bed_fingerprint("diagnosis", rig.bed())
+        if old is not None and checkpoint.exists():  # its points were simulated on another realisation of the bed
+            checkpoint.replace(folder / f"checkpoint_{old}.json")
+            self.log(f"  the diagnosis's bed was deposited again differently (was {old}): its points so far are "
+                     f"set aside (diagnosis/checkpoint_{old}.json) and simulated again")
+        settings = diagnosis_mod.DiagnosisSettings(
+            rounds=c.diagnosis_rounds, first_grid={0: 1, 1: c.diagnosis_grid, 2: max(2, c.diagnosis_grid - 1),
+                                                   3: max(2, c.diagnosis_grid - 2), 4: 2},
+            mechanisms=c.diagnosis_mechanisms, batch_worlds=len(c.springs))
+        self.log(f"diagnosis of Table 3 on the {rig.config.scale} bin ({len(c.springs)} configurations)")
+        t0 = time.perf_counter()
+        d = diagnosis_mod.diagnose(rig, settings, log=self.log, checkpoint=checkpoint)
+        diagnosis_report.write(d, folder, command=f"the workflow's stage 5 ({self.out.name})")
+        out = {"verdict": d.verdict, "cause": list(d.cause), "residual_left": d.residual_left,
+               "steps": d.steps, "ranking": d.ranking, "scale": rig.config.scale,
+               "n_simulations": d.n_simulations, "wall_s_last_call": time.perf_counter() - t0,
+               "baseline": {"measured": rig.measured.tolist(), "sigma": rig.sigma.tolist(),
+                            "observables": list(rig.observables), "springs": [x["springs"] for x in rig.configs],
+                            "simulated": np.asarray(d.verification["baseline"]["all_pred"]).tolist()}}
+        write_json_atomic(self._path("diagnosis.json"), sb.json_safe(out))
+        return out
+
     # ---- everything --------------------------------------------------------------------------------------------
     def replicas_done(self) -> int:
         """How many replicas, from the first, have every job finished on one bed."""
@@ -571,7 +685,13 @@ class Workflow:
         todo += [s for s in ("draught calibration", "screening") if s.split()[0] not in summary]
         if n and "screening" in summary:
             summary["table3"] = self.table3_stats(n)
-        todo.append(f"Table 3 replicas ({n} of at least {c.replicas_min}, at most {c.replicas_max}, finished)")
+        if self._done("table3.json") is None:
+            todo.append(f"Table 3 replicas ({n} of at least {c.replicas_min}, at most {c.replicas_max}, finished)")
+        if (diag := self._done("diagnosis.json")) is not None:
+            summary["diagnosis"] = diag
+        elif c.diagnose:
+            todo.append("the diagnosis of Table 3" + (" (under way: diagnosis/checkpoint.json)"
+                                                      if self._path("diagnosis/checkpoint.json").exists() else ""))
         return write_workflow_report(self.out, c, summary, device=self.device,
                                      status="still to come: " + "; ".join(todo) + ". Run the same command again.")
 
@@ -583,8 +703,11 @@ class Workflow:
         draught = self.draught(budget)
         screening = self.screening(draught, budget)
         table3 = self.table3(screening["chosen"], ring.get("linear"), budget)
+        diag = self.diagnosis(screening["chosen"], budget)
         summary = {"ringing": ring, "draught": draught, "screening": screening, "table3": table3,
                    "wall_s_last_call": time.perf_counter() - t0}
+        if diag is not None:
+            summary["diagnosis"] = diag
         write_json_atomic(self._path("summary.json"), sb.json_safe(summary))
 
         write_workflow_report(self.out, self.config, summary, device=self.device)

@@ -11,6 +11,7 @@ from scenes import paper
 from scenes import soil_bin as sb
 from warpdem.errors import InputError
 
+from . import mechanisms
 from .genes import GASettings
 
 CALIBRATION_SCALE = {"ci": "ci", "cpu": "cpu", "paper": "paper_1m", "strip": "strip"}
@@ -62,6 +63,16 @@ class WorkflowConfig:
     """[m] of the draught calibration's runs (default: its scale's)."""
     seed: int = 0
     """first bed's deposition seed; replica r uses seed + r."""
+    diagnose: bool = True
+    """stage 5: ``warpdem diagnose`` of Table 3 (the configurations of ``springs``) with the soil of the Table 3
+    runs, in the draught calibration's bin (:data:`CALIBRATION_SCALE`): every fitted point is a soil-bin run of
+    every configuration."""
+    diagnosis_rounds: int = 3
+    """fit rounds of the diagnosis (one grid, then Levenberg-Marquardt; ``warpdem diagnose --rounds``)."""
+    diagnosis_grid: int = 5
+    """grid points of a one-gene mechanism in the diagnosis's first round (``warpdem diagnose``: 9)."""
+    diagnosis_mechanisms: tuple[str, ...] | None = None
+    """the candidate mechanisms of the diagnosis (None: every one that applies to the soil bin)."""
 
     def __post_init__(self) -> None:
         if self.scale not in CALIBRATION_SCALE:
@@ -88,6 +99,14 @@ class WorkflowConfig:
             raise InputError(f"settle_time must be a finite number of seconds >= 0, got {self.settle_time!r}")
         if self.worlds_per_job < 1:
             raise InputError(f"worlds_per_job must be >= 1, got {self.worlds_per_job!r}")
+        if self.diagnosis_rounds < 1:
+            raise InputError(f"diagnosis_rounds must be >= 1, got {self.diagnosis_rounds!r}")
+        if self.diagnosis_grid < 2:
+            raise InputError(f"diagnosis_grid must be >= 2, got {self.diagnosis_grid!r}")
+        if self.diagnosis_mechanisms is not None:
+            for m in self.diagnosis_mechanisms:
+                if m not in mechanisms.REGISTRY or "soil-bin" not in mechanisms.REGISTRY[m].rigs:
+                    raise InputError(f"diagnosis_mechanisms: {m!r} is not a soil-bin mechanism")
 
     def to_dict(self) -> dict[str, object]:
         return json.loads(json.dumps(asdict(self), default=str))

@@ -235,7 +235,22 @@ def write_workflow_report(out: Path, config: WorkflowConfig, summary: dict, *, d
     lines += ["", f"Calibration bin: `{CALIBRATION_SCALE[c.scale]}`; bed settling {c.settle_time} s; "
               f"worlds per simulation at most {c.worlds_per_job}.", ""]
     lines += [f"![{p}]({p})" for p in plots]
+    lines += diagnosis_section(summary.get("diagnosis"))
     return _write(out, lines)
+
+
+def diagnosis_section(diag: dict | None) -> list[str]:
+    """The report's lines on the diagnosis of Table 3 (stage 5), pointing to its own report."""
+    if diag is None:
+        return []
+    cause = f": **{' + '.join(diag['cause'])}**" if diag["cause"] else ""
+    lines = ["", f"## Diagnosis of Table 3 ({diag['scale']} bin, {diag['n_simulations']} simulated worlds)", "",
+             f"Verdict: {diag['verdict']}{cause}"
+             + (" (a residual larger than the stated noise remains)" if diag["cause"] and diag["residual_left"]
+                else "") + ". Candidates by held-out loss: " + (", ".join(diag["ranking"]) or "none") + ". "
+             "Every fitted point is one soil-bin run per configuration on one bed of the calibration bin, with the "
+             "soil of the Table 3 runs. Details, fits and figures: `diagnosis/report.md`.", ""]
+    return lines
 
 
 def _write(out: Path, lines: list[str]) -> Path:

@@ -85,7 +85,8 @@ def _config(**kw: object) -> WorkflowConfig:
             "draught_ga": GASettings(generations=1, population=3, parents=2), "screen_top": 1,
             "screen_changes": {"shear_displacement": 0.03, "consolidation_time": (0.02, 0.1)},
             "replicas_min": 2, "replicas_max": 2, "settle_time": 0.0, "travel": 0.2, "steady_travel": 0.1,
-            "calibration_travel": 0.2}
+            "calibration_travel": 0.2, "diagnosis_mechanisms": ("sensor_offset", "extra_mass"),
+            "diagnosis_grid": 2, "diagnosis_rounds": 1}
     base.update(kw)
     return WorkflowConfig(**base)
 
@@ -128,6 +129,25 @@ def test_a_folder_of_another_workflow_is_refused(tmp_path):
         Workflow(tmp_path, _config(replicas_max=3))
 
 
+def test_a_folder_made_before_a_field_was_added_continues_at_its_default(tmp_path):
+    """A run folder whose saved configuration lacks a field added since (here the diagnosis's) is the same run if
+    that field is at its default, and another run if not."""
+    import dataclasses
+
+    cfg = dataclasses.replace(_config(), diagnosis_mechanisms=None, diagnosis_grid=5, diagnosis_rounds=3)
+    Workflow(tmp_path, cfg)
+    meta = tmp_path / "workflow.json"
+    spec = json.loads(meta.read_text())
+    for k in ("diagnose", "diagnosis_rounds", "diagnosis_grid", "diagnosis_mechanisms"):
+        del spec["config"][k]
+    meta.write_text(json.dumps(spec))
+    Workflow(tmp_path, cfg)
+    with pytest.raises(InputError, match="another configuration"):
+        Workflow(tmp_path, dataclasses.replace(cfg, diagnosis_rounds=2))
+    with pytest.raises(InputError, match="another configuration"):
+        Workflow(tmp_path, dataclasses.replace(cfg, diagnose=False))
+
+
 class _StopAfter(Budget):
     """A budget that lets ``n`` pieces start, then stops (deterministic, unlike wall time)."""
 
@@ -153,15 +173,17 @@ class _PastDeadline(Budget):
 
 
 def _numbers(summary: dict) -> dict:
+    d = summary["diagnosis"]
     return {"ringing": summary["ringing"]["linear"]["rows"], "draught": summary["draught"]["best"],
             "chosen": summary["screening"]["chosen"], "table3": summary["table3"]["variants"],
-            "rigid": summary["table3"]["rigid"]}
+            "rigid": summary["table3"]["rigid"],
+            "diagnosis": [d["verdict"], d["cause"], d["ranking"], d["baseline"]]}
 
 
 def test_workflow_stopped_at_every_kind_of_piece_resumes_to_the_uninterrupted_result(tmp_path):
     """ci scale, assembly A: the whole workflow in one call, and again in calls that stop inside the ringing
-    lockstep, between GA generations, inside a soil-bin run (from its checkpoint) and between jobs. The two
-    summaries agree to the bit (CPU)."""
+    lockstep, between GA generations, inside a soil-bin run (from its checkpoint), between jobs and between the
+    diagnosis's simulations. The two summaries, the diagnosis's verdict and fits included, agree to the bit (CPU)."""
     cfg = _config()
     whole = Workflow(tmp_path / "whole", cfg, device="cpu").run()
     import shutil
@@ -182,6 +204,7 @@ def test_workflow_stopped_at_every_kind_of_piece_resumes_to_the_uninterrupted_re
         pytest.fail(f"the workflow did not end in 40 calls: {stops[-3:]}")
     assert any("lockstep" in s for s in stops)  # stopped inside the ringing calibration's lockstep
     assert any("soil-bin run stopped" in s for s in stops), stops  # and inside a soil-bin run
+    assert any("a diagnosis simulation" in s for s in stops), stops  # and inside the diagnosis
     assert len(stops) >= 8
     assert _numbers(pieces) == _numbers(whole)
 
