@@ -282,11 +282,13 @@ class SoilBinRun:
     """carriage travel [m] (k, n_worlds); each carriage stops after the configured travel."""
     series: dict[str, np.ndarray]
     """draught [N], displacement [m] (sensor relative to the carriage, along y), ke_tool / ke_soil [J]
-    (translational, rotational) (k, n_worlds, 2), coordination [-]; each (k, n_worlds[, 2])."""
+    (translational, rotational) (k, n_worlds, 2), coordination [-], bonds (unbroken cohesive soil-soil contacts)
+    [-]; each (k, n_worlds[, 2])."""
     steady: list[dict[str, float]] = field(default_factory=list)
     """per world, over the steady part of its travel: draught_/displacement_ mean, std, sem, trend [unit/s],
     trend_sem (see ``warpdem.analysis.steady_state``), steady_time_mean [s], ke_tool_/ke_soil_ mean and std,
-    coordination_start/_end."""
+    coordination_start/_end, bonds_start/_end (unbroken cohesive soil-soil contacts at the first record after the
+    bonds are set and at the end)."""
     n_particles: int = 0
     n_spheres: int = 0
     dt: float = 0.0
@@ -553,6 +555,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
         "ke_tool": wd.observers.group_kinetic_energy("tool"),
         "ke_soil": wd.observers.group_kinetic_energy("soil"),
         "coordination": wd.observers.coordination_number("soil"),
+        "bonds": wd.observers.cohesive_bonds("soil"),
     }
     every = max(1, int(round(1.0 / (config.sample_rate * dt))))
     # each world's carriage stops after `travel` (whole records, so the sampling stays uniform); the run ends when
@@ -634,6 +637,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
             row[f"{k}_mean"], row[f"{k}_std"] = st.mean, st.std
         row["coordination_start"] = float(series["coordination"][1, w])  # record 0 precedes the first contacts
         row["coordination_end"] = float(series["coordination"][-1, w])
+        row["bonds_start"] = float(series["bonds"][1, w])
+        row["bonds_end"] = float(series["bonds"][-1, w])
         steady.append(row)
     return SoilBinRun(tuple(springs), tuple(speeds), t, trav, series, steady, info["n_particles"],
                       model.spheres_per_world, dt, n_steps, time.perf_counter() - t0)

@@ -106,8 +106,9 @@ def test_sliding_threshold_on_inclined_facet() -> None:
     assert d_slide[0] > 0 and d_slide[2] < 0  # down the slope
 
 
-def pulled_pair(fragile: bool, steps: int) -> tuple[np.ndarray, np.ndarray]:
-    """Sphere 2 pulled away from a fixed sphere 1 at 0.01 m/s after cohesion is set; returns (un, Fn) per step."""
+def pulled_pair(fragile: bool, steps: int, bonds: list | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Sphere 2 pulled away from a fixed sphere 1 at 0.01 m/s after cohesion is set; returns (un, Fn) per step
+    (and appends the cohesive_bonds observer's count after each step to ``bonds``)."""
     b = wd.ModelBuilder(gravity=(0, 0, 0))
     b.add_material("c", soil(normal_cohesion=2e4, shear_cohesion=1e4, fragile=fragile))
     b.add_sphere((0, 0, 0), R, "c", blocked="xyzXYZ")
@@ -116,11 +117,14 @@ def pulled_pair(fragile: bool, steps: int) -> tuple[np.ndarray, np.ndarray]:
     sim = wd.Simulation(model, state, dt=1e-6, unp_max=-1.0)
     sim.set_cohesion_now()
     un, fn = [], []
+    count = wd.observers.cohesive_bonds("default")
     for _ in range(steps):
         gap = state.body_pos.numpy()[1, 0] - state.body_pos.numpy()[0, 0]
         sim.step()
         un.append(2 * R - gap)
         fn.append(-sim.data.body_force.numpy()[0, 0])  # force on sphere 1 is -Fn n
+        if bonds is not None:
+            bonds.append(float(count(sim)[0]))
     return np.asarray(un), np.asarray(fn)
 
 
@@ -128,16 +132,22 @@ def test_cohesive_pair_breaks_at_normal_adhesion() -> None:
     # Reference: a_n = C_n min(R1, R2)^2 = 2e4 * 1e-4 = 2 N (Yade, no pi); kn = E R = 1e5 N/m, so a fragile bond
     # breaks when kn un < -a_n, i.e. at un = -2e-5 m, and carries no force after. Non-fragile: the tension stays at
     # -a_n (perfect plasticity). Tolerance: one step of pulling, v dt kn = 1e-3 N.
+    # The bond counter (observers.cohesive_bonds) reads one bond until the step it breaks and none after; a
+    # non-fragile bond that yields stays a bond.
     an = 2e4 * R**2
-    un, fn = pulled_pair(True, 4000)
+    bonds: list[float] = []
+    un, fn = pulled_pair(True, 4000, bonds)
     assert fn.min() == pytest.approx(-an, abs=1.1e-3)
     broke = np.argmax(fn == 0.0)
     assert un[broke] == pytest.approx(-an / (E * R), abs=1.1e-8)
     assert np.all(fn[broke:] == 0.0)
-    un, fn = pulled_pair(False, 4000)
+    np.testing.assert_array_equal(bonds, np.where(np.arange(len(bonds)) < broke, 1.0, 0.0))
+    bonds = []
+    un, fn = pulled_pair(False, 4000, bonds)
     plastic = un < -an / (E * R) - 1e-8
     assert plastic.sum() > 900
     np.testing.assert_allclose(fn[plastic], -an, rtol=1e-5)
+    assert set(bonds) == {1.0}
 
 
 def test_rolling_resistance_threshold() -> None:

@@ -11,7 +11,7 @@ from collections.abc import Callable
 import numpy as np
 import warp as wp
 
-from .contact_law import ACTIVE, Hist
+from .contact_law import ACTIVE, COHESIVE, Hist
 from .contacts import (
     E_DAMPING,
     E_DRIVEN,
@@ -268,17 +268,19 @@ def _active_contacts_kernel(
     count: wp.array(dtype=int),
     key_a: wp.array(dtype=int),
     hist: wp.array(dtype=Hist),
+    flag: int,
     out: wp.array(dtype=int),
 ):
-    """out[world] += the active entries of sphere i's candidate list; group >= 0 (sphere-sphere lists only):
-    only contacts between two different bodies of that group."""
+    """out[world] += the entries of sphere i's candidate list whose history has ``flag`` (ACTIVE: contacts,
+    COHESIVE: unbroken bonds); group >= 0 (sphere-sphere lists only): only those between two different bodies of
+    that group."""
     i = wp.tid()
     bi = sphere_body[i]
     if group >= 0 and body_group[bi] != group:
         return
     n = int(0)
     for k in range(start[i], start[i] + count[i]):
-        if (hist[k].flags & ACTIVE) != 0:
+        if (hist[k].flags & flag) != 0:
             if group < 0:
                 n += 1
             else:
@@ -289,14 +291,15 @@ def _active_contacts_kernel(
         wp.atomic_add(out, sphere_world[i], n)
 
 
-def _count_active(sim: object, pairs: object, group: int) -> np.ndarray:
-    """Active contacts of one candidate list per world, counted on the device, shape (n_worlds,)."""
+def _count_active(sim: object, pairs: object, group: int, flag: int = ACTIVE) -> np.ndarray:
+    """Active contacts (or, with ``flag`` COHESIVE, unbroken bonds) of one candidate list per world, counted on the
+    device, shape (n_worlds,)."""
     m = sim.model
     out = wp.zeros(m.n_worlds, dtype=int, device=m.device)
     if m.n_spheres:
         wp.launch(_active_contacts_kernel, m.n_spheres,
                   inputs=[m.sphere_body, m.sphere_world, m.body_group, int(group), pairs.start, pairs.count,
-                          pairs.key_a, pairs.hist], outputs=[out], device=m.device)
+                          pairs.key_a, pairs.hist, int(flag)], outputs=[out], device=m.device)
     return out.numpy().astype(np.int64)
 
 
@@ -319,6 +322,16 @@ def coordination_number(group: str | None = None) -> Callable[[object], np.ndarr
         members = groups == g if group is not None else np.isin(np.arange(m.n_bodies), m.host["sphere_body"])
         n_bodies = np.bincount(m.host["body_world"][members], minlength=m.n_worlds)
         return 2.0 * _count_active(sim, sim.data.ss, g) / np.maximum(n_bodies, 1)
+
+    return f
+
+
+def cohesive_bonds(group: str) -> Callable[[object], np.ndarray]:
+    """Observer: unbroken cohesive bonds (sphere-sphere contacts between different bodies of the group whose
+    cohesion is set and not broken) per world, shape (n_worlds,). Counted on the device (one small copy)."""
+
+    def f(sim: object) -> np.ndarray:
+        return _count_active(sim, sim.data.ss, sim.model.group_index(group), COHESIVE).astype(np.float64)
 
     return f
 
