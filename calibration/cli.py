@@ -178,7 +178,7 @@ CLAIM = ".warpdem-run.json"
 """The file that marks a results folder as one run's: the command and every parameter that makes the run (not the
 device: a run may continue on another one, and output options such as --quiet do not count)."""
 _NOT_IDENTITY = {"argv", "out", "verbose", "quiet", "debug", "overwrite", "budget", "no_resume", "device", "vtk",
-                 "beds"}
+                 "beds", "defaults"}
 
 
 def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) -> Path:
@@ -199,6 +199,13 @@ def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) 
         except (OSError, ValueError):
             held = {}
         if held == mine:
+            return out
+        defaults = json.loads(json.dumps(getattr(args, "defaults", {}), default=str))
+        added = [k for k in mine if k not in held]
+        if (set(held) <= set(mine) and all(held[k] == mine[k] for k in held)
+                and all(k in defaults and mine[k] == defaults[k] for k in added)):
+            # a run made before these options existed, continued with them at their defaults
+            write_text_atomic(claim, json.dumps(mine, indent=1))
             return out
         if not getattr(args, "overwrite", False):
             diff = [k for k in sorted(set(held) | set(mine)) if held.get(k) != mine.get(k)]
@@ -300,7 +307,8 @@ def run_workflow(args: argparse.Namespace) -> int:
                             springs=args.springs or paper.SPRING_COUNTS, ringing_ga=ga, draught_ga=ga,
                             replicas_min=args.replicas_min, replicas_max=args.replicas_max,
                             target_sem=args.target_sem, worlds_per_job=args.worlds_per_job,
-                            settle_time=args.settle_time, seed=args.seed)
+                            settle_time=args.settle_time, seed=args.seed, diagnose=not args.no_diagnosis,
+                            diagnosis_rounds=args.diagnosis_rounds, diagnosis_grid=args.diagnosis_grid)
     budget = Budget(args.budget)
     _claim(args, args.out, adopt="workflow.json")
     wf = Workflow(args.out, config, device=device, log=lambda m: print(m, flush=True))
@@ -645,6 +653,12 @@ def main(argv: list[str] | None = None) -> int:
                    help="full: soil-bin worlds per simulation (default 4)")
     r.add_argument("--settle-time", type=_number(float, ge=0, unit="s"), default=0.5,
                    help="full: [s] a bed settles under the soil set before the tool moves (default 0.5)")
+    r.add_argument("--no-diagnosis", action="store_true",
+                   help="full: leave out the last stage, the diagnosis of Table 3")
+    r.add_argument("--diagnosis-rounds", type=_number(int, ge=1), default=3,
+                   help="full: the diagnosis's fit rounds (one grid, then Levenberg-Marquardt)")
+    r.add_argument("--diagnosis-grid", type=_number(int, ge=2), default=5,
+                   help="full: the diagnosis's grid points per gene of a one-gene mechanism")
     r.add_argument("--generations", type=_number(int, ge=1), default=5,
                    help="full: GA generations (default: the paper's 5)")
     r.add_argument("--population", type=_number(int, ge=2), default=20,
@@ -761,6 +775,7 @@ def main(argv: list[str] | None = None) -> int:
                             "refused")
     args = parser.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)
+    args.defaults = {a.dest: a.default for a in sub.choices[args.command]._actions if a.dest != "help"}
     if not args.verbose:
         _quiet_warp()
     _BAR["quiet"] = args.quiet

@@ -333,3 +333,31 @@ def test_the_draught_calibrations_bed_must_fit_the_budget_whole(tmp_path):
             wf.draught(budget)
         assert budget.asked == [(expected, "depositing the draught calibration's bed")]
         assert not (tmp_path / "beds").exists() or not list((tmp_path / "beds").glob("*.npz"))
+
+
+def test_cli_continues_a_run_made_before_its_newer_options(tmp_path, capsys):
+    """A run folder whose claim and workflow.json predate the diagnosis's options (no such keys) is the same run
+    for the same command with those options at their defaults (it continues: exit 3 at the budget again), and
+    another run with one of them changed (exit 2, one line)."""
+    from calibration.cli import main
+
+    out = tmp_path / "wf"
+    args = ["reproduce", "--workflow", "full", "--scale", "ci", "--assembly", "A", "--springs", "16,32",
+            "--generations", "1", "--population", "2", "--parents", "1", "--device", "cpu", "--out", str(out),
+            "--budget", "0.001"]
+    assert main(args) == 3
+    new = {"no_diagnosis": "diagnose", "diagnosis_rounds": "diagnosis_rounds", "diagnosis_grid": "diagnosis_grid"}
+    claim = json.loads((out / ".warpdem-run.json").read_text())
+    spec = json.loads((out / "workflow.json").read_text())
+    for k, field in new.items():
+        del claim[k]
+        del spec["config"][field]
+    del spec["config"]["diagnosis_mechanisms"]
+    (out / ".warpdem-run.json").write_text(json.dumps(claim))
+    (out / "workflow.json").write_text(json.dumps(spec))
+    capsys.readouterr()
+    assert main(args) == 3
+    assert "stopped before a lockstep batch" in capsys.readouterr().err
+    assert main([*args, "--diagnosis-rounds", "2"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "holds another run" in err[0]
