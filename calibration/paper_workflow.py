@@ -591,9 +591,9 @@ class Workflow:
         t3 = measured.from_paper("soil-bin")
         keep = np.isin(t3.summary["springs"], c.springs)
         data = measured.Measured({k: v[keep] for k, v in t3.summary.items()}, t3.units, [], t3.source)
-        knobs = {"friction_angle": soil["friction_angle"], "normal_cohesion": soil["normal_cohesion"],
-                 "shear_cohesion": 0.5 * soil["normal_cohesion"], "eta_roll": soil["eta_roll"],
-                 "eta_twist": soil["eta_roll"]}
+        contact = {"friction_angle": soil["friction_angle"], "normal_cohesion": soil["normal_cohesion"],
+                   "shear_cohesion": 0.5 * soil["normal_cohesion"], "eta_roll": soil["eta_roll"],
+                   "eta_twist": soil["eta_roll"]}  # as run_job gives the Table 3 runs
 
         runs = self.out / "checkpoints" / "diagnosis_runs"
 
@@ -620,7 +620,7 @@ class Workflow:
 
         rig = SoilBinRigModel(data, device=self.device, scale=CALIBRATION_SCALE[c.scale], assembly=c.assembly,
                               seed=c.seed, travel=c.calibration_travel, steady_travel=c.steady_travel,
-                              settle_time=c.settle_time, soil=knobs, max_worlds=len(c.springs),
+                              settle_time=c.settle_time, soil=contact, max_worlds=len(c.springs),
                               cache_dir=str(self.out / "beds"), simulator=simulator)
         return rig
 

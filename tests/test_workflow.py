@@ -361,3 +361,12 @@ def test_cli_continues_a_run_made_before_its_newer_options(tmp_path, capsys):
     assert main([*args, "--diagnosis-rounds", "2"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "holds another run" in err[0]
+
+
+@pytest.mark.parametrize(("field", "value", "named"), [
+    ("diagnosis_rounds", 0, "diagnosis_rounds"), ("diagnosis_grid", 1, "diagnosis_grid"),
+    ("diagnosis_mechanisms", ("load_inertia",), "'load_inertia' is not a soil-bin mechanism"),
+    ("diagnosis_mechanisms", ("no_such",), "'no_such' is not a soil-bin mechanism")])
+def test_bad_diagnosis_settings_are_refused_by_name(field, value, named):
+    with pytest.raises(InputError, match=named):
+        _config(**{field: value})
