@@ -2,10 +2,11 @@
 against the bonds' normal cohesion, everything else the soil of the paper-scale Table 3 run (friction 29.52 deg,
 eta 0.0015; shear cohesion = normal / 2), on the CPU at reduced scale.
 
-    python docs/runs/cohesion_reach/run.py [--out docs/runs/cohesion_reach]
+    python docs/runs/cohesion_reach/run.py [--only soil-bin|shear-box] [--out docs/runs/cohesion_reach]
 
-Writes results.json: per normal cohesion, the soil bin's steady draught [N] with its standard error, the unbroken
-bonds at the start of the cut and at its end, and the shear box's c [kPa] and phi [deg].
+Writes results.json (both parts; with --only, results_soil-bin.json or results_shear-box.json): per normal cohesion,
+the soil bin's steady draught [N] with its standard error, the unbroken bonds at the start of the cut and at its end
+(and along the travel), and the shear box's c [kPa] and phi [deg] with its peaks.
 """
 
 from __future__ import annotations
