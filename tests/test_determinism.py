@@ -7,12 +7,14 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+import pytest
 import warp as wp
 from conftest import DEVICE
 from test_worlds import packing_scene
 
 import warpdem as wd
 from warpdem import accumulate
+from warpdem.errors import InputError
 
 
 @wp.kernel
@@ -339,6 +341,49 @@ def test_world_steps_give_the_bits_of_the_staged_step() -> None:
         np.testing.assert_allclose(e_w, e_s, rtol=0, atol=1e-10 * np.abs(e_s).max())
     assert np.count_nonzero(staged.data.energy.numpy()) >= 6
     assert np.abs(staged.state.body_vel.numpy()).max() > 1e-2  # it moved
+
+
+def test_world_steps_by_a_block_of_threads_give_the_bits_of_the_staged_step() -> None:
+    # Reference: the same run stage by stage (graph_steps=1). With world_lanes=4 each world is a block of 4 threads
+    # (on the CPU, Warp's fibers with wp.config.enable_cpu_blocks; on CUDA the default 32): each stage's spheres,
+    # springs, bodies and meshes dealt out between them, a barrier between stages, lane 0 ending the step. A
+    # barrier left out or a lane taking another branch shows as other bits (or a hang). Energies are float64 sums
+    # whose order follows the lanes: equal to float64 rounding (see the test above).
+    over = {"material:soil:friction_angle": np.array([20.0, 30.0, 40.0]),
+            "damping:soil": np.array([0.1, 0.3, 0.5])}
+
+    def run(world_steps: bool) -> wd.Simulation:
+        model, state = _threaded_scene().finalize(DEVICE, n_worlds=3, overrides=over)
+        sim = wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), graph_steps=1,
+                            world_steps=world_steps, world_lanes=4 if world_steps else None, track_energy=True)
+        for n in (600, 57):
+            sim.advance(n)
+        sim.set_cohesion_now()
+        sim.advance(643)
+        return sim
+
+    blocks = wp.config.enable_cpu_blocks
+    wp.config.enable_cpu_blocks = True
+    try:
+        staged, worlds = run(False), run(True)
+    finally:
+        wp.config.enable_cpu_blocks = blocks
+    assert worlds.world_lanes == 4 and worlds.rebuild_count > 5
+    assert worlds.state.step == staged.state.step == 1300
+    _assert_same_bits(worlds, staged)
+    e_w, e_s = worlds.data.energy.numpy(), staged.data.energy.numpy()
+    np.testing.assert_allclose(e_w, e_s, rtol=0, atol=1e-10 * np.abs(e_s).max())
+    assert np.abs(staged.state.body_vel.numpy()).max() > 1e-2  # it moved
+
+
+def test_world_lanes_are_checked_by_name() -> None:
+    model, state = _threaded_scene().finalize(DEVICE, n_worlds=2)
+    for bad in (0, 2000, 1.5, True):
+        with pytest.raises(InputError, match="world_lanes"):
+            wd.Simulation(model, state, dt=1e-5, world_steps=True, world_lanes=bad)
+    if DEVICE == "cpu" and not wp.config.enable_cpu_blocks:
+        with pytest.raises(InputError, match="enable_cpu_blocks"):
+            wd.Simulation(model, state, dt=1e-5, world_steps=True, world_lanes=2)
 
 
 def test_world_steps_name_the_faulty_step() -> None:

@@ -113,6 +113,18 @@ def _mesh_end_kernel(
         force_acc, torque_acc, force, torque, disp)
 
 
+def _lane_count(lanes: int | None, device: wp.context.Device) -> int:
+    """Threads per world of the world steps: ``lanes`` (checked), else the device's default."""
+    if lanes is None:
+        return world_steps_mod.WORLD_LANES if device.is_cuda else 1
+    if isinstance(lanes, bool) or not isinstance(lanes, int) or not 1 <= lanes <= 1024:
+        raise InputError(f"world_lanes must be an integer from 1 to 1024, got {lanes!r}")
+    if device.is_cpu and lanes > 1 and not wp.config.enable_cpu_blocks:
+        raise InputError(f"world_lanes = {lanes} on the CPU needs wp.config.enable_cpu_blocks = True (a block's "
+                         "threads run as fibers)")
+    return lanes
+
+
 def _thread_count(threads: object) -> int:
     """The CPU threads a simulation may use: ``threads``, or by default cpu_threads.default_threads(); anything but
     a positive integer is refused by name."""
@@ -166,6 +178,10 @@ class Simulation:
             faults and list capacity are checked at the end of each advance (of at least WORLD_STEPS_MIN steps;
             shorter ones run stage by stage). On the CPU the worlds are shared out between ``cpu_threads``
             threads.
+        world_lanes: with ``world_steps``, threads per world (a block; each stage's items are dealt out between
+            them): default ``world_steps.WORLD_LANES`` on CUDA and 1 on the CPU, where more than one needs
+            ``wp.config.enable_cpu_blocks`` (Warp runs a block's threads as fibers there). The same positions,
+            velocities and forces whatever the number.
     """
 
     def __init__(
@@ -186,6 +202,7 @@ class Simulation:
         graph_steps: int = 200,
         cpu_threads: int | None = None,
         world_steps: bool = False,
+        world_lanes: int | None = None,
     ) -> None:
         check_positive("dt", dt)
         check_positive("max_speed", max_speed)
@@ -211,6 +228,7 @@ class Simulation:
         dev = self.device
         ns = model.n_spheres
         self.world_steps = bool(world_steps)
+        self.world_lanes = _lane_count(world_lanes, dev)
         threads = _thread_count(cpu_threads) if dev.is_cpu else 1
         self._share_out(1 if self.world_steps else threads)
         self.data = Data.zeros(model, self.parts)  # the per-step arrays (data.py)
@@ -724,7 +742,7 @@ class Simulation:
         per = [m.spheres_per_world, m.bodies_per_world, m.meshes_per_world, m.springs_per_world]
         lower, upper = wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1])
         cut = self._world_cut
-        lanes = world_steps_mod.WORLD_LANES if self.device.is_cuda else 1
+        lanes = self.world_lanes
         return [wp.launch(
             world_steps_mod.world_steps_kernel, (cut[j + 1] - cut[j], lanes), block_dim=lanes, record_cmd=True,
             inputs=[cut[j], lanes, 0, 0, self.skin, wp.float64(self.dt), *per,

@@ -5,11 +5,11 @@ A step of a small world is a handful of spheres, contacts and bodies, while a la
 it does: a batch of 13 ringing rigs (52 spheres) spends its step in the latency of its seven launches. Here one
 block runs one world's whole step, the stages in the order of :meth:`Simulation._launch_step` (sphere-sphere and
 sphere-triangle contacts and springs, body motion with its fault check, sphere kinematics and the meshes' end of
-step), each stage's items dealt out between the block's threads (``WORLD_LANES`` on CUDA, one on the CPU) with a
-barrier between stages; it then decides as the end-of-step kernel does whether its candidate lists still hold (the
-world's own displacements against the skin), and goes on to the next step, up to ``target`` steps or until its lists
-need a rebuild. The host then rebuilds the lists of all worlds and launches again until every world has reached
-``target``.
+step), each stage's items dealt out between the block's threads (``WORLD_LANES`` on CUDA, one on the CPU by default;
+``Simulation(world_lanes=...)``) with a barrier between stages; it then decides as the end-of-step kernel does
+whether its candidate lists still hold (the world's own displacements against the skin), and goes on to the next
+step, up to ``target`` steps or until its lists need a rebuild. The host then rebuilds the lists of all worlds and
+launches again until every world has reached ``target``.
 
 Each stage is the same function that the one-stage kernels call per sphere, body or mesh, and a world's forces come
 only from its own bodies: with the fixed-point force sums (accumulate.py) every world's positions, velocities and
@@ -40,17 +40,10 @@ DISP_SLOTS = 2
 """per world in ``world_disp``: the meshes' largest displacement, the spheres' (since the last list build) [m]."""
 
 
-_BLOCK_SYNC = """
-#if defined(__CUDA_ARCH__)
-__syncthreads();
-#endif
-"""
-
-
-@wp.func_native(_BLOCK_SYNC)
+@wp.func_native("WP_TILE_SYNC();")
 def block_sync():
-    """A barrier for the threads of a block (CUDA's __syncthreads); nothing on the CPU, whose blocks are one
-    thread."""
+    """A barrier for the threads of a block: CUDA's __syncthreads(); on the CPU a fiber switch where a block has
+    several threads (``wp.config.enable_cpu_blocks``), nothing where it has one."""
     ...
 
 
