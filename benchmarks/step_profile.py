@@ -53,26 +53,30 @@ def bed_simulation(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, devic
     return sim
 
 
-def ringing_simulation(worlds: int, device: str, world_steps: bool = False) -> object:
+def ringing_simulation(worlds: int, device: str, world_steps: bool = False, lanes: int | None = None) -> object:
     """The ringing rig of ``warpdem calibrate ringing`` (16 springs, the paper's spring spheres), ``worlds`` copies,
-    at the time step of scenes.ringing.run_ringing (which runs it with ``world_steps``)."""
+    at the time step of scenes.ringing.run_ringing (which runs it with ``world_steps``); ``lanes``: threads per
+    world (default: the device's)."""
     import warpdem as wd
     from scenes.ringing import RingingConfig, build_ringing, ringing_dt
 
     cfg = RingingConfig(springs=(16,) * worlds, spring_model="paper")
     rig = build_ringing(cfg)
     model, state = rig.builder.finalize(device, n_worlds=worlds, overrides=rig.overrides)
-    return wd.Simulation(model, state, dt=ringing_dt(cfg, model), world_steps=world_steps)
+    return wd.Simulation(model, state, dt=ringing_dt(cfg, model), world_steps=world_steps, world_lanes=lanes)
 
 
 def advance_per_step(worlds: int, device: str, steps: int, every: int = 57) -> dict[str, float]:
     """Wall seconds per step of the ringing batch as a calibration advances it (``every`` steps between records),
-    stage by stage (one launch per stage; several steps per CUDA graph) and a thread per world (world_steps)."""
+    stage by stage (one launch per stage; several steps per CUDA graph), a block of threads per world (world_steps,
+    the device's lanes) and, on CUDA, one thread per world (world_steps_1_lane)."""
     import warp as wp
 
     out = {}
-    for mode in ("stages", "world_steps"):
-        sim = ringing_simulation(worlds, device, world_steps=mode == "world_steps")
+    modes = ("stages", "world_steps") + (("world_steps_1_lane",) if wp.get_device(device).is_cuda else ())
+    for mode in modes:
+        sim = ringing_simulation(worlds, device, world_steps=mode != "stages",
+                                 lanes=1 if mode == "world_steps_1_lane" else None)
         sim.advance(every)
         wp.synchronize_device(device)
         t = time.perf_counter()
