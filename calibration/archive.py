@@ -20,6 +20,14 @@ import numpy as np
 from warpdem.files import write_text_atomic
 
 
+def same_or_extended(saved: dict, current: dict, defaults: dict) -> bool:
+    """Whether a saved set of parameters (a run folder's) names the same run as ``current``: equal in every saved
+    key, and every key that ``current`` adds (an option added since the folder was made) at its value in
+    ``defaults``."""
+    return (set(saved) <= set(current) and all(saved[k] == current[k] for k in saved)
+            and all(k in defaults and current[k] == defaults[k] for k in current if k not in saved))
+
+
 def write_json_atomic(path: str | Path, data: object) -> None:
     """Write JSON through a temporary file and a rename: a run killed while writing leaves the old file intact."""
     write_text_atomic(path, json.dumps(data, indent=1))

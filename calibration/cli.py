@@ -43,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from calibration.archive import same_or_extended
 from scenes.paper import SPRING_COUNTS
 from warpdem.errors import InputError, SimulationError
 from warpdem.files import write_text_atomic
@@ -201,9 +202,7 @@ def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) 
         if held == mine:
             return out
         defaults = json.loads(json.dumps(getattr(args, "defaults", {}), default=str))
-        added = [k for k in mine if k not in held]
-        if (set(held) <= set(mine) and all(held[k] == mine[k] for k in held)
-                and all(k in defaults and mine[k] == defaults[k] for k in added)):
+        if same_or_extended(held, mine, defaults):
             # a run made before these options existed, continued with them at their defaults
             write_text_atomic(claim, json.dumps(mine, indent=1))
             return out

@@ -56,7 +56,7 @@ from warpdem.files import write_atomic
 
 from . import diagnosis as diagnosis_mod
 from . import diagnosis_report, measured
-from .archive import write_json_atomic
+from .archive import same_or_extended, write_json_atomic
 from .ga import accepted_records, calibrate
 from .problems import DraughtProblem, RingingProblem
 from .report import write_report
@@ -265,30 +265,9 @@ def replicas_needed(sems: list[float], n: int, target: float, most: int) -> int:
 
 
 # ------------------------------------------------------------------------------------------------ the run
-def _save_run(path: Path, run: sb.SoilBinRun) -> None:
-    """A soil-bin run into one .npz (its arrays, and the rest as JSON)."""
-    meta = {"springs": list(run.springs), "speeds": list(run.speeds), "steady": run.steady,
-            "n_particles": run.n_particles, "n_spheres": run.n_spheres, "dt": run.dt, "steps": run.steps,
-            "wall_s": run.wall_s, "series": sorted(run.series)}
-    arrays = {"time": run.time, "travel": run.travel, **{f"series_{k}": v for k, v in run.series.items()}}
-    write_atomic(path, lambda tmp: np.savez_compressed(tmp, meta=json.dumps(sb.json_safe(meta)), **arrays))
-
-
-def _load_run(path: Path) -> sb.SoilBinRun:
-    """What :func:`_save_run` wrote."""
-    with np.load(path) as z:
-        meta = json.loads(str(z["meta"]))
-        return sb.SoilBinRun(tuple(meta["springs"]), tuple(meta["speeds"]), z["time"], z["travel"],
-                             {k: z[f"series_{k}"] for k in meta["series"]}, meta["steady"], meta["n_particles"],
-                             meta["n_spheres"], meta["dt"], meta["steps"], meta["wall_s"])
-
-
-def _same_config(saved: dict, current: dict) -> bool:
-    """Whether a run folder's saved configuration is ``current``: equal in every saved field, and every field added
-    to :class:`WorkflowConfig` since the folder was made (absent from ``saved``) at its default."""
-    default = WorkflowConfig().to_dict()
-    return (set(saved) <= set(current) and all(saved[k] == current[k] for k in saved)
-            and all(current[k] == default[k] for k in current if k not in saved))
+def bed_fingerprint(bed: sb.Bed) -> str:
+    """A deposited bed's identity: the first 16 hex digits of the SHA-1 of its sphere centres."""
+    return hashlib.sha1(np.ascontiguousarray(bed.centres).tobytes()).hexdigest()[:16]
 
 
 class Workflow:
@@ -304,7 +283,8 @@ class Workflow:
         spec = {"config": self.config.to_dict()}
         if meta.exists():
             saved = json.loads(meta.read_text())
-            if not _same_config(saved.get("config", {}), spec["config"]):
+            # a folder made before a field was added is this run if the new field is at its default
+            if not same_or_extended(saved.get("config", {}), spec["config"], WorkflowConfig().to_dict()):
                 raise InputError(f"{str(self.out)!r} holds a workflow with another configuration; choose another "
                                  "--out (or remove that folder)")
         else:
@@ -332,7 +312,7 @@ class Workflow:
     def _bed_fingerprint(self, key: str, bed: sb.Bed) -> tuple[str, str | None]:
         """(this bed's fingerprint, the one recorded under ``key`` before if it differs, else None); records it.
         A bed missing from ``beds/`` is deposited again: the same bed on the CPU, another realisation on CUDA."""
-        fp = hashlib.sha1(np.ascontiguousarray(bed.centres).tobytes()).hexdigest()[:16]
+        fp = bed_fingerprint(bed)
         p = self._path("beds.json")
         known = json.loads(p.read_text()) if p.exists() else {}
         old = known.get(key)
@@ -596,6 +576,7 @@ class Workflow:
                    "eta_twist": soil["eta_roll"]}  # as run_job gives the Table 3 runs
 
         runs = self.out / "checkpoints" / "diagnosis_runs"
+        bed_key: list[str] = []  # the bed's fingerprint, taken once
 
         def simulator(config: sb.SoilBinConfig, springs: list[int], speeds: list[float],
                       knobs: dict[str, list[float]] | None, soil_overrides: dict[str, list[float]] | None
@@ -603,11 +584,13 @@ class Workflow:
             """run_soil_bin, each run kept (``checkpoints/diagnosis_runs/``) so that a stopped diagnosis does not
             simulate it again, whatever it had saved."""
             bed = rig.bed()
-            what = json.dumps(sb.json_safe([asdict(config), springs, speeds, knobs, soil_overrides,
-                                            self._bed_fingerprint("diagnosis", bed)[0]]), sort_keys=True)
+            if not bed_key:
+                bed_key.append(bed_fingerprint(bed))
+            what = json.dumps(sb.json_safe([asdict(config), springs, speeds, knobs, soil_overrides, bed_key[0]]),
+                              sort_keys=True)
             path = runs / f"{hashlib.sha1(what.encode()).hexdigest()[:20]}.npz"
             if path.exists():
-                return _load_run(path)
+                return sb.SoilBinRun.load(path)
             per_world = self._timing("diagnosis_per_world", self._timing("draught_per_world"))
             budget.require(per_world * len(springs), f"a diagnosis simulation of {len(springs)} worlds")
             t0 = time.perf_counter()
@@ -615,7 +598,7 @@ class Workflow:
                                   soil_overrides=soil_overrides)
             self._timed("diagnosis_per_world", (time.perf_counter() - t0) / len(springs))
             runs.mkdir(parents=True, exist_ok=True)
-            _save_run(path, run)
+            run.save(path)
             return run
 
         rig = SoilBinRigModel(data, device=self.device, scale=CALIBRATION_SCALE[c.scale], assembly=c.assembly,

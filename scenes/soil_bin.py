@@ -27,7 +27,7 @@ import hashlib
 import json
 import math
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +35,7 @@ import numpy as np
 import warpdem as wd
 from warpdem import analysis
 from warpdem.errors import BudgetExhausted, InputError
+from warpdem.files import write_atomic
 from warpdem.vtk import VtkWriter
 
 from . import paper
@@ -294,6 +295,24 @@ class SoilBinRun:
     dt: float = 0.0
     steps: int = 0
     wall_s: float = 0.0
+
+    def save(self, path: str | Path) -> None:
+        """Into one .npz (written atomically): the arrays as arrays, the rest as JSON (NaN kept as NaN); :meth:`load`
+        reads it back."""
+        meta = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("time", "travel", "series")}
+        meta["series"] = sorted(self.series)
+        arrays = {"time": self.time, "travel": self.travel, **{f"series_{k}": v for k, v in self.series.items()}}
+        write_atomic(Path(path), lambda tmp: np.savez_compressed(
+            tmp, meta=json.dumps(meta, default=lambda o: o.item() if hasattr(o, "item") else str(o)), **arrays))
+
+    @classmethod
+    def load(cls, path: str | Path) -> SoilBinRun:
+        """A run written by :meth:`save`."""
+        with np.load(path) as z:
+            meta = json.loads(str(z["meta"]))
+            series = {k: z[f"series_{k}"] for k in meta.pop("series")}
+            meta["springs"], meta["speeds"] = tuple(meta["springs"]), tuple(meta["speeds"])
+            return cls(time=z["time"], travel=z["travel"], series=series, **meta)
 
 
 def _check_knobs(knobs: dict[str, object] | None, n_worlds: int, rigid: bool, spring_model: str

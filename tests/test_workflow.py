@@ -370,3 +370,25 @@ def test_cli_continues_a_run_made_before_its_newer_options(tmp_path, capsys):
 def test_bad_diagnosis_settings_are_refused_by_name(field, value, named):
     with pytest.raises(InputError, match=named):
         _config(**{field: value})
+
+
+def test_a_kept_soil_bin_run_reads_back_as_it_was(tmp_path):
+    """SoilBinRun.save/load (the diagnosis's kept runs): arrays, series and steady rows as written, NaN (a failed
+    extraction) kept as NaN, integers as integers."""
+    from scenes import soil_bin as sb
+
+    run = sb.SoilBinRun((16, 32), (0.68, 0.52), np.arange(3.0), np.ones((3, 2)),
+                        {"draught": np.arange(6.0).reshape(3, 2), "ke_tool": np.zeros((3, 2, 2))},
+                        [{"springs": np.int64(16), "draught_mean": np.float64(1.5), "draught_sem": math.nan},
+                         {"springs": 32, "draught_mean": 2.5, "draught_sem": 0.1}], 5, 7, 1e-5, 100, 2.5)
+    run.save(tmp_path / "run.npz")
+    back = sb.SoilBinRun.load(tmp_path / "run.npz")
+    assert (back.springs, back.speeds, back.n_particles, back.n_spheres, back.dt, back.steps, back.wall_s) == \
+        ((16, 32), (0.68, 0.52), 5, 7, 1e-5, 100, 2.5)
+    for k in ("time", "travel"):
+        np.testing.assert_array_equal(getattr(back, k), getattr(run, k))
+    assert sorted(back.series) == ["draught", "ke_tool"]
+    for k, v in run.series.items():
+        np.testing.assert_array_equal(back.series[k], v)
+    assert back.steady[0]["springs"] == 16 and math.isnan(back.steady[0]["draught_sem"])
+    assert back.steady[1] == run.steady[1]
