@@ -66,13 +66,15 @@ def ringing_simulation(worlds: int, device: str, world_steps: bool = False, lane
     return wd.Simulation(model, state, dt=ringing_dt(cfg, model), world_steps=world_steps, world_lanes=lanes)
 
 
-def advance_per_step(worlds: int, device: str, steps: int, every: int = 57) -> dict[str, float]:
+def advance_per_step(worlds: int, device: str, steps: int, every: int = 57
+                     ) -> tuple[dict[str, float], dict[str, dict[str, float]]]:
     """Wall seconds per step of the ringing batch as a calibration advances it (``every`` steps between records),
     stage by stage (one launch per stage; several steps per CUDA graph), a block of threads per world (world_steps,
-    the device's lanes) and, on CUDA, one thread per world (world_steps_1_lane)."""
+    the device's lanes) and, on CUDA, one thread per world (world_steps_1_lane); on CUDA also each world-step
+    mode's clock cycles per stage (:func:`stage_cycles`)."""
     import warp as wp
 
-    out = {}
+    out, cycles = {}, {}
     modes = ("stages", "world_steps") + (("world_steps_1_lane",) if wp.get_device(device).is_cuda else ())
     for mode in modes:
         sim = ringing_simulation(worlds, device, world_steps=mode != "stages",
@@ -84,6 +86,22 @@ def advance_per_step(worlds: int, device: str, steps: int, every: int = 57) -> d
             sim.advance(every)
         wp.synchronize_device(device)
         out[mode] = (time.perf_counter() - t) / (max(1, steps // every) * every)
+        if mode != "stages" and wp.get_device(device).is_cuda:
+            cycles[mode] = stage_cycles(sim, (1 + max(1, steps // every)) * every)
+    return out, cycles
+
+
+def stage_cycles(sim: object, steps: int) -> dict[str, float]:
+    """Per step, mean over worlds, the CUDA clock cycles of each stage of a world's step (world_steps.STAGES):
+    ``STAGE`` the stage with its barrier as lane 0 sees it, ``STAGE_busy`` the busiest lane's own work."""
+    from warpdem import world_steps
+
+    lanes = sim.world_lanes
+    c = sim.world_stage_cycles.numpy().reshape(sim.model.n_worlds, lanes + 1, len(world_steps.STAGES)) / steps
+    out = {}
+    for q, name in enumerate(world_steps.STAGES):
+        out[name] = float(c[:, lanes, q].mean())
+        out[name + "_busy"] = float(c[:, :lanes, q].max(axis=1).mean())
     return out
 
 
@@ -143,13 +161,17 @@ def main() -> None:
                    help="ringing: time advance() as a calibration runs it, stage by stage and a thread per world")
     args = p.parse_args()
     if args.scene == "ringing" and args.advance:
-        per = advance_per_step(args.worlds, args.device, args.steps)
+        per, cycles = advance_per_step(args.worlds, args.device, args.steps)
         print(f"ringing, {args.worlds} worlds on {args.device}, advance() in 57-step records: "
               + ", ".join(f"{k} {1e6 * v:.1f} us/step" for k, v in per.items()))
+        for mode, c in cycles.items():
+            print(f"  {mode}, clock cycles per step (a stage with its barrier / its busiest lane's work): "
+                  + ", ".join(f"{k} {c[k]:.0f} / {c[k + '_busy']:.0f}" for k in c if not k.endswith("_busy")))
         if args.json:
             with open(args.json, "a") as f:
                 f.write(json.dumps({"scene": "ringing-advance", "device": args.device, "worlds": args.worlds,
-                                    "steps": args.steps, "us_per_step": {k: 1e6 * v for k, v in per.items()}}) + "\n")
+                                    "steps": args.steps, "us_per_step": {k: 1e6 * v for k, v in per.items()},
+                                    "cycles_per_step": cycles}) + "\n")
         return
     if args.scene == "ringing":
         sim = ringing_simulation(args.worlds, args.device)

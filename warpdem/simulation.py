@@ -241,6 +241,11 @@ class Simulation:
             self._world_fault = wp.array(np.full(nw * world_steps_mod.FAULT_SLOTS, NO_FAULT, np.int32), dtype=int,
                                          device=dev)
             self._no_cohesion = wp.zeros(1, dtype=int, device=dev)
+            # CUDA clock cycles per world and stage of world_steps.STAGES, summed over advances (zeros on the CPU):
+            # shape (n_worlds, world_lanes + 1, 4) flattened; slot ``lane`` a lane's own work, the last slot the
+            # stage with its barrier (world_steps_kernel)
+            self.world_stage_cycles = wp.zeros(nw * (self.world_lanes + 1) * len(world_steps_mod.STAGES),
+                                               dtype=wp.int64, device=dev)
 
         self.materials = Materials()
         tan_friction = wp.empty_like(model.mat_friction)  # taken once here, not per contact and step
@@ -759,7 +764,7 @@ class Simulation:
                      s.body_angvel, s.body_angmom, d.force_acc, d.torque_acc, d.force_scale, d.torque_scale,
                      d.mesh_force_acc, d.mesh_torque_acc, d.mesh_force_scale, d.mesh_torque_scale, d.energy,
                      d.body_force, d.body_torque, d.mesh_force, d.mesh_torque, d.spring_force, self._world_step,
-                     self._world_flag, self._world_disp, self._world_fault],
+                     self._world_flag, self._world_disp, self._world_fault, self.world_stage_cycles],
             device=self.device,
         ) for j in range(len(cut) - 1)]
 

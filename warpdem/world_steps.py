@@ -31,6 +31,7 @@ from .integrator import integrate_body, mesh_end_one, spring_one, update_sphere
 wp.set_module_options({"enable_backward": False})
 
 NO_FAULT_W = wp.constant(NO_FAULT)
+vec4l = wp.types.vector(4, wp.int64)
 FAULT_SLOTS = 6
 """per world in ``world_fault``: the step's fault (body, cause, step), then the world's first (body, cause, step)."""
 WORLD_LANES = 32
@@ -38,6 +39,21 @@ WORLD_LANES = 32
 step's contact law, leapfrog and kinematics one item after another at the latency of each dependent instruction."""
 DISP_SLOTS = 2
 """per world in ``world_disp``: the meshes' largest displacement, the spheres' (since the last list build) [m]."""
+STAGES = ("contacts", "bodies", "spheres", "end")
+"""the stages of a world's step, as timed in ``stage_cycles``: contacts and springs; body motion; sphere kinematics
+and the meshes' end of step; the end-of-step decision."""
+
+
+@wp.func_native("""
+#if defined(__CUDA_ARCH__)
+return clock64();
+#else
+return 0;
+#endif
+""")
+def cycle_count() -> wp.int64:
+    """The SM's clock counter on CUDA (cycles); 0 on the CPU."""
+    ...
 
 
 @wp.func_native("WP_TILE_SYNC();")
@@ -138,11 +154,16 @@ def world_steps_kernel(
     world_flag: wp.array(dtype=int),
     world_disp: wp.array(dtype=float),
     world_fault: wp.array(dtype=int),
+    stage_cycles: wp.array(dtype=wp.int64),
 ):
     """World w's steps from world_step[w] up to ``target`` or until its candidate lists need a rebuild
     (world_flag[w] = 1), by a block of ``lanes`` threads: each stage's items (spheres, bodies, meshes, springs) dealt
     out between them, a barrier between stages. The one-step request for cohesion (``Data.cohesion_now``) is not
-    read: the caller runs such a step the ordinary way; ``no_cohesion`` is a zero flag passed in its place."""
+    read: the caller runs such a step the ordinary way; ``no_cohesion`` is a zero flag passed in its place.
+
+    ``stage_cycles`` (int64, shape (n_worlds * (lanes + 1) * 4,), CUDA clock cycles; zeros on the CPU) adds up,
+    per world and stage of ``STAGES``, each lane's own work (slot ``lane``) and the stage's whole time with its
+    barrier as lane 0 sees it (slot ``lanes``)."""
     t, lane = wp.tid()
     w = t + first_world
     k = world_step[w]
@@ -155,7 +176,10 @@ def world_steps_kernel(
     contact_items = spw
     if mpw > 0:
         contact_items = 2 * spw
+    busy = vec4l()  # cycles per stage: this lane's work, and the stage with its barrier (lane 0)
+    wall = vec4l()
     while k < target:
+        c_0 = cycle_count()
         # contacts and springs: they only add to the fixed-point sums, whose order does not matter
         for q in range(lane, contact_items, lanes):
             if q < spw:
@@ -176,7 +200,9 @@ def world_steps_kernel(
                 spring_rest_length, spring_preload, spring_progressive, spring_stop_stiffness, body_world, opts.dt,
                 opts.track_energy, body_pos, body_quat, body_vel, body_angvel, force_acc, torque_acc, force_scale,
                 torque_scale, spring_force, energy)
+        c_1 = cycle_count()
         block_sync()
+        c_2 = cycle_count()
         step = first_step + k + 1
         for b in range(b0 + lane, b0 + bpw, lanes):
             integrate_body(
@@ -184,7 +210,9 @@ def world_steps_kernel(
                 body_pivot_friction, group_damping, n_groups, gravity, dt, opts.track_energy,
                 force_scale, torque_scale, 1, 0, max_speed, lower, upper, step, fb, force_acc, torque_acc, body_pos,
                 body_quat, body_vel, body_angvel, body_angmom, energy, body_force, body_torque, world_fault)
+        c_3 = cycle_count()
         block_sync()
+        c_4 = cycle_count()
         for i in range(s0 + lane, s0 + spw, lanes):
             update_sphere(i, sphere_body, sphere_offset, body_pos, body_quat, body_vel, body_angvel, sphere_pos,
                           sphere_vel, sphere_angvel, sphere_arm, build_pos, dm + 1, world_disp)
@@ -193,7 +221,9 @@ def world_steps_kernel(
                          mesh_build_pos, mesh_build_quat, mesh_force_acc, mesh_torque_acc, mesh_force, mesh_torque,
                          world_disp)
         k += 1
+        c_5 = cycle_count()
         block_sync()
+        c_6 = cycle_count()
         # the end of the step, for this world (simulation._end_step_kernel): every lane reads the displacements
         # and takes the same decision; then lane 0 resets them and files the step's fault
         ds = world_disp[dm + 1]
@@ -210,10 +240,19 @@ def world_steps_kernel(
             world_disp[dm + 1] = 0.0
             if rebuild:
                 world_flag[w] = 1
+        c_7 = cycle_count()
+        busy += vec4l(c_1 - c_0, c_3 - c_2, c_5 - c_4, c_7 - c_6)
+        wall += vec4l(c_2 - c_0, c_4 - c_2, c_6 - c_4, c_7 - c_6)
         if rebuild:
             break
+    slot = (w * (lanes + 1) + lane) * 4
+    for q in range(4):
+        stage_cycles[slot + q] = stage_cycles[slot + q] + busy[q]
     if lane == 0:
         world_step[w] = k
+        slot = (w * (lanes + 1) + lanes) * 4
+        for q in range(4):
+            stage_cycles[slot + q] = stage_cycles[slot + q] + wall[q]
 
 
 @wp.kernel
