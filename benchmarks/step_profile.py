@@ -53,32 +53,39 @@ def bed_simulation(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, devic
     return sim
 
 
-def ringing_simulation(worlds: int, device: str, world_steps: bool = False, lanes: int | None = None) -> object:
+def ringing_simulation(worlds: int, device: str, world_steps: bool = False, lanes: int | None = None,
+                       stride: int | None = None) -> object:
     """The ringing rig of ``warpdem calibrate ringing`` (16 springs, the paper's spring spheres), ``worlds`` copies,
-    at the time step of scenes.ringing.run_ringing (which runs it with ``world_steps``); ``lanes``: threads per
-    world (default: the device's)."""
+    at the time step of scenes.ringing.run_ringing (which runs it with ``world_steps``); ``lanes``, ``stride``:
+    threads per world and the stride between those that take items (default: the device's)."""
     import warpdem as wd
     from scenes.ringing import RingingConfig, build_ringing, ringing_dt
 
     cfg = RingingConfig(springs=(16,) * worlds, spring_model="paper")
     rig = build_ringing(cfg)
     model, state = rig.builder.finalize(device, n_worlds=worlds, overrides=rig.overrides)
-    return wd.Simulation(model, state, dt=ringing_dt(cfg, model), world_steps=world_steps, world_lanes=lanes)
+    return wd.Simulation(model, state, dt=ringing_dt(cfg, model), world_steps=world_steps, world_lanes=lanes,
+                          world_lane_stride=stride)
 
 
 def advance_per_step(worlds: int, device: str, steps: int, every: int = 57
                      ) -> tuple[dict[str, float], dict[str, dict[str, float]]]:
     """Wall seconds per step of the ringing batch as a calibration advances it (``every`` steps between records),
     stage by stage (one launch per stage; several steps per CUDA graph), a block of threads per world (world_steps,
-    the device's lanes) and, on CUDA, one thread per world (world_steps_1_lane); on CUDA also each world-step
-    mode's clock cycles per stage (:func:`stage_cycles`)."""
+    the device's layout) and, on CUDA, one warp of 32 threads per world that all take items (world_steps_warp) and
+    one thread per world (world_steps_1_lane); on CUDA also each world-step mode's clock cycles per stage
+    (:func:`stage_cycles`)."""
     import warp as wp
 
     out, cycles = {}, {}
-    modes = ("stages", "world_steps") + (("world_steps_1_lane",) if wp.get_device(device).is_cuda else ())
+    layouts = {"stages": (None, None), "world_steps": (None, None), "world_steps_warp": (32, 1),
+               "world_steps_1_lane": (1, 1)}
+    modes = ("stages", "world_steps")
+    if wp.get_device(device).is_cuda:
+        modes += ("world_steps_warp", "world_steps_1_lane")
     for mode in modes:
-        sim = ringing_simulation(worlds, device, world_steps=mode != "stages",
-                                 lanes=1 if mode == "world_steps_1_lane" else None)
+        lanes, stride = layouts[mode]
+        sim = ringing_simulation(worlds, device, world_steps=mode != "stages", lanes=lanes, stride=stride)
         sim.advance(every)
         wp.synchronize_device(device)
         t = time.perf_counter()
@@ -159,7 +166,13 @@ def main() -> None:
     p.add_argument("--json", default=None, help="append the result to this JSON-lines file")
     p.add_argument("--advance", action="store_true",
                    help="ringing: time advance() as a calibration runs it, stage by stage and a thread per world")
+    p.add_argument("--lineinfo", action="store_true",
+                   help="compile CUDA kernels with line information (for a profiler such as Nsight Compute)")
     args = p.parse_args()
+    if args.lineinfo:
+        import warp as wp
+
+        wp.config.lineinfo = True
     if args.scene == "ringing" and args.advance:
         per, cycles = advance_per_step(args.worlds, args.device, args.steps)
         print(f"ringing, {args.worlds} worlds on {args.device}, advance() in 57-step records: "

@@ -343,19 +343,22 @@ def test_world_steps_give_the_bits_of_the_staged_step() -> None:
     assert np.abs(staged.state.body_vel.numpy()).max() > 1e-2  # it moved
 
 
-def test_world_steps_by_a_block_of_threads_give_the_bits_of_the_staged_step() -> None:
+@pytest.mark.parametrize("stride", [1, 2])
+def test_world_steps_by_a_block_of_threads_give_the_bits_of_the_staged_step(stride: int) -> None:
     # Reference: the same run stage by stage (graph_steps=1). With world_lanes=4 each world is a block of 4 threads
-    # (on the CPU, Warp's fibers with wp.config.enable_cpu_blocks; on CUDA the default 32): each stage's spheres,
-    # springs, bodies and meshes dealt out between them, a barrier between stages, lane 0 ending the step. A
-    # barrier left out or a lane taking another branch shows as other bits (or a hang). Energies are float64 sums
-    # whose order follows the lanes: equal to float64 rounding (see the test above).
+    # (on the CPU, Warp's fibers with wp.config.enable_cpu_blocks): each stage's spheres, springs, bodies and meshes
+    # dealt out between every stride-th of them (stride 2: threads 0 and 2 take items, as CUDA's first thread of
+    # each warp does), a barrier between stages, lane 0 ending the step. A barrier left out or a lane taking
+    # another branch shows as other bits (or a hang). Energies are float64 sums whose order follows the lanes:
+    # equal to float64 rounding (see the test above).
     over = {"material:soil:friction_angle": np.array([20.0, 30.0, 40.0]),
             "damping:soil": np.array([0.1, 0.3, 0.5])}
 
     def run(world_steps: bool) -> wd.Simulation:
         model, state = _threaded_scene().finalize(DEVICE, n_worlds=3, overrides=over)
         sim = wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), graph_steps=1,
-                            world_steps=world_steps, world_lanes=4 if world_steps else None, track_energy=True)
+                            world_steps=world_steps, world_lanes=4 if world_steps else None,
+                            world_lane_stride=stride if world_steps else None, track_energy=True)
         for n in (600, 57):
             sim.advance(n)
         sim.set_cohesion_now()
@@ -368,7 +371,7 @@ def test_world_steps_by_a_block_of_threads_give_the_bits_of_the_staged_step() ->
         staged, worlds = run(False), run(True)
     finally:
         wp.config.enable_cpu_blocks = blocks
-    assert worlds.world_lanes == 4 and worlds.rebuild_count > 5
+    assert worlds.world_lanes == 4 and worlds.world_lane_stride == stride and worlds.rebuild_count > 5
     assert worlds.state.step == staged.state.step == 1300
     _assert_same_bits(worlds, staged)
     e_w, e_s = worlds.data.energy.numpy(), staged.data.energy.numpy()
@@ -381,6 +384,9 @@ def test_world_lanes_are_checked_by_name() -> None:
     for bad in (0, 2000, 1.5, True):
         with pytest.raises(InputError, match="world_lanes"):
             wd.Simulation(model, state, dt=1e-5, world_steps=True, world_lanes=bad)
+    for bad in (0, 3, 1.5, True):
+        with pytest.raises(InputError, match="world_lane_stride"):
+            wd.Simulation(model, state, dt=1e-5, world_steps=True, world_lanes=1, world_lane_stride=bad)
     if DEVICE == "cpu" and not wp.config.enable_cpu_blocks:
         with pytest.raises(InputError, match="enable_cpu_blocks"):
             wd.Simulation(model, state, dt=1e-5, world_steps=True, world_lanes=2)

@@ -113,16 +113,28 @@ def _mesh_end_kernel(
         force_acc, torque_acc, force, torque, disp)
 
 
-def _lane_count(lanes: int | None, device: wp.context.Device) -> int:
-    """Threads per world of the world steps: ``lanes`` (checked), else the device's default."""
+def _lane_layout(lanes: int | None, stride: int | None, model: Model) -> tuple[int, int]:
+    """Threads per world of the world steps and the stride between the threads that take items: ``lanes`` and
+    ``stride`` (checked), else the device's default (CUDA: world_steps.lane_layout; the CPU: one thread)."""
+    device = model.device
+    if lanes is None and stride is None:
+        if device.is_cpu:
+            return 1, 1
+        return world_steps_mod.lane_layout(model.spheres_per_world, model.bodies_per_world, model.meshes_per_world,
+                                           model.springs_per_world)
     if lanes is None:
-        return world_steps_mod.WORLD_LANES if device.is_cuda else 1
+        lanes = world_steps_mod.WORLD_LANES if device.is_cuda else 1
     if isinstance(lanes, bool) or not isinstance(lanes, int) or not 1 <= lanes <= 1024:
         raise InputError(f"world_lanes must be an integer from 1 to 1024, got {lanes!r}")
+    if stride is None:
+        stride = 1
+    if isinstance(stride, bool) or not isinstance(stride, int) or stride < 1 or lanes % stride != 0:
+        raise InputError(f"world_lane_stride must be a positive integer that divides world_lanes = {lanes}, "
+                         f"got {stride!r}")
     if device.is_cpu and lanes > 1 and not wp.config.enable_cpu_blocks:
         raise InputError(f"world_lanes = {lanes} on the CPU needs wp.config.enable_cpu_blocks = True (a block's "
                          "threads run as fibers)")
-    return lanes
+    return lanes, stride
 
 
 def _thread_count(threads: object) -> int:
@@ -179,9 +191,12 @@ class Simulation:
             shorter ones run stage by stage). On the CPU the worlds are shared out between ``cpu_threads``
             threads.
         world_lanes: with ``world_steps``, threads per world (a block; each stage's items are dealt out between
-            them): default ``world_steps.WORLD_LANES`` on CUDA and 1 on the CPU, where more than one needs
-            ``wp.config.enable_cpu_blocks`` (Warp runs a block's threads as fibers there). The same positions,
-            velocities and forces whatever the number.
+            them); on the CPU more than one needs ``wp.config.enable_cpu_blocks`` (Warp runs a block's threads as
+            fibers there). The same positions, velocities and forces whatever the number.
+        world_lane_stride: with ``world_steps``, every ``world_lane_stride``-th thread of a world's block takes
+            items (it divides ``world_lanes``; default 1). Both left out: on CUDA ``world_steps.lane_layout`` (a
+            small world gives each item a warp of its own; a larger one, one warp of 32 threads), on the CPU one
+            thread.
     """
 
     def __init__(
@@ -203,6 +218,7 @@ class Simulation:
         cpu_threads: int | None = None,
         world_steps: bool = False,
         world_lanes: int | None = None,
+        world_lane_stride: int | None = None,
     ) -> None:
         check_positive("dt", dt)
         check_positive("max_speed", max_speed)
@@ -228,7 +244,7 @@ class Simulation:
         dev = self.device
         ns = model.n_spheres
         self.world_steps = bool(world_steps)
-        self.world_lanes = _lane_count(world_lanes, dev)
+        self.world_lanes, self.world_lane_stride = _lane_layout(world_lanes, world_lane_stride, model)
         threads = _thread_count(cpu_threads) if dev.is_cpu else 1
         self._share_out(1 if self.world_steps else threads)
         self.data = Data.zeros(model, self.parts)  # the per-step arrays (data.py)
@@ -734,8 +750,8 @@ class Simulation:
         if self._world_ops is None:
             self._world_ops = self._record_worlds()
         for op in self._world_ops:
-            op.set_param_at_index(2, target)
-            op.set_param_at_index(3, self.state.step)
+            op.set_param_at_index(3, target)
+            op.set_param_at_index(4, self.state.step)
         if len(self._world_ops) > 1:
             cpu_threads.Parallel("worlds", [[op.launch] for op in self._world_ops])()
         else:
@@ -750,7 +766,7 @@ class Simulation:
         lanes = self.world_lanes
         return [wp.launch(
             world_steps_mod.world_steps_kernel, (cut[j + 1] - cut[j], lanes), block_dim=lanes, record_cmd=True,
-            inputs=[cut[j], lanes, 0, 0, self.skin, wp.float64(self.dt), *per,
+            inputs=[cut[j], lanes, self.world_lane_stride, 0, 0, self.skin, wp.float64(self.dt), *per,
                     m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, m.sphere_offset,
                     m.mesh_body, m.mesh_material, m.mesh_tri_offset, d.mesh_rmax, m.tri_vertices,
                     m.spring_body_a, m.spring_body_b, m.spring_point_a, m.spring_point_b, m.spring_stiffness,

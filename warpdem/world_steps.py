@@ -35,8 +35,16 @@ vec4l = wp.types.vector(4, wp.int64)
 FAULT_SLOTS = 6
 """per world in ``world_fault``: the step's fault (body, cause, step), then the world's first (body, cause, step)."""
 WORLD_LANES = 32
-"""threads per world on CUDA (one warp): a world's items of a stage run side by side. A single GPU thread runs a
-step's contact law, leapfrog and kinematics one item after another at the latency of each dependent instruction."""
+"""threads per world on CUDA for a world of many items (one warp, every thread taking items): a world's items of a
+stage run side by side. A single GPU thread runs a step's contact law, leapfrog and kinematics one item after
+another at the latency of each dependent instruction."""
+WARP = 32
+"""threads of a CUDA warp. Threads of one warp that take different branches run one branch after the other, so a
+small world gives each item its own warp (``lane_layout``): a sphere's contacts, a spring and a body then run side
+by side instead of in turn."""
+MAX_ITEM_WARPS = 8
+"""warps per world at most when each item has its own warp: the kernel takes up to 255 registers a thread, and
+an SM's 65,536 registers hold 256 such threads."""
 DISP_SLOTS = 2
 """per world in ``world_disp``: the meshes' largest displacement, the spheres' (since the last list build) [m]."""
 STAGES = ("contacts", "bodies", "spheres", "end")
@@ -56,6 +64,22 @@ def cycle_count() -> wp.int64:
     ...
 
 
+def stage_items(spw: int, bpw: int, mpw: int, kpw: int) -> int:
+    """The most items of one stage of a world's step: the contacts' (a sphere's sphere and triangle candidates, a
+    spring), the bodies, or the spheres' and meshes' end of step."""
+    return max(spw * (2 if mpw > 0 else 1) + kpw, bpw, spw + mpw)
+
+
+def lane_layout(spw: int, bpw: int, mpw: int, kpw: int) -> tuple[int, int]:
+    """CUDA's default (threads per world, stride) for a world of these spheres, bodies, meshes and springs: at most
+    2 * MAX_ITEM_WARPS items in every stage, an item per warp (the first thread of each of up to MAX_ITEM_WARPS
+    warps takes items, stride WARP); more, one warp of WORLD_LANES threads that all take items (stride 1)."""
+    items = stage_items(spw, bpw, mpw, kpw)
+    if items <= 2 * MAX_ITEM_WARPS:
+        return WARP * max(1, min(MAX_ITEM_WARPS, items)), WARP
+    return WORLD_LANES, 1
+
+
 @wp.func_native("WP_TILE_SYNC();")
 def block_sync():
     """A barrier for the threads of a block: CUDA's __syncthreads(); on the CPU a fiber switch where a block has
@@ -67,6 +91,7 @@ def block_sync():
 def world_steps_kernel(
     first_world: int,  # the first world of this launch (a CPU thread's share)
     lanes: int,  # threads per world (the launch's block size): 1 on the CPU
+    stride: int,  # every stride-th thread of the block takes items (lanes a multiple of it)
     target: int,
     first_step: int,  # the simulation's step count when world_step was 0
     skin: float,
@@ -158,8 +183,9 @@ def world_steps_kernel(
 ):
     """World w's steps from world_step[w] up to ``target`` or until its candidate lists need a rebuild
     (world_flag[w] = 1), by a block of ``lanes`` threads: each stage's items (spheres, bodies, meshes, springs) dealt
-    out between them, a barrier between stages. The one-step request for cohesion (``Data.cohesion_now``) is not
-    read: the caller runs such a step the ordinary way; ``no_cohesion`` is a zero flag passed in its place.
+    out between every ``stride``-th of them, a barrier between stages. The one-step request for cohesion
+    (``Data.cohesion_now``) is not read: the caller runs such a step the ordinary way; ``no_cohesion`` is a zero
+    flag passed in its place.
 
     ``stage_cycles`` (int64, shape (n_worlds * (lanes + 1) * 4,), CUDA clock cycles; zeros on the CPU) adds up,
     per world and stage of ``STAGES``, each lane's own work (slot ``lane``) and the stage's whole time with its
@@ -176,13 +202,23 @@ def world_steps_kernel(
     contact_items = spw
     if mpw > 0:
         contact_items = 2 * spw
+    slot = lane // stride  # a thread that takes items: slot ``slot`` of ``slots``
+    slots = lanes // stride
+    if lane % stride != 0:
+        slot = 1 << 29  # takes none
     busy = vec4l()  # cycles per stage: this lane's work, and the stage with its barrier (lane 0)
     wall = vec4l()
     while k < target:
         c_0 = cycle_count()
         # contacts and springs: they only add to the fixed-point sums, whose order does not matter
-        for q in range(lane, contact_items, lanes):
-            if q < spw:
+        for q in range(slot, contact_items + kpw, slots):
+            if q >= contact_items:
+                spring_one(
+                    c0 + q - contact_items, spring_body_a, spring_body_b, spring_point_a, spring_point_b,
+                    spring_stiffness, spring_damping, spring_rest_length, spring_preload, spring_progressive,
+                    spring_stop_stiffness, body_world, opts.dt, opts.track_energy, body_pos, body_quat, body_vel,
+                    body_angvel, force_acc, torque_acc, force_scale, torque_scale, spring_force, energy)
+            elif q < spw:
                 sphere_sphere_one(
                     s0 + q, sphere_body, sphere_world, sphere_material, sphere_radius, mats, opts, sphere_pos,
                     sphere_vel, sphere_angvel, sphere_arm, ss_start, ss_count, ss_other, no_cohesion, ss_hist,
@@ -194,17 +230,11 @@ def world_steps_kernel(
                     sphere_arm, body_pos, body_quat, body_vel, body_angvel, st_start, st_count, st_mesh, st_face,
                     no_cohesion, st_hist, force_acc, torque_acc, force_scale, torque_scale, mesh_force_acc,
                     mesh_torque_acc, mesh_force_scale, mesh_torque_scale, energy)
-        for c in range(c0 + lane, c0 + kpw, lanes):
-            spring_one(
-                c, spring_body_a, spring_body_b, spring_point_a, spring_point_b, spring_stiffness, spring_damping,
-                spring_rest_length, spring_preload, spring_progressive, spring_stop_stiffness, body_world, opts.dt,
-                opts.track_energy, body_pos, body_quat, body_vel, body_angvel, force_acc, torque_acc, force_scale,
-                torque_scale, spring_force, energy)
         c_1 = cycle_count()
         block_sync()
         c_2 = cycle_count()
         step = first_step + k + 1
-        for b in range(b0 + lane, b0 + bpw, lanes):
+        for b in range(b0 + slot, b0 + bpw, slots):
             integrate_body(
                 b, body_world, body_group, body_flags, body_mass, body_inertia, body_pivot, body_pivot_vel,
                 body_pivot_friction, group_damping, n_groups, gravity, dt, opts.track_energy,
@@ -213,13 +243,14 @@ def world_steps_kernel(
         c_3 = cycle_count()
         block_sync()
         c_4 = cycle_count()
-        for i in range(s0 + lane, s0 + spw, lanes):
-            update_sphere(i, sphere_body, sphere_offset, body_pos, body_quat, body_vel, body_angvel, sphere_pos,
-                          sphere_vel, sphere_angvel, sphere_arm, build_pos, dm + 1, world_disp)
-        for m in range(m0 + lane, m0 + mpw, lanes):
-            mesh_end_one(m, dm, mesh_body, mesh_rmax, mesh_force_scale, mesh_torque_scale, 1, body_pos, body_quat,
-                         mesh_build_pos, mesh_build_quat, mesh_force_acc, mesh_torque_acc, mesh_force, mesh_torque,
-                         world_disp)
+        for q in range(slot, spw + mpw, slots):
+            if q < spw:
+                update_sphere(s0 + q, sphere_body, sphere_offset, body_pos, body_quat, body_vel, body_angvel,
+                              sphere_pos, sphere_vel, sphere_angvel, sphere_arm, build_pos, dm + 1, world_disp)
+            else:
+                mesh_end_one(m0 + q - spw, dm, mesh_body, mesh_rmax, mesh_force_scale, mesh_torque_scale, 1,
+                             body_pos, body_quat, mesh_build_pos, mesh_build_quat, mesh_force_acc, mesh_torque_acc,
+                             mesh_force, mesh_torque, world_disp)
         k += 1
         c_5 = cycle_count()
         block_sync()
