@@ -100,17 +100,15 @@ def advance_per_step(worlds: int, device: str, steps: int, every: int = 57
 
 def stage_cycles(sim: object, steps: int) -> dict[str, float]:
     """Per step, mean over worlds, the CUDA clock cycles of each stage of a world's step (world_steps.STAGES):
-    ``STAGE`` the stage with its barrier as lane 0 sees it, ``STAGE_busy`` the busiest lane's own work,
-    ``STAGE_by_taker`` each item-taking thread's own work (a list)."""
+    ``STAGE`` the stage with its barrier as lane 0 sees it, ``STAGE_busy`` the busiest lane's own work."""
     from warpdem import world_steps
 
-    lanes, stride = sim.world_lanes, sim.world_lane_stride
+    lanes = sim.world_lanes
     c = sim.world_stage_cycles.numpy().reshape(sim.model.n_worlds, lanes + 1, len(world_steps.STAGES)) / steps
     out = {}
     for q, name in enumerate(world_steps.STAGES):
         out[name] = float(c[:, lanes, q].mean())
         out[name + "_busy"] = float(c[:, :lanes, q].max(axis=1).mean())
-        out[name + "_by_taker"] = [round(float(v)) for v in c[:, :lanes:stride, q].mean(axis=0)]
     return out
 
 
@@ -176,16 +174,12 @@ def main() -> None:
 
         wp.config.lineinfo = True
     if args.scene == "ringing" and args.advance:
-        from warpdem import world_steps
-
         per, cycles = advance_per_step(args.worlds, args.device, args.steps)
         print(f"ringing, {args.worlds} worlds on {args.device}, advance() in 57-step records: "
               + ", ".join(f"{k} {1e6 * v:.1f} us/step" for k, v in per.items()))
         for mode, c in cycles.items():
             print(f"  {mode}, clock cycles per step (a stage with its barrier / its busiest lane's work): "
-                  + ", ".join(f"{k} {c[k]:.0f} / {c[k + '_busy']:.0f}" for k in world_steps.STAGES))
-            print("  " + mode + ", by item-taking thread: "
-                  + "; ".join(f"{k} {c[k + '_by_taker']}" for k in world_steps.STAGES))
+                  + ", ".join(f"{k} {c[k]:.0f} / {c[k + '_busy']:.0f}" for k in c if not k.endswith("_busy")))
         if args.json:
             with open(args.json, "a") as f:
                 f.write(json.dumps({"scene": "ringing-advance", "device": args.device, "worlds": args.worlds,

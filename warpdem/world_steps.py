@@ -45,11 +45,8 @@ by side instead of in turn."""
 MAX_ITEM_WARPS = 8
 """warps per world at most when each item has its own warp: the kernel takes up to 255 registers a thread, and
 an SM's 65,536 registers hold 256 such threads."""
-DISP_SLOTS = 4
-"""per world in ``world_disp``: the meshes' largest displacement and the spheres' (since the last list build) [m],
-twice: steps of even and odd count alternate between the two pairs, so that one pair is cleared while the other is
-read, without a barrier between."""
-DISP_SLOTS_W = wp.constant(DISP_SLOTS)
+DISP_SLOTS = 2
+"""per world in ``world_disp``: the meshes' largest displacement, the spheres' (since the last list build) [m]."""
 STAGES = ("contacts", "bodies", "spheres", "end")
 """the stages of a world's step, as timed in ``stage_cycles``: contacts and springs; body motion; sphere kinematics
 and the meshes' end of step; the end-of-step decision."""
@@ -246,26 +243,23 @@ def world_steps_kernel(
         c_3 = cycle_count()
         block_sync()
         c_4 = cycle_count()
-        d_now = dm + 2 * (k % 2)  # this step's pair of displacement slots
-        d_other = dm + 2 * ((k + 1) % 2)
         for q in range(slot, spw + mpw, slots):
             if q < spw:
                 update_sphere(s0 + q, sphere_body, sphere_offset, body_pos, body_quat, body_vel, body_angvel,
-                              sphere_pos, sphere_vel, sphere_angvel, sphere_arm, build_pos, d_now + 1, world_disp)
+                              sphere_pos, sphere_vel, sphere_angvel, sphere_arm, build_pos, dm + 1, world_disp)
             else:
-                mesh_end_one(m0 + q - spw, d_now, mesh_body, mesh_rmax, mesh_force_scale, mesh_torque_scale, 1,
+                mesh_end_one(m0 + q - spw, dm, mesh_body, mesh_rmax, mesh_force_scale, mesh_torque_scale, 1,
                              body_pos, body_quat, mesh_build_pos, mesh_build_quat, mesh_force_acc, mesh_torque_acc,
                              mesh_force, mesh_torque, world_disp)
         k += 1
         c_5 = cycle_count()
         block_sync()
         c_6 = cycle_count()
-        # the end of the step, for this world (simulation._end_step_kernel): every lane reads this step's
-        # displacements and takes the same decision; lane 0 files the step's fault and clears the other pair of
-        # displacements, which every lane read in the step before, before the barrier it has passed since, and
-        # which the next step fills after two more barriers
-        ds = world_disp[d_now + 1]
-        rebuild = spw > 0 and ds + wp.max(ds, world_disp[d_now]) > skin  # no spheres: no lists to rebuild
+        # the end of the step, for this world (simulation._end_step_kernel): every lane reads the displacements
+        # and takes the same decision; then lane 0 resets them and files the step's fault
+        ds = world_disp[dm + 1]
+        rebuild = spw > 0 and ds + wp.max(ds, world_disp[dm]) > skin  # no spheres: no lists to rebuild
+        block_sync()
         if lane == 0:
             if world_fault[fb] != NO_FAULT_W:
                 if world_fault[fb + 3] == NO_FAULT_W:
@@ -273,8 +267,8 @@ def world_steps_kernel(
                     world_fault[fb + 4] = world_fault[fb + 1]
                     world_fault[fb + 5] = world_fault[fb + 2]
                 world_fault[fb] = NO_FAULT_W
-            world_disp[d_other] = 0.0
-            world_disp[d_other + 1] = 0.0
+            world_disp[dm] = 0.0
+            world_disp[dm + 1] = 0.0
             if rebuild:
                 world_flag[w] = 1
         c_7 = cycle_count()
@@ -282,10 +276,6 @@ def world_steps_kernel(
         wall += vec4l(c_2 - c_0, c_4 - c_2, c_6 - c_4, c_7 - c_6)
         if rebuild:
             break
-    block_sync()  # every lane has read the last step's displacements: clear them for the next launch
-    if lane == 0:
-        for q in range(DISP_SLOTS_W):
-            world_disp[dm + q] = 0.0
     slot = (w * (lanes + 1) + lane) * 4
     for q in range(4):
         stage_cycles[slot + q] = stage_cycles[slot + q] + busy[q]
