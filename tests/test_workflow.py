@@ -392,3 +392,41 @@ def test_a_kept_soil_bin_run_reads_back_as_it_was(tmp_path):
         np.testing.assert_array_equal(back.series[k], v)
     assert back.steady[0]["springs"] == 16 and math.isnan(back.steady[0]["draught_sem"])
     assert back.steady[1] == run.steady[1]
+
+
+def test_limits_of_the_match_are_read_from_the_runs_numbers() -> None:
+    # Reference: synthetic Table 3 rows built from the laboratory's (scenes.paper) by closed forms: reductions
+    # 1 + 0.2 x the laboratory's (a Pearson correlation of exactly 1, a spread of 0.2 x the laboratory's), and a
+    # displacement of 0.25 x the laboratory's from 12 springs up, 2 x below it (ratios known exactly); a second
+    # variant with reductions 3 - 0.6 x the laboratory's (correlation -1).
+    from calibration.workflow_report import limits, limits_section
+
+    t3 = paper.table("soil_bin_measured")
+    lab_red, lab_disp = np.asarray(t3["reduction_pct"], float), np.asarray(t3["displacement_mean_mm"], float)
+
+    def rows(a: float, b: float) -> list[dict]:
+        return [{"springs": int(n), "reduction": {"mean": a + b * r, "sem": 0.1},
+                 "displacement_mm": {"mean": (0.25 if n >= 12 else 2.0) * d, "sem": 0.01}}
+                for n, r, d in zip(t3["springs"], lab_red, lab_disp, strict=True)]
+
+    tab = {"variants": {"offset": rows(1.0, 0.2), "no_offset": rows(3.0, -0.6)}}
+    screening = {"rows": [
+        {"rank": 2, "normal_cohesion": 15.0, "draught_mean_n": 340.0, "cohesion_kpa": 0.3, "friction_angle_deg": 43.0},
+        {"rank": 1, "normal_cohesion": 4.2e4, "draught_mean_n": 346.0, "cohesion_kpa": 0.5,
+         "friction_angle_deg": 39.6}]}
+    lim = limits(tab, screening)
+    off, no = lim["variants"]["offset"], lim["variants"]["no_offset"]
+    assert off["correlation"] == pytest.approx(1.0, abs=1e-12)
+    assert no["correlation"] == pytest.approx(-1.0, abs=1e-12)
+    np.testing.assert_allclose(off["disp_ratio"], np.where(t3["springs"] >= 12, 0.25, 2.0), rtol=1e-12)
+    spread = lab_red.max() - lab_red.min()
+    assert off["sim_reduction_pct"][1] - off["sim_reduction_pct"][0] == pytest.approx(0.2 * spread, rel=1e-12)
+    assert lim["screening"]["cohesion_kpa"] == 0.5  # the rank-1 set's
+    assert lim["screening"]["normal_cohesion_pa"] == [15.0, 4.2e4]
+    text = "\n".join(limits_section(tab, screening))
+    assert "below half the laboratory's for 6 of 8 configurations: 12, 16, 20, 24, 28, 32 springs" in text
+    assert "r = 1.00" in text and "r = -1.00" in text
+    assert "does not pin the cohesion down" in text  # 2,800 x in cohesion at draughts within 2 %
+    assert "keeps the reductions from the laboratory's" not in text  # the second variant spreads 0.6 x: not narrow
+    only_narrow = "\n".join(limits_section({"variants": {"offset": rows(1.0, 0.2)}}, None))
+    assert "keeps the reductions from the laboratory's" in only_narrow and "The soil" not in only_narrow
