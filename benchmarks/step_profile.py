@@ -100,7 +100,8 @@ def advance_per_step(worlds: int, device: str, steps: int, every: int = 57
 
 def stage_cycles(sim: object, steps: int) -> dict[str, float]:
     """Per step, mean over worlds, the CUDA clock cycles of each stage of a world's step (world_steps.STAGES):
-    ``STAGE`` the stage with its barrier as lane 0 sees it, ``STAGE_busy`` the busiest lane's own work."""
+    ``STAGE`` the stage with its barrier as lane 0 sees it, ``STAGE_busy`` the busiest lane's own work (with an item
+    per warp not a reliable split: see world_steps_kernel)."""
     from warpdem import world_steps
 
     lanes = sim.world_lanes
@@ -178,8 +179,8 @@ def main() -> None:
         print(f"ringing, {args.worlds} worlds on {args.device}, advance() in 57-step records: "
               + ", ".join(f"{k} {1e6 * v:.1f} us/step" for k, v in per.items()))
         for mode, c in cycles.items():
-            print(f"  {mode}, clock cycles per step (a stage with its barrier / its busiest lane's work): "
-                  + ", ".join(f"{k} {c[k]:.0f} / {c[k + '_busy']:.0f}" for k in c if not k.endswith("_busy")))
+            print(f"  {mode}, clock cycles per step of each stage with its barrier (lane 0): "
+                  + ", ".join(f"{k} {c[k]:.0f}" for k in c if not k.endswith("_busy")))
         if args.json:
             with open(args.json, "a") as f:
                 f.write(json.dumps({"scene": "ringing-advance", "device": args.device, "worlds": args.worlds,

@@ -483,22 +483,18 @@ class _Probe:
         m = sim.model
         self.sim = sim
         self.mesh_idx = {k: np.arange(m.n_worlds) * m.meshes_per_world + m.names["mesh"][k] for k in _MESHES}
-        self.body_idx = {k: np.arange(m.n_worlds) * m.bodies_per_world + m.names["body"][k]
-                         for k in ("ballast", "lower")}
 
     def advance_mean(self, n: int) -> dict[str, np.ndarray]:
-        """Step n times; the mean contact force on each mesh over those steps [N], (n_worlds, 3) per mesh."""
-        acc = {k: np.zeros((len(i), 3)) for k, i in self.mesh_idx.items()}
-        for _ in range(n):
-            self.sim.advance(1)
-            f = self.sim.data.mesh_force.numpy()
-            for k, i in self.mesh_idx.items():
-                acc[k] += f[i]
-        return {k: v / n for k, v in acc.items()}
+        """Step n times; the mean contact force on each mesh over those steps [N], (n_worlds, 3) per mesh (summed
+        on the device step by step, ``Data.mesh_force_sum``)."""
+        self.sim.data.mesh_force_sum.zero_()
+        self.sim.advance(n)
+        total = self.sim.data.mesh_force_sum.numpy()
+        return {k: total[i] / n for k, i in self.mesh_idx.items()}
 
     def position(self, body: str, axis: int) -> np.ndarray:
         """One coordinate of a body's position per world [m] (n_worlds,)."""
-        return self.sim.state.body_pos.numpy()[self.body_idx[body], axis]
+        return wd.observers.body_poses(self.sim, body)[0][:, axis]
 
 
 def _soil_ke_per_particle(sim: wd.Simulation) -> np.ndarray:

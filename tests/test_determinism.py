@@ -398,3 +398,28 @@ def test_world_steps_name_the_faulty_step() -> None:
     one = _blow_up(lambda sim: sim.advance(200), graph_steps=1)
     assert one[3] == 1
     assert _blow_up(lambda sim: sim.advance(200), world_steps=True) == one
+
+
+@pytest.mark.parametrize("world_steps", [False, True])
+def test_mesh_force_sum_adds_each_steps_mesh_force(world_steps: bool) -> None:
+    # Reference: the same run one step at a time, mesh_force read after every step and added on the host in
+    # float64 (what the shear box did before the device kept the sum). The device's running sum over an advance
+    # of many steps (several CUDA steps per graph; on the CPU, or with world_steps, whole steps per launch) must be
+    # that sum to the bit: the same float32 forces, added in step order in float64.
+    def run() -> wd.Simulation:
+        model, state = _threaded_scene().finalize(DEVICE, n_worlds=3)
+        sim = wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), world_steps=world_steps)
+        sim.advance(2000)  # the packing falls onto the floor (a mesh) and presses on it
+        sim.data.mesh_force_sum.zero_()
+        return sim
+
+    one, many = run(), run()
+    total = np.zeros(one.data.mesh_force_sum.shape + (3,))
+    for _ in range(240):
+        one.advance(1)
+        total += one.data.mesh_force.numpy()
+    many.advance(240)
+    _assert_same_bits(many, one)
+    np.testing.assert_array_equal(many.data.mesh_force_sum.numpy(), total)
+    np.testing.assert_array_equal(one.data.mesh_force_sum.numpy(), total)
+    assert np.abs(total).max() > 0.0  # the mesh carries load

@@ -70,6 +70,10 @@ class Data:
     """contact force of the spheres on each mesh instance [N], world frame, vec3f (nm,)."""
     mesh_torque: wp.array
     """their torque about the mesh body's centre of mass [N m], world frame, vec3f (nm,)."""
+    mesh_force_sum: wp.array
+    """``mesh_force`` added up step after step [N], float64 vec3d (nm,): zero it, advance n steps, and it holds n
+    times the mean force over them (the same numbers as reading ``mesh_force`` after each step and adding them in
+    float64). Not kept in checkpoints."""
 
     # springs and energies
     spring_force: wp.array
@@ -148,6 +152,7 @@ class Data:
             mesh_torque_scale=f64(1.0 / res_t[mesh_body] if nb else np.ones(1)),
             body_force=zeros(nb, wp.vec3f), body_torque=zeros(nb, wp.vec3f),
             mesh_force=zeros(max(nm, 1), wp.vec3f), mesh_torque=zeros(max(nm, 1), wp.vec3f),
+            mesh_force_sum=zeros(max(nm, 1), wp.vec3d),
             spring_force=zeros(max(model.n_springs, 1), float),
             energy=zeros(model.n_worlds * N_ENERGY, wp.float64),
             energy_extra=zeros(max(parts - 1, 1) * model.n_worlds * N_ENERGY, wp.float64),

@@ -455,11 +455,14 @@ def mesh_end_one(
     torque_acc: wp.array(dtype=vec3l),
     force: wp.array(dtype=wp.vec3f),
     torque: wp.array(dtype=wp.vec3f),
+    force_sum: wp.array(dtype=wp.vec3d),
     disp: wp.array(dtype=float),
 ):
-    """Mesh instance m at the end of a step (one thread of _mesh_end_kernel, or a world's loop); its displacement
-    into disp[slot]."""
-    force[m] = take_float(force_acc, force_scale, m, force.shape[0], parts)
+    """Mesh instance m at the end of a step (one thread of _mesh_end_kernel, or a world's loop): its force into
+    force[m] and added to force_sum[m], its torque into torque[m], its displacement into disp[slot]."""
+    f = take_float(force_acc, force_scale, m, force.shape[0], parts)
+    force[m] = f
+    force_sum[m] = force_sum[m] + wp.vec3d(f)
     torque[m] = take_float(torque_acc, torque_scale, m, torque.shape[0], parts)
     d = mesh_displacement(m, mesh_body, mesh_rmax, body_pos, body_quat, build_pos, build_quat)
     wp.atomic_max(disp, slot, d)

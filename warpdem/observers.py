@@ -361,6 +361,33 @@ def spring_force(name: str) -> Callable[[object], np.ndarray]:
     return f
 
 
+@wp.kernel
+def _gather_poses_kernel(
+    first: int,
+    stride: int,
+    body_pos: wp.array(dtype=wp.vec3d),
+    body_quat: wp.array(dtype=wp.quatd),
+    pos: wp.array(dtype=wp.vec3d),
+    quat: wp.array(dtype=wp.quatd),
+):
+    """pos[w], quat[w] = the pose of body first + w * stride (one body of each world)."""
+    w = wp.tid()
+    pos[w] = body_pos[first + w * stride]
+    quat[w] = body_quat[first + w * stride]
+
+
+def body_poses(sim: object, body: str) -> tuple[np.ndarray, np.ndarray]:
+    """Position [m] (n_worlds, 3) and orientation quaternion (x, y, z, w) (n_worlds, 4) of a named body in each
+    world, gathered on the device (a copy of n_worlds poses, not of every body's)."""
+    m = sim.model
+    pos = wp.empty(m.n_worlds, dtype=wp.vec3d, device=m.device)
+    quat = wp.empty(m.n_worlds, dtype=wp.quatd, device=m.device)
+    wp.launch(_gather_poses_kernel, m.n_worlds, inputs=[m.names["body"][body], m.bodies_per_world,
+                                                        sim.state.body_pos, sim.state.body_quat],
+              outputs=[pos, quat], device=m.device)
+    return pos.numpy(), quat.numpy()
+
+
 def body_point(body: str, point: object) -> Callable[[object], np.ndarray]:
     """Observer: world position [m] of a point fixed to a named body, shape (n_worlds, 3). ``point`` is given in
     the world at the initial pose [m] (3,); subtract the first record to get its displacement."""
@@ -368,10 +395,7 @@ def body_point(body: str, point: object) -> Callable[[object], np.ndarray]:
     cache: dict[str, np.ndarray] = {}
 
     def f(sim: object) -> np.ndarray:
-        m = sim.model
-        idx = np.arange(m.n_worlds) * m.bodies_per_world + m.names["body"][body]
-        pos = sim.state.body_pos.numpy()[idx]
-        quat = sim.state.body_quat.numpy()[idx]
+        pos, quat = body_poses(sim, body)
         rot = quats_to_matrices(quat)
         if "local" not in cache:  # the point in each body's frame, from the current (first) pose
             cache["local"] = np.einsum("nji,nj->ni", rot, point - pos)

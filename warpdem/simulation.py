@@ -103,14 +103,15 @@ def _mesh_end_kernel(
     torque_acc: wp.array(dtype=vec3l),
     force: wp.array(dtype=wp.vec3f),
     torque: wp.array(dtype=wp.vec3f),
+    force_sum: wp.array(dtype=wp.vec3d),
     disp: wp.array(dtype=float),
 ):
     """Per mesh instance at the end of a step: its contact force and torque sums to float32 (``mesh_force``,
-    ``mesh_torque``, accumulate.take_float; read by the observers only) and its displacement since the last list
-    build into disp[0] (atomic max)."""
+    ``mesh_torque``, accumulate.take_float; read by the observers only; the force also added to
+    ``mesh_force_sum``) and its displacement since the last list build into disp[0] (atomic max)."""
     mesh_end_one(
         wp.tid(), 0, mesh_body, mesh_rmax, force_scale, torque_scale, parts, body_pos, body_quat, build_pos, build_quat,
-        force_acc, torque_acc, force, torque, disp)
+        force_acc, torque_acc, force, torque, force_sum, disp)
 
 
 def _lane_layout(lanes: int | None, stride: int | None, model: Model) -> tuple[int, int]:
@@ -532,7 +533,8 @@ class Simulation:
             serial(launch(_mesh_end_kernel, m.n_meshes,
                           inputs=[m.mesh_body, d.mesh_rmax, d.mesh_force_scale, d.mesh_torque_scale, P, s.body_pos,
                                   s.body_quat, d.mesh_build_pos, d.mesh_build_quat],
-                          outputs=[d.mesh_force_acc, d.mesh_torque_acc, d.mesh_force, d.mesh_torque, d.disp],
+                          outputs=[d.mesh_force_acc, d.mesh_torque_acc, d.mesh_force, d.mesh_torque,
+                                   d.mesh_force_sum, d.disp],
                           device=dev))
         serial(launch(_end_step_kernel, 1, inputs=[self.skin, d.disp, d.fault_parts],
                       outputs=[d.rebuild_flag, d.counters, d.fault, d.cohesion_now], device=dev))
@@ -779,7 +781,8 @@ class Simulation:
                      d.st.key_a, d.st.key_b, d.st.hist, self._no_cohesion, s.body_pos, s.body_quat, s.body_vel,
                      s.body_angvel, s.body_angmom, d.force_acc, d.torque_acc, d.force_scale, d.torque_scale,
                      d.mesh_force_acc, d.mesh_torque_acc, d.mesh_force_scale, d.mesh_torque_scale, d.energy,
-                     d.body_force, d.body_torque, d.mesh_force, d.mesh_torque, d.spring_force, self._world_step,
+                     d.body_force, d.body_torque, d.mesh_force, d.mesh_torque, d.mesh_force_sum, d.spring_force,
+                     self._world_step,
                      self._world_flag, self._world_disp, self._world_fault, self.world_stage_cycles],
             device=self.device,
         ) for j in range(len(cut) - 1)]

@@ -174,6 +174,7 @@ def world_steps_kernel(
     body_torque: wp.array(dtype=wp.vec3f),
     mesh_force: wp.array(dtype=wp.vec3f),
     mesh_torque: wp.array(dtype=wp.vec3f),
+    mesh_force_sum: wp.array(dtype=wp.vec3d),
     spring_force: wp.array(dtype=float),
     world_step: wp.array(dtype=int),
     world_flag: wp.array(dtype=int),
@@ -189,7 +190,9 @@ def world_steps_kernel(
 
     ``stage_cycles`` (int64, shape (n_worlds * (lanes + 1) * 4,), CUDA clock cycles; zeros on the CPU) adds up,
     per world and stage of ``STAGES``, each lane's own work (slot ``lane``) and the stage's whole time with its
-    barrier as lane 0 sees it (slot ``lanes``)."""
+    barrier as lane 0 sees it (slot ``lanes``). Lane 0's figures are the ones to read: with an item per warp, the
+    other warps' own figures did not split a stage reliably on an H100 (threads without items showed thousands of
+    cycles)."""
     t, lane = wp.tid()
     w = t + first_world
     k = world_step[w]
@@ -250,7 +253,7 @@ def world_steps_kernel(
             else:
                 mesh_end_one(m0 + q - spw, dm, mesh_body, mesh_rmax, mesh_force_scale, mesh_torque_scale, 1,
                              body_pos, body_quat, mesh_build_pos, mesh_build_quat, mesh_force_acc, mesh_torque_acc,
-                             mesh_force, mesh_torque, world_disp)
+                             mesh_force, mesh_torque, mesh_force_sum, world_disp)
         k += 1
         c_5 = cycle_count()
         block_sync()
