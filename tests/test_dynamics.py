@@ -198,6 +198,11 @@ def test_hinged_pendulum_period_and_moving_pivot() -> None:
     np.testing.assert_allclose(pivots[:, 1], t[:, None] * speed, atol=1e-12)
     np.testing.assert_allclose(pivot_point(sim), pivots[-1], atol=1e-12)
     assert body == 0
+    # the device's gather of one body's pose per world gives the whole arrays' rows (reference: numpy indexing)
+    for gather in (True, False):
+        pos, quat = wd.observers.body_poses(sim, "tool", gather=gather)
+        np.testing.assert_array_equal(pos, state.body_pos.numpy()[[0, 1]])
+        np.testing.assert_array_equal(quat, state.body_quat.numpy()[[0, 1]])
 
 
 def _peaks(x: np.ndarray) -> np.ndarray:

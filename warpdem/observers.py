@@ -376,10 +376,21 @@ def _gather_poses_kernel(
     quat[w] = body_quat[first + w * stride]
 
 
-def body_poses(sim: object, body: str) -> tuple[np.ndarray, np.ndarray]:
+GATHER_MIN_BODIES = 4096
+"""from this many bodies on, :func:`body_poses` gathers on the device rather than copying every body's pose."""
+
+
+def body_poses(sim: object, body: str, gather: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Position [m] (n_worlds, 3) and orientation quaternion (x, y, z, w) (n_worlds, 4) of a named body in each
-    world, gathered on the device (a copy of n_worlds poses, not of every body's)."""
+    world. ``gather`` (default: on CUDA in a scene of at least GATHER_MIN_BODIES bodies): gathered on the device,
+    a copy of n_worlds poses instead of every body's (a soil bin's hundreds of thousands); otherwise read from the
+    whole arrays (on the CPU numpy views, no copy; a small CUDA scene's copy costs less than a launch)."""
     m = sim.model
+    if gather is None:
+        gather = m.device.is_cuda and m.n_bodies >= GATHER_MIN_BODIES
+    if not gather:
+        idx = np.arange(m.n_worlds) * m.bodies_per_world + m.names["body"][body]
+        return sim.state.body_pos.numpy()[idx], sim.state.body_quat.numpy()[idx]
     pos = wp.empty(m.n_worlds, dtype=wp.vec3d, device=m.device)
     quat = wp.empty(m.n_worlds, dtype=wp.quatd, device=m.device)
     wp.launch(_gather_poses_kernel, m.n_worlds, inputs=[m.names["body"][body], m.bodies_per_world,
