@@ -99,18 +99,12 @@ def advance_per_step(worlds: int, device: str, steps: int, every: int = 57
 
 
 def stage_cycles(sim: object, steps: int) -> dict[str, float]:
-    """Per step, mean over worlds, the CUDA clock cycles of each stage of a world's step (world_steps.STAGES):
-    ``STAGE`` the stage with its barrier as lane 0 sees it, ``STAGE_busy`` the busiest lane's own work (with an item
-    per warp not a reliable split: see world_steps_kernel)."""
+    """Per step, mean over worlds, the CUDA clock cycles of each stage of a world's step (world_steps.STAGES) with
+    its barrier, as lane 0 sees it."""
     from warpdem import world_steps
 
-    lanes = sim.world_lanes
-    c = sim.world_stage_cycles.numpy().reshape(sim.model.n_worlds, lanes + 1, len(world_steps.STAGES)) / steps
-    out = {}
-    for q, name in enumerate(world_steps.STAGES):
-        out[name] = float(c[:, lanes, q].mean())
-        out[name + "_busy"] = float(c[:, :lanes, q].max(axis=1).mean())
-    return out
+    c = sim.world_stage_cycles.numpy().reshape(sim.model.n_worlds, len(world_steps.STAGES)) / steps
+    return {name: float(c[:, q].mean()) for q, name in enumerate(world_steps.STAGES)}
 
 
 def profile(sim: object, device: str, steps: int, warmup: int
@@ -180,7 +174,7 @@ def main() -> None:
               + ", ".join(f"{k} {1e6 * v:.1f} us/step" for k, v in per.items()))
         for mode, c in cycles.items():
             print(f"  {mode}, clock cycles per step of each stage with its barrier (lane 0): "
-                  + ", ".join(f"{k} {c[k]:.0f}" for k in c if not k.endswith("_busy")))
+                  + ", ".join(f"{k} {v:.0f}" for k, v in c.items()))
         if args.json:
             with open(args.json, "a") as f:
                 f.write(json.dumps({"scene": "ringing-advance", "device": args.device, "worlds": args.worlds,

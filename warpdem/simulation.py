@@ -258,11 +258,9 @@ class Simulation:
             self._world_fault = wp.array(np.full(nw * world_steps_mod.FAULT_SLOTS, NO_FAULT, np.int32), dtype=int,
                                          device=dev)
             self._no_cohesion = wp.zeros(1, dtype=int, device=dev)
-            # CUDA clock cycles per world and stage of world_steps.STAGES, summed over advances (zeros on the CPU):
-            # shape (n_worlds, world_lanes + 1, 4) flattened; slot ``lane`` a lane's own work, the last slot the
-            # stage with its barrier (world_steps_kernel)
-            self.world_stage_cycles = wp.zeros(nw * (self.world_lanes + 1) * len(world_steps_mod.STAGES),
-                                               dtype=wp.int64, device=dev)
+            # CUDA clock cycles per world and stage of world_steps.STAGES with its barrier, summed over advances
+            # (zeros on the CPU): shape (n_worlds, 4) flattened (world_steps_kernel)
+            self.world_stage_cycles = wp.zeros(nw * len(world_steps_mod.STAGES), dtype=wp.int64, device=dev)
 
         self.materials = Materials()
         tan_friction = wp.empty_like(model.mat_friction)  # taken once here, not per contact and step

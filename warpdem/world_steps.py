@@ -188,11 +188,9 @@ def world_steps_kernel(
     (``Data.cohesion_now``) is not read: the caller runs such a step the ordinary way; ``no_cohesion`` is a zero
     flag passed in its place.
 
-    ``stage_cycles`` (int64, shape (n_worlds * (lanes + 1) * 4,), CUDA clock cycles; zeros on the CPU) adds up,
-    per world and stage of ``STAGES``, each lane's own work (slot ``lane``) and the stage's whole time with its
-    barrier as lane 0 sees it (slot ``lanes``). Lane 0's figures are the ones to read: with an item per warp, the
-    other warps' own figures did not split a stage reliably on an H100 (threads without items showed thousands of
-    cycles)."""
+    ``stage_cycles`` (int64, shape (n_worlds * 4,), CUDA clock cycles; zeros on the CPU) adds up, per world and
+    stage of ``STAGES``, the stage's time with its barrier as lane 0 sees it. (The other warps' own times did not
+    split a stage reliably on an H100: threads without items showed thousands of cycles.)"""
     t, lane = wp.tid()
     w = t + first_world
     k = world_step[w]
@@ -209,8 +207,7 @@ def world_steps_kernel(
     slots = lanes // stride
     if lane % stride != 0:
         slot = 1 << 29  # takes none
-    busy = vec4l()  # cycles per stage: this lane's work, and the stage with its barrier (lane 0)
-    wall = vec4l()
+    wall = vec4l()  # cycles per stage with its barrier (lane 0's are kept)
     while k < target:
         c_0 = cycle_count()
         # contacts and springs: they only add to the fixed-point sums, whose order does not matter
@@ -233,7 +230,6 @@ def world_steps_kernel(
                     sphere_arm, body_pos, body_quat, body_vel, body_angvel, st_start, st_count, st_mesh, st_face,
                     no_cohesion, st_hist, force_acc, torque_acc, force_scale, torque_scale, mesh_force_acc,
                     mesh_torque_acc, mesh_force_scale, mesh_torque_scale, energy)
-        c_1 = cycle_count()
         block_sync()
         c_2 = cycle_count()
         step = first_step + k + 1
@@ -243,7 +239,6 @@ def world_steps_kernel(
                 body_pivot_friction, group_damping, n_groups, gravity, dt, opts.track_energy,
                 force_scale, torque_scale, 1, 0, max_speed, lower, upper, step, fb, force_acc, torque_acc, body_pos,
                 body_quat, body_vel, body_angvel, body_angmom, energy, body_force, body_torque, world_fault)
-        c_3 = cycle_count()
         block_sync()
         c_4 = cycle_count()
         for q in range(slot, spw + mpw, slots):
@@ -255,7 +250,6 @@ def world_steps_kernel(
                              body_pos, body_quat, mesh_build_pos, mesh_build_quat, mesh_force_acc, mesh_torque_acc,
                              mesh_force, mesh_torque, mesh_force_sum, world_disp)
         k += 1
-        c_5 = cycle_count()
         block_sync()
         c_6 = cycle_count()
         # the end of the step, for this world (simulation._end_step_kernel): every lane reads the displacements
@@ -275,18 +269,13 @@ def world_steps_kernel(
             if rebuild:
                 world_flag[w] = 1
         c_7 = cycle_count()
-        busy += vec4l(c_1 - c_0, c_3 - c_2, c_5 - c_4, c_7 - c_6)
         wall += vec4l(c_2 - c_0, c_4 - c_2, c_6 - c_4, c_7 - c_6)
         if rebuild:
             break
-    slot = (w * (lanes + 1) + lane) * 4
-    for q in range(4):
-        stage_cycles[slot + q] = stage_cycles[slot + q] + busy[q]
     if lane == 0:
         world_step[w] = k
-        slot = (w * (lanes + 1) + lanes) * 4
         for q in range(4):
-            stage_cycles[slot + q] = stage_cycles[slot + q] + wall[q]
+            stage_cycles[w * 4 + q] = stage_cycles[w * 4 + q] + wall[q]
 
 
 @wp.kernel
