@@ -179,7 +179,7 @@ CLAIM = ".warpdem-run.json"
 """The file that marks a results folder as one run's: the command and every parameter that makes the run (not the
 device: a run may continue on another one, and output options such as --quiet do not count)."""
 _NOT_IDENTITY = {"argv", "out", "verbose", "quiet", "debug", "overwrite", "budget", "no_resume", "device", "vtk",
-                 "beds", "defaults"}
+                 "beds", "defaults", "diagnosis_rounds"}
 
 
 def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) -> Path:
@@ -196,8 +196,8 @@ def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) 
     claim = out / CLAIM
     if claim.exists():
         try:
-            held = json.loads(claim.read_text())
-        except (OSError, ValueError):
+            held = {k: v for k, v in json.loads(claim.read_text()).items() if k not in _NOT_IDENTITY}
+        except (OSError, ValueError, AttributeError):
             held = {}
         if held == mine:
             return out
@@ -288,6 +288,17 @@ def run_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
+def _folder_rounds(args: argparse.Namespace) -> int:
+    """--diagnosis-rounds, else the folder's (workflow.json), else 3."""
+    if args.diagnosis_rounds is not None:
+        return args.diagnosis_rounds
+    meta = Path(args.out) / "workflow.json"
+    try:
+        return int(json.loads(meta.read_text())["config"]["diagnosis_rounds"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return 3
+
+
 def run_workflow(args: argparse.Namespace) -> int:
     """``reproduce --workflow full``: calibration.paper_workflow in OUT, continued when OUT holds one already."""
     from calibration.genes import GASettings
@@ -307,7 +318,7 @@ def run_workflow(args: argparse.Namespace) -> int:
                             replicas_min=args.replicas_min, replicas_max=args.replicas_max,
                             target_sem=args.target_sem, worlds_per_job=args.worlds_per_job,
                             settle_time=args.settle_time, seed=args.seed, diagnose=not args.no_diagnosis,
-                            diagnosis_rounds=args.diagnosis_rounds, diagnosis_grid=args.diagnosis_grid)
+                            diagnosis_rounds=_folder_rounds(args), diagnosis_grid=args.diagnosis_grid)
     budget = Budget(args.budget)
     _claim(args, args.out, adopt="workflow.json")
     wf = Workflow(args.out, config, device=device, log=lambda m: print(m, flush=True))
@@ -654,8 +665,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="full: [s] a bed settles under the soil set before the tool moves (default 0.5)")
     r.add_argument("--no-diagnosis", action="store_true",
                    help="full: leave out the last stage, the diagnosis of Table 3")
-    r.add_argument("--diagnosis-rounds", type=_number(int, ge=1), default=3,
-                   help="full: the diagnosis's fit rounds (one grid, then Levenberg-Marquardt)")
+    r.add_argument("--diagnosis-rounds", type=_number(int, ge=1), default=None,
+                   help="full: the diagnosis's fit rounds (one grid, then Levenberg-Marquardt; default: the "
+                        "folder's, else 3); a folder may change it: its simulated points are kept and refitted")
     r.add_argument("--diagnosis-grid", type=_number(int, ge=2), default=5,
                    help="full: the diagnosis's grid points per gene of a one-gene mechanism")
     r.add_argument("--generations", type=_number(int, ge=1), default=5,

@@ -232,19 +232,32 @@ def _grid(box: np.ndarray, n: int) -> np.ndarray:
     return np.array(list(itertools.product(*axes)))
 
 
-def _checkpoint_key(rig: object, settings: DiagnosisSettings) -> str:
-    """What a checkpoint must match to be resumed: the rig, its settings, the data and the fit settings."""
+def _checkpoint_key(rig: object, settings: DiagnosisSettings, rounds: int | None = None) -> str:
+    """What a checkpoint must match to be resumed: the rig, its settings, the data and the fit settings except the
+    number of rounds. Round r's points follow from the points of rounds 1..r-1 alone, so a diagnosis with fewer or
+    more rounds requests a prefix or an extension of another's points, and its checkpoint serves both. ``rounds``:
+    the key as it was written before the rounds left it (the same text with ``fit.rounds`` at that value)."""
+    fit = asdict(settings)
+    if rounds is None:
+        del fit["rounds"]
+    else:
+        fit["rounds"] = rounds
     text = json.dumps({"rig": rig.rig, "settings": getattr(rig, "settings", dict)(), "configs": rig.configs,
                        "observables": list(rig.observables), "measured": np.asarray(rig.measured).tolist(),
-                       "uncertainty": getattr(rig, "uncertainty", None), "fit": asdict(settings)},
+                       "uncertainty": getattr(rig, "uncertainty", None), "fit": fit},
                       sort_keys=True, default=str)
     return hashlib.sha1(text.encode()).hexdigest()
+
+
+LEGACY_ROUNDS = range(1, 13)
+"""the rounds a checkpoint written with the rounds in its key may name (it is read under the present key)."""
 
 
 class _Fitter:
     """Grid and Levenberg-Marquardt fits of many candidates against one rig model, sharing batched simulations.
     Every simulated point is kept (``cache``) and, with a checkpoint file, saved after every batch: a killed
-    diagnosis run again with the same checkpoint simulates only what it had not."""
+    diagnosis run again with the same checkpoint simulates only what it had not, and one run again with another
+    number of rounds refits from the points it shares with the earlier run (fewer rounds: none is simulated)."""
 
     def __init__(self, rig: object, settings: DiagnosisSettings, log: Callable[[str], None],
                  checkpoint: str | Path | None = None) -> None:
@@ -256,7 +269,8 @@ class _Fitter:
         self.key = _checkpoint_key(rig, settings)
         if self.checkpoint is not None and self.checkpoint.exists():
             data = json.loads(self.checkpoint.read_text())
-            if data.get("key") != self.key:
+            if data.get("key") != self.key and data.get("key") not in {
+                    _checkpoint_key(rig, settings, r) for r in LEGACY_ROUNDS}:
                 raise ValueError(f"checkpoint {str(self.checkpoint)!r} belongs to another diagnosis (other data, rig "
                                  f"or settings): remove it or write elsewhere")
             if hasattr(rig, "restore"):
@@ -537,7 +551,8 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
 
     ``checkpoint``: a JSON file that keeps every simulated point (written after every batched simulation, see
     ``DiagnosisSettings.batch_worlds``); a diagnosis started again with the same file, rig, data and settings
-    resumes where it stopped and comes to the same result."""
+    resumes where it stopped and comes to the same result; with another ``settings.rounds`` it fits again from the
+    points that both request (the first round's grid is the same), simulating only the points it adds."""
     s = settings or DiagnosisSettings()
     if rig.n_configs < 2:
         raise InputError(f"the diagnosis holds each configuration out in turn and fits the rest: it needs at least "

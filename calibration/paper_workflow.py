@@ -62,7 +62,7 @@ from .problems import DraughtProblem, RingingProblem
 from .report import write_report
 from .rig_models import SoilBinRigModel
 from .screening import screen
-from .workflow_config import CALIBRATION_SCALE, SCREEN_SCALE, VARIANTS, WorkflowConfig
+from .workflow_config import CALIBRATION_SCALE, REFIT_FIELDS, SCREEN_SCALE, VARIANTS, WorkflowConfig
 from .workflow_report import write_workflow_report
 
 
@@ -283,12 +283,40 @@ class Workflow:
         spec = {"config": self.config.to_dict()}
         if meta.exists():
             saved = json.loads(meta.read_text())
+            old, now, defaults = saved.get("config", {}), spec["config"], WorkflowConfig().to_dict()
+
+            def fixed(d: dict) -> dict:
+                return {k: v for k, v in d.items() if k not in REFIT_FIELDS}
+
             # a folder made before a field was added is this run if the new field is at its default
-            if not same_or_extended(saved.get("config", {}), spec["config"], WorkflowConfig().to_dict()):
+            if not same_or_extended(fixed(old), fixed(now), defaults):
                 raise InputError(f"{str(self.out)!r} holds a workflow with another configuration; choose another "
                                  "--out (or remove that folder)")
+            changed = {k: (old.get(k, defaults[k]), now[k]) for k in REFIT_FIELDS if old.get(k, defaults[k]) != now[k]}
+            if changed:
+                self._refit(saved, changed)
         else:
             write_json_atomic(meta, spec)
+
+    def _refit(self, saved: dict, changed: dict[str, tuple[object, object]]) -> None:
+        """Take this call's values of :data:`REFIT_FIELDS` (``changed``: field -> (folder's, this call's)): a
+        finished diagnosis moves to ``diagnosis/<field>_<old value>/`` (its report, figures and summary; the
+        checkpoint stays, to be fitted again), and ``workflow.json`` records the change."""
+        what = ", ".join(f"{k} {a!r} -> {b!r}" for k, (a, b) in changed.items())
+        done = self._path("diagnosis.json")
+        if done.exists():
+            old_rounds = changed.get("diagnosis_rounds", (self.config.diagnosis_rounds,))[0]
+            aside = self._path("diagnosis") / f"rounds_{old_rounds}"
+            aside.mkdir(parents=True, exist_ok=True)
+            done.replace(aside / "summary.json")
+            for f in self._path("diagnosis").iterdir():
+                if f.is_file() and f.name != "checkpoint.json" and not f.name.startswith("checkpoint_"):
+                    f.replace(aside / f.name)
+            self.log(f"  {what}: the finished diagnosis is set aside (diagnosis/{aside.name}/) and fitted again")
+        else:
+            self.log(f"  {what}: the diagnosis's simulated points are kept and fitted with the new value")
+        history = [*saved.get("changes", []), *({"field": k, "from": a, "to": b} for k, (a, b) in changed.items())]
+        write_json_atomic(self._path("workflow.json"), {**saved, "config": self.config.to_dict(), "changes": history})
 
     # ---- small helpers ----------------------------------------------------------------------------------------
     def _path(self, name: str) -> Path:
@@ -636,6 +664,7 @@ class Workflow:
         d = diagnosis_mod.diagnose(rig, settings, log=self.log, checkpoint=checkpoint)
         diagnosis_report.write(d, folder, command=f"the workflow's stage 5 ({self.out.name})")
         out = {"verdict": d.verdict, "cause": list(d.cause), "residual_left": d.residual_left,
+               "rounds": c.diagnosis_rounds,
                "steps": d.steps, "ranking": d.ranking, "scale": rig.config.scale,
                "n_simulations": d.n_simulations, "wall_s_last_call": time.perf_counter() - t0,
                "baseline": {"measured": rig.measured.tolist(), "sigma": rig.sigma.tolist(),

@@ -23,10 +23,16 @@ VARIANTS = ("offset", "no_offset")
 """Table 3 variants: the passive tool with Table 2's support offsets (the paper's final model) and without."""
 
 
+REFIT_FIELDS = ("diagnosis_rounds",)
+"""fields a run folder may change: the diagnosis keeps every simulated point (``diagnosis/checkpoint.json`` and
+``checkpoints/diagnosis_runs/``), and another number of rounds fits again from them (fewer rounds simulate nothing;
+more continue from the last round simulated). A finished diagnosis of the old value is set aside."""
+
+
 @dataclass
 class WorkflowConfig:
     """What a workflow run does. Every field is recorded in ``workflow.json``; a folder holding another
-    configuration is refused."""
+    configuration is refused, except for a change of :data:`REFIT_FIELDS`."""
 
     scale: str = "paper"
     """soil-bin scale of the Table 3 runs (:data:`scenes.soil_bin.SCALES`)."""

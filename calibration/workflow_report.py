@@ -323,8 +323,20 @@ def diagnosis_section(diag: dict | None) -> list[str]:
              + (" (a residual larger than the stated noise remains)" if diag["cause"] and diag["residual_left"]
                 else "") + ". Candidates by held-out loss: " + (", ".join(diag["ranking"]) or "none") + ". "
              "Every fitted point is one soil-bin run per configuration on one bed of the calibration bin, with the "
-             "soil of the Table 3 runs. Details, fits and figures: `diagnosis/report.md`.", ""]
+             "soil of the Table 3 runs. " + _rounds_text(diag.get("rounds"))
+             + "Details, fits and figures: `diagnosis/report.md`.", ""]
     return lines
+
+
+def _rounds_text(rounds: int | None) -> str:
+    """How far the diagnosis's fits went (``diagnosis.json``'s rounds; absent in a folder made before it was kept)."""
+    if rounds is None:
+        return ""
+    if rounds == 1:
+        return ("Its fits are the first round's grid alone (`--diagnosis-rounds 1`): each mechanism's best grid "
+                "point, not refined by Levenberg-Marquardt steps, so a held-out loss is an upper bound of what the "
+                "refined fit would reach. ")
+    return f"Its fits: a grid, then {rounds - 1} Levenberg-Marquardt round{'s' * (rounds > 2)}. "
 
 
 def _write(out: Path, lines: list[str]) -> Path:

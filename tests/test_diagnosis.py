@@ -267,3 +267,55 @@ def test_a_fit_at_the_end_of_its_range_is_reported(extra: float, tmp_path: pytes
         assert [(b["gene"], b["side"]) for b in bound] == [("extra_mass", "high")]
         assert bound[0]["value"] == pytest.approx(30.0, rel=0.01) and bound[0]["folds"] == 5
         assert "At the upper end of its range:** extra_mass" in text
+
+
+class _Counting:
+    """A rig that counts the worlds its fits simulate (one per configuration per point; the verification's
+    re-simulation, with series kept, is not counted: it runs after every diagnosis)."""
+
+    def __init__(self, inner: object) -> None:
+        self._inner, self.worlds = inner, 0
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(self._inner, name)
+
+    def simulate(self, cases: list, keep_series: bool = False) -> object:
+        self.worlds += 0 if keep_series else len(cases)
+        return self._inner.simulate(cases, keep_series=keep_series)
+
+
+def test_another_number_of_rounds_refits_from_the_checkpoint(tmp_path: pytest.TempPathFactory) -> None:
+    # Closed form (no DEM). Round r's points follow from rounds 1..r-1 alone, so a checkpoint serves any number of
+    # rounds. Reference: the same diagnosis from scratch at each number of rounds. Fewer rounds on a checkpoint of
+    # more simulate nothing; more rounds on one of fewer simulate only what they add; every result equals the one
+    # from scratch bit for bit (the fits see only the points they request).
+    def fresh(rounds: int, ck: object = None) -> tuple[diagnosis.Diagnosis, int]:
+        rig = _Counting(_MassOnSpring(12.0))
+        return diagnosis.diagnose(rig, diagnosis.DiagnosisSettings(rounds=rounds), checkpoint=ck), rig.worlds
+
+    def same(a: diagnosis.Diagnosis, b: diagnosis.Diagnosis) -> None:
+        assert (a.verdict, a.cause, a.ranking) == (b.verdict, b.cause, b.ranking)
+        for name, f in a.fits.items():
+            np.testing.assert_array_equal(b.fits[name].z_all, f.z_all)
+            np.testing.assert_array_equal(b.fits[name].heldout_loss, f.heldout_loss)
+
+    ck = tmp_path / "checkpoint.json"
+    three, n3 = fresh(3, ck)
+    one_alone, n1 = fresh(1)
+    one, n = fresh(1, ck)
+    assert n == 0 and 0 < n1 < n3
+    same(one_alone, one)
+    two_alone, n2 = fresh(2)
+    ck2 = tmp_path / "one.json"
+    fresh(1, ck2)
+    two, n = fresh(2, ck2)
+    assert n == n2 - n1 > 0  # only what the second round adds
+    same(two_alone, two)
+    assert three.named.heldout_loss.sum() <= one.named.heldout_loss.sum()  # refined fits do no worse
+    # a checkpoint written while the rounds were part of its key is read under the present key
+    saved = json.loads(ck2.read_text())
+    saved["key"] = diagnosis._checkpoint_key(_MassOnSpring(12.0), diagnosis.DiagnosisSettings(rounds=2), 2)
+    ck2.write_text(json.dumps(saved))
+    again, n = fresh(2, ck2)
+    assert n == 0
+    same(two_alone, again)

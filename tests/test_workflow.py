@@ -143,9 +143,46 @@ def test_a_folder_made_before_a_field_was_added_continues_at_its_default(tmp_pat
     meta.write_text(json.dumps(spec))
     Workflow(tmp_path, cfg)
     with pytest.raises(InputError, match="another configuration"):
-        Workflow(tmp_path, dataclasses.replace(cfg, diagnosis_rounds=2))
+        Workflow(tmp_path, dataclasses.replace(cfg, diagnosis_grid=3))
     with pytest.raises(InputError, match="another configuration"):
         Workflow(tmp_path, dataclasses.replace(cfg, diagnose=False))
+
+
+def test_a_folder_may_change_its_diagnosis_rounds_and_sets_a_finished_diagnosis_aside(tmp_path):
+    """``diagnosis_rounds`` is the one field a folder may change (its simulated points are kept and refitted, see
+    test_diagnosis's test of the rounds): workflow.json takes the new value and records the change; a finished
+    diagnosis (summary, report, figures) moves to diagnosis/rounds_<old>/, its checkpoint stays where the next fit
+    reads it; a folder lacking the field counts it at its default. Any other change is still refused."""
+    import dataclasses
+
+    cfg = _config(diagnosis_rounds=3)
+    Workflow(tmp_path, cfg)
+    (tmp_path / "diagnosis").mkdir()
+    for name, text in (("diagnosis.json", '{"verdict": "cause"}'), ("diagnosis/report.md", "# old"),
+                       ("diagnosis/series.png", "png"), ("diagnosis/checkpoint.json", '{"cache": []}')):
+        (tmp_path / name).write_text(text)
+    log: list[str] = []
+    Workflow(tmp_path, dataclasses.replace(cfg, diagnosis_rounds=1), log=log.append)
+    spec = json.loads((tmp_path / "workflow.json").read_text())
+    assert spec["config"]["diagnosis_rounds"] == 1
+    assert spec["changes"] == [{"field": "diagnosis_rounds", "from": 3, "to": 1}]
+    assert not (tmp_path / "diagnosis.json").exists()
+    aside = tmp_path / "diagnosis" / "rounds_3"
+    assert json.loads((aside / "summary.json").read_text()) == {"verdict": "cause"}
+    assert sorted(p.name for p in aside.iterdir()) == ["report.md", "series.png", "summary.json"]
+    assert sorted(p.name for p in (tmp_path / "diagnosis").iterdir()) == ["checkpoint.json", "rounds_3"]
+    assert len(log) == 1 and "set aside" in log[0]
+    Workflow(tmp_path, dataclasses.replace(cfg, diagnosis_rounds=1))  # the same again: no further change
+    assert len(json.loads((tmp_path / "workflow.json").read_text())["changes"]) == 1
+    with pytest.raises(InputError, match="another configuration"):
+        Workflow(tmp_path, dataclasses.replace(cfg, diagnosis_rounds=2, diagnosis_grid=3))
+    # a folder made before the field existed ran at its default, 3
+    spec["config"].pop("diagnosis_rounds")
+    spec.pop("changes")
+    (tmp_path / "workflow.json").write_text(json.dumps(spec))
+    Workflow(tmp_path, dataclasses.replace(cfg, diagnosis_rounds=2))
+    assert json.loads((tmp_path / "workflow.json").read_text())["changes"] == [
+        {"field": "diagnosis_rounds", "from": 3, "to": 2}]
 
 
 class _StopAfter(Budget):
@@ -350,7 +387,7 @@ def test_cli_continues_a_run_made_before_its_newer_options(tmp_path, capsys):
     claim = json.loads((out / ".warpdem-run.json").read_text())
     spec = json.loads((out / "workflow.json").read_text())
     for k, field in new.items():
-        del claim[k]
+        claim.pop(k, None)  # the rounds are no part of the claim (a folder may change them)
         del spec["config"][field]
     del spec["config"]["diagnosis_mechanisms"]
     (out / ".warpdem-run.json").write_text(json.dumps(claim))
@@ -358,9 +395,19 @@ def test_cli_continues_a_run_made_before_its_newer_options(tmp_path, capsys):
     capsys.readouterr()
     assert main(args) == 3
     assert "stopped before a lockstep batch" in capsys.readouterr().err
-    assert main([*args, "--diagnosis-rounds", "2"]) == 2
+    assert main([*args, "--diagnosis-grid", "3"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "holds another run" in err[0]
+    # another number of diagnosis rounds continues the same folder, and later calls without the option keep it
+    assert main([*args, "--diagnosis-rounds", "1"]) == 3
+    assert json.loads((out / "workflow.json").read_text())["config"]["diagnosis_rounds"] == 1
+    assert main(args) == 3
+    assert json.loads((out / "workflow.json").read_text())["config"]["diagnosis_rounds"] == 1
+    # a claim written while the rounds were part of it (folders made before they could change) is the same run
+    claim = json.loads((out / ".warpdem-run.json").read_text())
+    (out / ".warpdem-run.json").write_text(json.dumps({**claim, "diagnosis_rounds": 3}))
+    assert main([*args, "--diagnosis-rounds", "2"]) == 3
+    assert json.loads((out / "workflow.json").read_text())["config"]["diagnosis_rounds"] == 2
 
 
 @pytest.mark.parametrize(("field", "value", "named"), [
