@@ -63,12 +63,12 @@ def take_float(acc: wp.array(dtype=vec3l), scale: wp.array(dtype=wp.float64), i:
     """Slot i of ``parts`` accumulators of n slots each (acc[p * n + i], one per CPU thread), summed and converted
     to float32 (x resolution = 1 / scale[i]); the slots are zeroed for the next step. Integer sums: the result
     does not depend on how the contributions were shared out."""
+    r = wp.float64(1.0) / scale[i]  # read before the first store: Warp's arrays may alias
     a = acc[i]
     acc[i] = vec3l()
     for p in range(1, parts):
         a = a + acc[p * n + i]
         acc[p * n + i] = vec3l()
-    r = wp.float64(1.0) / scale[i]
     return wp.vec3f(float(wp.float64(a[0]) * r), float(wp.float64(a[1]) * r), float(wp.float64(a[2]) * r))
 
 

@@ -71,23 +71,37 @@ def rotational_energy(inertia: wp.vec3d, q: wp.quatd, omega: wp.vec3d) -> wp.flo
 
 
 @wp.func
-def solve_free_rotations(mat: wp.mat33d, rhs: wp.vec3d, flags: int) -> wp.vec3d:
-    """Angular acceleration from mat alpha = rhs with the blocked rotation components (flag bits 3..5) held at 0."""
+def masked_inverse(mat: wp.mat33d, flags: int) -> wp.mat33d:
+    """The inverse of mat with the rows and columns of the blocked rotation components (flag bits 3..5) replaced
+    by those of the identity: (masked_inverse * masked rhs) solves mat alpha = rhs with those components at 0."""
     m = mat
-    r = rhs
     for k in range(3):
         if (flags & (8 << k)) != 0:
-            r[k] = wp.float64(0.0)
             for l in range(3):
                 m[k, l] = wp.float64(0.0)
                 m[l, k] = wp.float64(0.0)
             m[k, k] = wp.float64(1.0)
-    return wp.inverse(m) * r
+    return wp.inverse(m)
+
+
+@wp.func
+def free_part(rhs: wp.vec3d, flags: int) -> wp.vec3d:
+    """rhs with the blocked rotation components (flag bits 3..5) set to 0."""
+    r = rhs
+    for k in range(3):
+        if (flags & (8 << k)) != 0:
+            r[k] = wp.float64(0.0)
+    return r
+
+
+@wp.func
+def solve_free_rotations(mat: wp.mat33d, rhs: wp.vec3d, flags: int) -> wp.vec3d:
+    """Angular acceleration from mat alpha = rhs with the blocked rotation components (flag bits 3..5) held at 0."""
+    return masked_inverse(mat, flags) * free_part(rhs, flags)
 
 
 @wp.func
 def integrate_hinged(
-    b: int,
     flags: int,
     m: wp.float64,
     inertia: wp.vec3d,
@@ -99,58 +113,53 @@ def integrate_hinged(
     lam: wp.float64,
     f: wp.vec3d,
     t: wp.vec3d,
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-    body_vel: wp.array(dtype=wp.vec3d),
-    body_angvel: wp.array(dtype=wp.vec3d),
-    body_angmom: wp.array(dtype=wp.vec3d),
-) -> wp.float64:
-    """One leapfrog step of a body hinged at a pivot moving at constant velocity; returns the work of local
-    damping and pivot friction [J].
+    x: wp.vec3d,
+    q: wp.quatd,
+    omega: wp.vec3d,
+):
+    """One leapfrog step of a body hinged at a pivot moving at constant velocity, from its position x [m],
+    orientation q and angular velocity omega [rad/s]; returns the new (position, velocity, angular velocity,
+    orientation, angular momentum) and the work of local damping and pivot friction [J].
 
     Pivot friction: a torque of magnitude ``friction`` opposing the trial angular velocity omega + dt alpha; when
     it would reverse that velocity within the step the body sticks (omega = 0), which is exact stick-slip for one
     free rotation."""
-    q = body_quat[b]
-    omega = body_angvel[b]
     rot = wp.quat_to_matrix(q)
     arm = rot * pivot_local  # centre of mass -> pivot
-    p = body_pos[b] + arm
+    p = x + arm
     rc = -arm  # pivot -> centre of mass
     t_p = t + wp.cross(rc, f + m * gravity)
     i_c = rot * wp.diag(inertia) * wp.transpose(rot)
     i_p = i_c + m * (wp.dot(rc, rc) * wp.identity(n=3, dtype=wp.float64) - wp.outer(rc, rc))
-    alpha = solve_free_rotations(i_p, t_p - wp.cross(omega, i_p * omega), flags)
+    i_p_inv = masked_inverse(i_p, flags)
+    alpha = i_p_inv * free_part(t_p - wp.cross(omega, i_p * omega), flags)
     alpha_d = damp(alpha, omega, dt, lam)
     work = wp.abs(wp.dot(i_p * (alpha - alpha_d), omega)) * dt
     omega_trial = omega + dt * alpha_d
-    omega = omega_trial
-    speed = wp.length(omega_trial)
-    if friction > wp.float64(0.0) and speed > wp.float64(0.0):
-        u = omega_trial / speed
-        d_omega = dt * solve_free_rotations(i_p, friction * u, flags)
-        if wp.dot(d_omega, u) >= speed:
-            omega = wp.vec3d(wp.float64(0.0), wp.float64(0.0), wp.float64(0.0))  # sticks
-        else:
-            omega = omega_trial - d_omega
-        work += friction * wp.length(omega) * dt
-    q_new = quat_integrate(q, omega, dt)
+    omega_new = omega_trial
+    if friction > wp.float64(0.0):
+        speed = wp.length(omega_trial)
+        if speed > wp.float64(0.0):
+            u = omega_trial / speed
+            d_omega = dt * (i_p_inv * free_part(friction * u, flags))
+            if wp.dot(d_omega, u) >= speed:
+                omega_new = wp.vec3d(wp.float64(0.0), wp.float64(0.0), wp.float64(0.0))  # sticks
+            else:
+                omega_new = omega_trial - d_omega
+            work += friction * wp.length(omega_new) * dt
+    q_new = quat_integrate(q, omega_new, dt)
     arm_new = wp.quat_rotate(q_new, pivot_local)
-    body_pos[b] = p + dt * pivot_vel - arm_new
-    body_vel[b] = pivot_vel - wp.cross(omega, arm_new)
-    body_angvel[b] = omega
     rot_new = wp.quat_to_matrix(q_new)
-    body_angmom[b] = rot_new * wp.diag(inertia) * wp.transpose(rot_new) * omega
-    body_quat[b] = q_new
-    return work
+    return (p + dt * pivot_vel - arm_new, pivot_vel - wp.cross(omega_new, arm_new), omega_new, q_new,
+            rot_new * wp.diag(inertia) * wp.transpose(rot_new) * omega_new, work)
 
 
 @wp.func
 def check_body(
     b: int,
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_vel: wp.array(dtype=wp.vec3d),
-    body_angvel: wp.array(dtype=wp.vec3d),
+    x: wp.vec3d,
+    v: wp.vec3d,
+    omega: wp.vec3d,
     max_speed: wp.float64,
     lower: wp.vec3d,
     upper: wp.vec3d,
@@ -158,12 +167,11 @@ def check_body(
     base: int,
     fault: wp.array(dtype=int),
 ):
-    """If body b is NaN, faster than max_speed [m/s] or outside [lower, upper] [m], record it unless a body of
-    lower index failed: fault[base:base + 3] = (body, cause (1 NaN, 2 speed, 3 bounds), step)."""
-    x = body_pos[b]
-    v = body_vel[b]
+    """If body b (at x [m], velocity v [m/s], angular velocity omega [rad/s]) is NaN, faster than max_speed [m/s]
+    or outside [lower, upper] [m], record it unless a body of lower index failed: fault[base:base + 3] = (body,
+    cause (1 NaN, 2 speed, 3 bounds), step)."""
     cause = int(0)
-    s = x[0] + x[1] + x[2] + v[0] + v[1] + v[2] + body_angvel[b][0] + body_angvel[b][1] + body_angvel[b][2]
+    s = x[0] + x[1] + x[2] + v[0] + v[1] + v[2] + omega[0] + omega[1] + omega[2]
     if wp.isnan(s) or wp.isinf(s):
         cause = 1
     elif wp.length(v) > max_speed:
@@ -220,7 +228,18 @@ def integrate_body(
     fault: wp.array(dtype=int),
 ):
     """Body b's motion for one step (one thread of integrate_bodies_kernel, or a world's loop); ``step``: the step
-    being completed, for a fault record."""
+    being completed, for a fault record. Every value of the body is read before anything is written (Warp's arrays
+    may alias, so a load after a store waits for it)."""
+    flags = body_flags[b]
+    w = body_world[b]
+    m = body_mass[b]
+    inertia = body_inertia[b]
+    lam = wp.float64(group_damping[w * n_groups + body_group[b]])
+    x = body_pos[b]
+    q = body_quat[b]
+    v = body_vel[b]
+    omega = body_angvel[b]
+    l_mom = body_angmom[b]
     force = wp.vec3f()
     torque = wp.vec3f()
     if float_sums != 0:  # converted by accumulate.wrench_to_float_kernel
@@ -230,41 +249,37 @@ def integrate_body(
         n = body_force.shape[0]
         force = take_float(force_acc, force_scale, b, n, parts)
         torque = take_float(torque_acc, torque_scale, b, n, parts)
-        body_force[b] = force
-        body_torque[b] = torque
-    flags = body_flags[b]
-    v = body_vel[b]
-    omega = body_angvel[b]
-    w = body_world[b]
-    m = body_mass[b]
     f = wp.vec3d(force)
+    t = wp.vec3d(torque)
     if (flags & ALL_DOFS) == ALL_DOFS:
         # fully prescribed motion; the driver's work: against the contact and spring forces, plus the change of
         # the body's own rotational kinetic energy (gravity on such a body is not in the balance)
-        q_new = quat_integrate(body_quat[b], omega, dt)
+        q_new = quat_integrate(q, omega, dt)
         if track_energy != 0:
-            t = wp.vec3d(torque)
             work = -(wp.dot(f, v) + wp.dot(t, omega)) * dt
-            work += rotational_energy(body_inertia[b], q_new, omega) - rotational_energy(body_inertia[b],
-                                                                                          body_quat[b], omega)
+            work += rotational_energy(inertia, q_new, omega) - rotational_energy(inertia, q, omega)
             wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, work)
-        body_pos[b] = body_pos[b] + dt * v
+        x = x + dt * v
+        body_pos[b] = x
         body_quat[b] = q_new
     elif (flags & FLAG_PIVOT) != 0:
-        lam = wp.float64(group_damping[w * n_groups + body_group[b]])
         friction = body_pivot_friction[b]
         pivot_vel = body_pivot_vel[b]
-        work = integrate_hinged(b, flags, m, body_inertia[b], body_pivot[b], pivot_vel, friction, gravity,
-                                dt, lam, f, wp.vec3d(torque), body_pos, body_quat, body_vel, body_angvel,
-                                body_angmom)
+        x, v_new, omega, q_new, l_new, work = integrate_hinged(flags, m, inertia, body_pivot[b], pivot_vel, friction,
+                                                               gravity, dt, lam, f, t, x, q, omega)
+        body_pos[b] = x
+        body_vel[b] = v_new
+        body_angvel[b] = omega
+        body_angmom[b] = l_new
+        body_quat[b] = q_new
         if track_energy != 0:
             if lam > wp.float64(0.0) or friction > wp.float64(0.0):
                 wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, work)
             # the carriage's work: the pivot reaction m a - f - m g times the pivot's velocity
-            reaction = m * (body_vel[b] - v) - (f + m * gravity) * dt
+            reaction = m * (v_new - v) - (f + m * gravity) * dt
             wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, wp.dot(reaction, pivot_vel))
+        v = v_new
     else:
-        lam = wp.float64(group_damping[w * n_groups + body_group[b]])
         a = f / m + gravity
         driven = wp.float64(0.0)
         for k in range(3):
@@ -278,12 +293,10 @@ def integrate_body(
                 e += m * wp.abs(a_d[k] - a[k]) * wp.abs(v[k] + wp.float64(0.5) * dt * a[k]) * dt
             wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, e)
         v = v + dt * a_d
+        x = x + dt * v
         body_vel[b] = v
-        body_pos[b] = body_pos[b] + dt * v
+        body_pos[b] = x
 
-        t = wp.vec3d(torque)
-        inertia = body_inertia[b]
-        q = body_quat[b]
         rot_blocked = flags & ROT_DOFS
         if rot_blocked == ROT_DOFS:
             q_new = quat_integrate(q, omega, dt)
@@ -339,17 +352,20 @@ def integrate_body(
                         t_d[k] = t[k] * (wp.float64(1.0) + lam)
                 if track_energy != 0 and lam > wp.float64(0.0):
                     wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, wp.abs(wp.dot(t - t_d, omega)) * dt)
-                l_mom = body_angmom[b]
                 l_n = l_mom + wp.float64(0.5) * dt * t_d
                 w_b_n = cw_div(wp.quat_rotate_inv(q, l_n), inertia)
                 q_half = q + wp.float64(0.5) * dt * dot_q(w_b_n, q)
                 l_mom = l_mom + dt * t_d
                 w_b_half = cw_div(wp.quat_rotate_inv(q, l_mom), inertia)
                 q_new = wp.normalize(q + dt * dot_q(w_b_half, q_half))
+                omega = wp.quat_rotate(q_new, w_b_half)
                 body_angmom[b] = l_mom
-                body_angvel[b] = wp.quat_rotate(q_new, w_b_half)
+                body_angvel[b] = omega
                 body_quat[b] = q_new
-    check_body(b, body_pos, body_vel, body_angvel, max_speed, lower, upper, step, fault_base, fault)
+    if float_sums == 0:
+        body_force[b] = force
+        body_torque[b] = torque
+    check_body(b, x, v, omega, max_speed, lower, upper, step, fault_base, fault)
 
 
 @wp.kernel
