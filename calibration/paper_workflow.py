@@ -300,7 +300,7 @@ class Workflow:
 
     def _refit(self, saved: dict, changed: dict[str, tuple[object, object]]) -> None:
         """Take this call's values of :data:`REFIT_FIELDS` (``changed``: field -> (folder's, this call's)): a
-        finished diagnosis moves to ``diagnosis/<field>_<old value>/`` (its report, figures and summary; the
+        finished diagnosis moves to ``diagnosis/rounds_<old value>/`` (its report, figures and summary; the
         checkpoint stays, to be fitted again), and ``workflow.json`` records the change."""
         what = ", ".join(f"{k} {a!r} -> {b!r}" for k, (a, b) in changed.items())
         done = self._path("diagnosis.json")

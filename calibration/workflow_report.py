@@ -334,8 +334,8 @@ def _rounds_text(rounds: int | None) -> str:
         return ""
     if rounds == 1:
         return ("Its fits are the first round's grid alone (`--diagnosis-rounds 1`): each mechanism's best grid "
-                "point, not refined by Levenberg-Marquardt steps, so a held-out loss is an upper bound of what the "
-                "refined fit would reach. ")
+                "point, not refined by Levenberg-Marquardt steps: a refined fit's loss on all data can only be "
+                "lower (it chooses among more points), its held-out losses may move either way. ")
     return f"Its fits: a grid, then {rounds - 1} Levenberg-Marquardt round{'s' * (rounds > 2)}. "
 
 

@@ -240,6 +240,9 @@ def integrate_body(
     v = body_vel[b]
     omega = body_angvel[b]
     l_mom = body_angmom[b]
+    pivot = body_pivot[b]
+    pivot_vel = body_pivot_vel[b]
+    friction = body_pivot_friction[b]
     force = wp.vec3f()
     torque = wp.vec3f()
     if float_sums != 0:  # converted by accumulate.wrench_to_float_kernel
@@ -263,10 +266,8 @@ def integrate_body(
         body_pos[b] = x
         body_quat[b] = q_new
     elif (flags & FLAG_PIVOT) != 0:
-        friction = body_pivot_friction[b]
-        pivot_vel = body_pivot_vel[b]
-        x, v_new, omega, q_new, l_new, work = integrate_hinged(flags, m, inertia, body_pivot[b], pivot_vel, friction,
-                                                               gravity, dt, lam, f, t, x, q, omega)
+        x, v_new, omega, q_new, l_new, work = integrate_hinged(flags, m, inertia, pivot, pivot_vel, friction, gravity,
+                                                               dt, lam, f, t, x, q, omega)
         body_pos[b] = x
         body_vel[b] = v_new
         body_angvel[b] = omega
