@@ -58,18 +58,33 @@ def add_wrench(
 
 
 @wp.func
-def take_float(acc: wp.array(dtype=vec3l), scale: wp.array(dtype=wp.float64), i: int, n: int, parts: int
+def read_float(acc: wp.array(dtype=vec3l), scale: wp.array(dtype=wp.float64), i: int, n: int, parts: int
                ) -> wp.vec3f:
     """Slot i of ``parts`` accumulators of n slots each (acc[p * n + i], one per CPU thread), summed and converted
-    to float32 (x resolution = 1 / scale[i]); the slots are zeroed for the next step. Integer sums: the result
-    does not depend on how the contributions were shared out."""
-    r = wp.float64(1.0) / scale[i]  # read before the first store: Warp's arrays may alias
+    to float32 (x resolution = 1 / scale[i]). Integer sums: the result does not depend on how the contributions
+    were shared out. Nothing is written (:func:`clear_slots` zeroes them for the next step)."""
+    r = wp.float64(1.0) / scale[i]
     a = acc[i]
-    acc[i] = vec3l()
     for p in range(1, parts):
         a = a + acc[p * n + i]
-        acc[p * n + i] = vec3l()
     return wp.vec3f(float(wp.float64(a[0]) * r), float(wp.float64(a[1]) * r), float(wp.float64(a[2]) * r))
+
+
+@wp.func
+def clear_slots(acc: wp.array(dtype=vec3l), i: int, n: int, parts: int):
+    """Zero slot i of ``parts`` accumulators of n slots each for the next step."""
+    for p in range(parts):
+        acc[p * n + i] = vec3l()
+
+
+@wp.func
+def take_float(acc: wp.array(dtype=vec3l), scale: wp.array(dtype=wp.float64), i: int, n: int, parts: int
+               ) -> wp.vec3f:
+    """:func:`read_float`, then :func:`clear_slots`. (Code that reads more afterwards calls the two itself, clearing
+    last: Warp's arrays may alias, so a load after a store waits for it.)"""
+    out = read_float(acc, scale, i, n, parts)
+    clear_slots(acc, i, n, parts)
+    return out
 
 
 @wp.kernel

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from .accumulate import add_wrench, take_float, vec3l
+from .accumulate import add_wrench, clear_slots, read_float, vec3l
 from .broadphase import mesh_displacement
 from .contacts import E_DAMPING, E_DRIVEN, E_SPRING_DAMPER, N_ENERGY
 from .model import ALL_DOFS, FLAG_ASPHERICAL, FLAG_PIVOT, ROT_DOFS
@@ -228,8 +228,8 @@ def integrate_body(
     fault: wp.array(dtype=int),
 ):
     """Body b's motion for one step (one thread of integrate_bodies_kernel, or a world's loop); ``step``: the step
-    being completed, for a fault record. Every value of the body is read before anything is written (Warp's arrays
-    may alias, so a load after a store waits for it)."""
+    being completed, for a fault record. Each path reads what it needs before it writes anything, and the force
+    sums are cleared last (Warp's arrays may alias, so a load after a store waits for it)."""
     flags = body_flags[b]
     w = body_world[b]
     m = body_mass[b]
@@ -239,10 +239,6 @@ def integrate_body(
     q = body_quat[b]
     v = body_vel[b]
     omega = body_angvel[b]
-    l_mom = body_angmom[b]
-    pivot = body_pivot[b]
-    pivot_vel = body_pivot_vel[b]
-    friction = body_pivot_friction[b]
     force = wp.vec3f()
     torque = wp.vec3f()
     if float_sums != 0:  # converted by accumulate.wrench_to_float_kernel
@@ -250,8 +246,8 @@ def integrate_body(
         torque = body_torque[b]
     else:
         n = body_force.shape[0]
-        force = take_float(force_acc, force_scale, b, n, parts)
-        torque = take_float(torque_acc, torque_scale, b, n, parts)
+        force = read_float(force_acc, force_scale, b, n, parts)
+        torque = read_float(torque_acc, torque_scale, b, n, parts)
     f = wp.vec3d(force)
     t = wp.vec3d(torque)
     if (flags & ALL_DOFS) == ALL_DOFS:
@@ -266,8 +262,10 @@ def integrate_body(
         body_pos[b] = x
         body_quat[b] = q_new
     elif (flags & FLAG_PIVOT) != 0:
-        x, v_new, omega, q_new, l_new, work = integrate_hinged(flags, m, inertia, pivot, pivot_vel, friction, gravity,
-                                                               dt, lam, f, t, x, q, omega)
+        friction = body_pivot_friction[b]
+        pivot_vel = body_pivot_vel[b]
+        x, v_new, omega, q_new, l_new, work = integrate_hinged(flags, m, inertia, body_pivot[b], pivot_vel, friction,
+                                                               gravity, dt, lam, f, t, x, q, omega)
         body_pos[b] = x
         body_vel[b] = v_new
         body_angvel[b] = omega
@@ -295,8 +293,6 @@ def integrate_body(
             wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, e)
         v = v + dt * a_d
         x = x + dt * v
-        body_vel[b] = v
-        body_pos[b] = x
 
         rot_blocked = flags & ROT_DOFS
         if rot_blocked == ROT_DOFS:
@@ -353,6 +349,7 @@ def integrate_body(
                         t_d[k] = t[k] * (wp.float64(1.0) + lam)
                 if track_energy != 0 and lam > wp.float64(0.0):
                     wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, wp.abs(wp.dot(t - t_d, omega)) * dt)
+                l_mom = body_angmom[b]
                 l_n = l_mom + wp.float64(0.5) * dt * t_d
                 w_b_n = cw_div(wp.quat_rotate_inv(q, l_n), inertia)
                 q_half = q + wp.float64(0.5) * dt * dot_q(w_b_n, q)
@@ -363,7 +360,12 @@ def integrate_body(
                 body_angmom[b] = l_mom
                 body_angvel[b] = omega
                 body_quat[b] = q_new
+        body_vel[b] = v
+        body_pos[b] = x
     if float_sums == 0:
+        n = body_force.shape[0]
+        clear_slots(force_acc, b, n, parts)
+        clear_slots(torque_acc, b, n, parts)
         body_force[b] = force
         body_torque[b] = torque
     check_body(b, x, v, omega, max_speed, lower, upper, step, fault_base, fault)
@@ -477,11 +479,16 @@ def mesh_end_one(
 ):
     """Mesh instance m at the end of a step (one thread of _mesh_end_kernel, or a world's loop): its force into
     force[m] and added to force_sum[m], its torque into torque[m], its displacement into disp[slot]."""
-    f = take_float(force_acc, force_scale, m, force.shape[0], parts)
-    force[m] = f
-    force_sum[m] = force_sum[m] + wp.vec3d(f)
-    torque[m] = take_float(torque_acc, torque_scale, m, torque.shape[0], parts)
+    n = force.shape[0]
+    f = read_float(force_acc, force_scale, m, n, parts)
+    t = read_float(torque_acc, torque_scale, m, n, parts)
+    f_sum = force_sum[m]
     d = mesh_displacement(m, mesh_body, mesh_rmax, body_pos, body_quat, build_pos, build_quat)
+    clear_slots(force_acc, m, n, parts)
+    clear_slots(torque_acc, m, n, parts)
+    force[m] = f
+    force_sum[m] = f_sum + wp.vec3d(f)
+    torque[m] = t
     wp.atomic_max(disp, slot, d)
 
 
