@@ -9,4 +9,4 @@ tar czf $OUT/state.tgz -C /root --exclude=t3/checkpoints --exclude=t3/beds t3
 cp $R/beds/bed_paper_*.npz $OUT/ 2>/dev/null
 ls -la $R/beds $R/checkpoints 2>/dev/null | tail -20
 tail -15 $OUT/log.txt
-if [ -n "$(ls -A $R/checkpoints 2>/dev/null)" ]; then tar czf $OUT/ckpt.tgz -C /root t3/checkpoints; ls -la $OUT/ckpt.tgz; fi
+if [ -n "$(ls -A $R/checkpoints 2>/dev/null)" ]; then tar czf - -C /root t3/checkpoints | split -b 9000000 - $OUT/ckpt.tgz.part.; ls -la $OUT; fi
