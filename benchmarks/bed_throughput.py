@@ -89,13 +89,14 @@ def bed_scene(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray) -> object:
 
 
 def run_warpdem(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: str, steps: int, warmup: int,
-                scene: str, threads: int | None = None) -> dict:
+                scene: str, threads: int | None = None, contact_threads: str = "sphere") -> dict:
     import warpdem as wd
 
-    sim, setup, wall = timed_run(bed_scene(pos, rad, particle), device, steps, warmup, threads)
+    sim, setup, wall = timed_run(bed_scene(pos, rad, particle), device, steps, warmup, threads, contact_threads)
     model = sim.model
     contacts = int(wd.observers.contact_count(sim).sum()) if len(rad) <= 100_000 else -1
     return {"engine": "warpdem", "scene": scene, "device": str(model.device), "threads": sim.parts,
+            "contact_threads": contact_threads,
             "spheres": len(rad),
             "particles": int(len(np.unique(particle))), "steps": steps, "wall_s": wall,
             "particle_steps_per_s": len(rad) * steps / wall, "setup_s": setup, "contacts": contacts,
@@ -146,6 +147,8 @@ def main() -> None:
     p.add_argument("--threads", type=int, default=None, help="CPU threads sharing a step (default: all cores)")
     p.add_argument("--yade", action="store_true", help="also run the bed in Yade 2023.02a (-j2)")
     p.add_argument("--json", default=None, help="append results to this JSON-lines file")
+    p.add_argument("--contact-threads", nargs="+", default=["sphere"], choices=("sphere", "pair"),
+                   help="Simulation(contact_threads=...): each given one is timed in turn")
     args = p.parse_args()
     base = deposited_bed(args.scale, args.seed, Path(args.cache), args.bed)
     for n in args.sizes:
@@ -155,7 +158,7 @@ def main() -> None:
         steps = args.steps or int(np.clip((2e8 if "cuda" in args.device else 4e6) / len(rad), 100, 4000))
         scene = "deposited bed C" + (", Morton order" if args.sorted else "")
         res = [run_warpdem(pos, rad, part, args.device, steps, warmup=min(200, steps), scene=scene,
-                           threads=args.threads)]
+                           threads=args.threads, contact_threads=ct) for ct in args.contact_threads]
         emit(res, run_yade(pos, rad, part, steps, warmup=20) if args.yade else None, args.json)
 
 

@@ -41,14 +41,14 @@ def op_name(op: object) -> str:
     return getattr(op, "__name__", repr(op))
 
 
-def bed_simulation(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: str, threads: int | None
-                   ) -> object:
+def bed_simulation(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: str, threads: int | None,
+                   contact_threads: str = "sphere") -> object:
     """The bonded bed of ``bed_throughput.py`` as a Simulation (cohesion set at its first step)."""
     import warpdem as wd
 
     model, state = bed_scene(pos, rad, particle).finalize(device)
     sim = wd.Simulation(model, state, dt=0.3 * wd.pwave_timestep(model), always_use_moment_law=True,
-                        cpu_threads=threads)
+                        cpu_threads=threads, contact_threads=contact_threads)
     sim.set_cohesion_now()
     return sim
 
@@ -163,6 +163,8 @@ def main() -> None:
                    help="ringing: time advance() as a calibration runs it, stage by stage and a thread per world")
     p.add_argument("--lineinfo", action="store_true",
                    help="compile CUDA kernels with line information (for a profiler such as Nsight Compute)")
+    p.add_argument("--contact-threads", default="sphere", choices=("sphere", "pair"),
+                   help="bed: Simulation(contact_threads=...)")
     args = p.parse_args()
     if args.lineinfo:
         import warp as wp
@@ -187,7 +189,7 @@ def main() -> None:
         pos, rad, part = deposited_bed(args.scale, 0, Path(args.cache), args.bed)
         if args.size > len(rad):
             pos, rad, part = tiled(pos, rad, part, args.size)
-        sim = bed_simulation(pos, rad, part, args.device, args.threads)
+        sim = bed_simulation(pos, rad, part, args.device, args.threads, args.contact_threads)
     n = sim.model.n_spheres
     times, total, rebuilds, kernels = profile(sim, args.device, args.steps, args.warmup)
     print(f"{args.scene}: {n:,} spheres, {args.steps} steps on {args.device}: {1e3 * total / args.steps:.3f} ms/step "
@@ -202,6 +204,7 @@ def main() -> None:
     if args.json:
         with open(args.json, "a") as f:
             f.write(json.dumps({"scene": args.scene, "device": args.device, "threads": args.threads, "spheres": n,
+                                "contact_threads": args.contact_threads,
                                 "steps": args.steps, "rebuilds": rebuilds, "ms_per_step": 1e3 * total / args.steps,
                                 "ops_ms_per_step": {k: 1e3 * v / args.steps for k, v in times.items()},
                                 "kernels_ms_per_step": {k: 1e3 * v / args.steps for k, v in kernels.items()}})

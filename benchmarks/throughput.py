@@ -40,10 +40,11 @@ def lattice(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return pos, rad
 
 
-def timed_run(builder: object, device: str, steps: int, warmup: int, threads: int | None = None
-              ) -> tuple[object, float, float]:
+def timed_run(builder: object, device: str, steps: int, warmup: int, threads: int | None = None,
+              contact_threads: str = "sphere") -> tuple[object, float, float]:
     """Build ``builder``'s scene on ``device``, bond every contact at the first step (moment law on, no damping,
-    dt = 0.3 x the P-wave step), run ``warmup`` steps, then time ``steps``: (simulation, setup [s], wall [s])."""
+    dt = 0.3 x the P-wave step), run ``warmup`` steps, then time ``steps``: (simulation, setup [s], wall [s]).
+    ``contact_threads``: Simulation's option of that name."""
     import warp as wp
 
     import warpdem as wd
@@ -51,7 +52,7 @@ def timed_run(builder: object, device: str, steps: int, warmup: int, threads: in
     t0 = time.time()
     model, state = builder.finalize(device)
     sim = wd.Simulation(model, state, dt=0.3 * wd.pwave_timestep(model), always_use_moment_law=True,
-                        graph_steps=min(200, steps), cpu_threads=threads)
+                        graph_steps=min(200, steps), cpu_threads=threads, contact_threads=contact_threads)
     sim.set_cohesion_now()
     setup = time.time() - t0
     sim.advance(warmup)

@@ -355,6 +355,7 @@ def build(grid: wp.HashGrid, cell: float, skin: float, model: object, state: obj
                [d.ss_new.count, d.ss_new.key_a, d.ss_new.hist, d.list_stats[2:3]])
     wp.launch(_list_total_kernel, 1, inputs=[d.alloc_total, 0, d.list_stats], device=dev)
     d.ss.copy_from(d.ss_new)
+    d.ss.index_owners()
     wp.copy(d.build_pos, d.sphere_pos)
     if m.n_meshes == 0:
         return
@@ -373,10 +374,19 @@ def build(grid: wp.HashGrid, cell: float, skin: float, model: object, state: obj
               outputs=[d.mesh_build_pos, d.mesh_build_quat], device=dev)
 
 
+@wp.kernel
+def _owner_kernel(start: wp.array(dtype=int), count: wp.array(dtype=int), owner_out: wp.array(dtype=int)):
+    """owner_out[k] = i for every entry k of sphere i's block (free slots keep their -1)."""
+    i = wp.tid()
+    for k in range(start[i], start[i] + count[i]):
+        owner_out[k] = i
+
+
 # ----------------------------------------------------------------------------- host-side container
 class PairList:
     """CSR candidate list with per-entry contact history (sphere-sphere: ``other``; sphere-triangle: ``mesh``,
-    ``face``). ``start``/``count`` have shape (n_spheres,); entry arrays have shape (capacity,)."""
+    ``face``). ``start``/``count`` have shape (n_spheres,); entry arrays have shape (capacity,); ``owner``
+    (capacity,), each entry's sphere, only where :meth:`enable_owners` asked for it (else None)."""
 
     def __init__(self, n_spheres: int, capacity: int, device: wp.context.Device, two_keys: bool) -> None:
         self.device = device
@@ -387,6 +397,22 @@ class PairList:
         self.key_a = wp.zeros(self.capacity, dtype=int, device=device)
         self.key_b = wp.zeros(self.capacity if two_keys else 1, dtype=int, device=device)
         self.hist = wp.zeros(self.capacity, dtype=Hist, device=device)
+        self.owner: wp.array | None = None  # see enable_owners
+
+    def enable_owners(self) -> None:
+        """Keep ``owner`` (capacity,): each entry's sphere, -1 for a free slot (contacts.sphere_pair_kernel's
+        thread per entry); :meth:`index_owners` fills it from start and count."""
+        if self.owner is None:
+            self.owner = wp.full(self.capacity, -1, dtype=int, device=self.device)
+            self.index_owners()
+
+    def index_owners(self) -> None:
+        """Fill ``owner`` from start and count (after a build, a growth or a checkpoint's lists); no-op without it."""
+        if self.owner is None:
+            return
+        self.owner.fill_(-1)
+        wp.launch(_owner_kernel, self.start.shape[0], inputs=[self.start, self.count], outputs=[self.owner],
+                  device=self.device)
 
     def grow(self, capacity: int) -> None:
         """Reallocate the entry arrays with a larger capacity, keeping current entries."""
@@ -399,6 +425,9 @@ class PairList:
             wp.copy(new, old, count=min(old.shape[0], capacity))
             setattr(self, name, new)
         self.capacity = capacity
+        if self.owner is not None:
+            self.owner = wp.full(capacity, -1, dtype=int, device=self.device)
+            self.index_owners()
 
     def copy_from(self, other: PairList) -> None:
         """Copy start, count and all entries (same capacities)."""

@@ -173,6 +173,7 @@ def load(sim: object, path: str | os.PathLike) -> None:
         if lst.two_keys:
             lst.key_b.assign(data[f"{name}/key_b"])
         lst.hist.assign(wp.array(data[f"{name}/hist"], dtype=lst.hist.dtype, device=lst.device))
+        lst.index_owners()
     sim.recapture()
     if sim.parts > 1:
         sim._balance_contacts()

@@ -86,6 +86,83 @@ def phys_of(mats: Materials, world: int, mi: int, mj: int, r1: float, r2: float)
     )
 
 
+@wp.struct
+class PairWrench:
+    """What one sphere-sphere pair gives the two bodies this step (:func:`sphere_pair`)."""
+
+    alive: int  # 0: not in contact, or the law deleted the contact this step
+    force: wp.vec3f  # force on sphere i's body [N] (sphere j's body gets -force)
+    torque_i: wp.vec3f  # torque on sphere i's body about its centre of mass [N m]
+    torque_j: wp.vec3f  # torque on sphere j's body about its centre of mass [N m]
+
+
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
+def sphere_pair(
+    k: int,
+    j: int,
+    w: int,
+    mi: int,
+    xi: wp.vec3d,
+    r1d: wp.float64,
+    vi: wp.vec3f,
+    wi: wp.vec3f,
+    arm_i0: wp.vec3f,
+    now: int,
+    # Model:
+    sphere_material: wp.array(dtype=int),
+    radius: wp.array(dtype=wp.float64),
+    mats: Materials,
+    opts: LawOptions,
+    # Data in:
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    sphere_vel: wp.array(dtype=wp.vec3f),
+    sphere_angvel: wp.array(dtype=wp.vec3f),
+    sphere_arm: wp.array(dtype=wp.vec3f),
+    # Data in/out:
+    hist: wp.array(dtype=Hist),
+    # Data out:
+    energy: wp.array(dtype=wp.float64),
+) -> PairWrench:
+    """Candidate k of sphere i (world w, material mi, centre xi [m], radius r1d [m], velocity vi [m/s], angular
+    velocity wi [rad/s], arm_i0 [m] from its body's centre of mass) against sphere j: the contact law, its history
+    hist[k] and dissipated energies; the wrench each body gets."""
+    out = PairWrench()
+    out.alive = int(0)
+    d = sphere_pos[j] - xi
+    dist = wp.length(d)
+    r2d = radius[j]
+    r1 = float(r1d)
+    r2 = float(r2d)
+    un = float(r1d + r2d - dist)
+    active = hist[k].flags & ACTIVE  # the whole history only for a contact (most candidates are none)
+    if active != 0 or un >= 0.0:
+        h = hist[k]
+        n = wp.vec3f(d / dist)
+        p = phys_of(mats, w, mi, sphere_material[j], r1, r2)
+        is_new = int(0)
+        if active == 0:
+            h = new_hist(p, n, wp.max(opts.cohesion_on_new, now))
+            is_new = int(1)
+        elif now != 0:
+            h = set_cohesion(h, p)
+        wj = sphere_angvel[j]
+        alpha = (r1 + r2) / (r1 + r2 - un)
+        v12 = alpha * (sphere_vel[j] - vi) - wp.cross(r1 * wi + r2 * wj, n)
+        law = cohfrict_law(h, p, is_new, n, un, v12, wi + wj, wj - wi, opts.dt, opts.always_moment, opts.unp_max)
+        hist[k] = law.hist
+        if law.alive != 0:
+            arm_i = arm_i0 + (r1 - 0.5 * un) * n
+            arm_j = sphere_arm[j] - (r2 - 0.5 * un) * n
+            out.alive = int(1)
+            out.force = law.force
+            out.torque_i = wp.cross(arm_i, law.force) - law.moment
+            out.torque_j = wp.cross(arm_j, -law.force) + law.moment
+            if opts.track_energy != 0:
+                wp.atomic_add(energy, w * N_ENERGY + E_SLIDING, wp.float64(law.dissip_slide))
+                wp.atomic_add(energy, w * N_ENERGY + E_ROLLING, wp.float64(law.dissip_roll))
+    return out
+
+
 @wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def sphere_sphere_one(
     i: int,
@@ -114,7 +191,8 @@ def sphere_sphere_one(
     torque_scale: wp.array(dtype=wp.float64),
     energy: wp.array(dtype=wp.float64),
 ):
-    """Sphere i against its sphere candidates (one thread of sphere_sphere_kernel, or a world's loop)."""
+    """Sphere i against its sphere candidates (one thread of sphere_sphere_kernel, or a world's loop): its own
+    force and torque summed in float32 over its contacts, then added once."""
     n_i = count[i]
     if n_i == 0:
         return
@@ -122,7 +200,6 @@ def sphere_sphere_one(
     w = sphere_world[i]
     xi = sphere_pos[i]
     r1d = radius[i]
-    r1 = float(r1d)
     vi = sphere_vel[i]
     wi = sphere_angvel[i]
     mi = sphere_material[i]
@@ -132,39 +209,12 @@ def sphere_sphere_one(
     now = cohesion_now[0]
     for k in range(start[i], start[i] + n_i):
         j = other[k]
-        d = sphere_pos[j] - xi
-        dist = wp.length(d)
-        r2d = radius[j]
-        r2 = float(r2d)
-        un = float(r1d + r2d - dist)
-        active = hist[k].flags & ACTIVE  # the whole history only for a contact (most candidates are none)
-        if active == 0 and un < 0.0:
-            continue
-        h = hist[k]
-        n = wp.vec3f(d / dist)
-        p = phys_of(mats, w, mi, sphere_material[j], r1, r2)
-        is_new = int(0)
-        if active == 0:
-            h = new_hist(p, n, wp.max(opts.cohesion_on_new, now))
-            is_new = int(1)
-        elif now != 0:
-            h = set_cohesion(h, p)
-        wj = sphere_angvel[j]
-        alpha = (r1 + r2) / (r1 + r2 - un)
-        v12 = alpha * (sphere_vel[j] - vi) - wp.cross(r1 * wi + r2 * wj, n)
-        out = cohfrict_law(h, p, is_new, n, un, v12, wi + wj, wj - wi, opts.dt, opts.always_moment, opts.unp_max)
-        hist[k] = out.hist
-        if out.alive == 0:
-            continue
-        arm_i = arm_i0 + (r1 - 0.5 * un) * n
-        arm_j = sphere_arm[j] - (r2 - 0.5 * un) * n
-        f_i += out.force
-        t_i += wp.cross(arm_i, out.force) - out.moment
-        add_wrench(force_acc, torque_acc, force_scale, torque_scale, sphere_body[j], -out.force,
-                   wp.cross(arm_j, -out.force) + out.moment)
-        if opts.track_energy != 0:
-            wp.atomic_add(energy, w * N_ENERGY + E_SLIDING, wp.float64(out.dissip_slide))
-            wp.atomic_add(energy, w * N_ENERGY + E_ROLLING, wp.float64(out.dissip_roll))
+        c = sphere_pair(k, j, w, mi, xi, r1d, vi, wi, arm_i0, now, sphere_material, radius, mats, opts, sphere_pos,
+                        sphere_vel, sphere_angvel, sphere_arm, hist, energy)
+        if c.alive != 0:
+            f_i += c.force
+            t_i += c.torque_i
+            add_wrench(force_acc, torque_acc, force_scale, torque_scale, sphere_body[j], -c.force, c.torque_j)
     add_wrench(force_acc, torque_acc, force_scale, torque_scale, bi, f_i, t_i)
 
 
@@ -200,6 +250,49 @@ def sphere_sphere_kernel(
         wp.tid() + first, sphere_body, sphere_world, sphere_material, radius, mats, opts, sphere_pos, sphere_vel,
         sphere_angvel, sphere_arm, start, count, other, cohesion_now, hist, force_acc, torque_acc, force_scale,
         torque_scale, energy)
+
+
+@wp.kernel
+def sphere_pair_kernel(
+    first: int,  # the first list entry of this launch (a CPU thread's share)
+    # Model:
+    sphere_body: wp.array(dtype=int),
+    sphere_world: wp.array(dtype=int),
+    sphere_material: wp.array(dtype=int),
+    radius: wp.array(dtype=wp.float64),
+    mats: Materials,
+    opts: LawOptions,
+    # Data in:
+    sphere_pos: wp.array(dtype=wp.vec3d),
+    sphere_vel: wp.array(dtype=wp.vec3f),
+    sphere_angvel: wp.array(dtype=wp.vec3f),
+    sphere_arm: wp.array(dtype=wp.vec3f),
+    owner: wp.array(dtype=int),
+    other: wp.array(dtype=int),
+    cohesion_now: wp.array(dtype=int),
+    # Data in/out:
+    hist: wp.array(dtype=Hist),
+    # Data out (fixed-point sums, accumulate.py):
+    force_acc: wp.array(dtype=vec3l),
+    torque_acc: wp.array(dtype=vec3l),
+    force_scale: wp.array(dtype=wp.float64),
+    torque_scale: wp.array(dtype=wp.float64),
+    energy: wp.array(dtype=wp.float64),
+):
+    """One thread per entry k of the sphere-sphere list (owner[k] = its sphere i, -1 for a free slot): the same
+    law as sphere_sphere_kernel, but each contact adds its own wrench to both bodies, so a sphere's contacts are not
+    summed in float32 first (the results differ from sphere_sphere_kernel's by that rounding)."""
+    k = wp.tid() + first
+    i = owner[k]
+    if i < 0:
+        return
+    w = sphere_world[i]
+    c = sphere_pair(k, other[k], w, sphere_material[i], sphere_pos[i], radius[i], sphere_vel[i], sphere_angvel[i],
+                    sphere_arm[i], cohesion_now[0], sphere_material, radius, mats, opts, sphere_pos, sphere_vel,
+                    sphere_angvel, sphere_arm, hist, energy)
+    if c.alive != 0:
+        add_wrench(force_acc, torque_acc, force_scale, torque_scale, sphere_body[i], c.force, c.torque_i)
+        add_wrench(force_acc, torque_acc, force_scale, torque_scale, sphere_body[other[k]], -c.force, c.torque_j)
 
 
 # ----------------------------------------------------------------------------- sphere-triangle

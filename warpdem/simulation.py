@@ -25,6 +25,7 @@ from .accumulate import vec3l
 from .contacts import (
     LawOptions,
     Materials,
+    sphere_pair_kernel,
     sphere_sphere_kernel,
     sphere_triangle_kernel,
     tan_kernel,
@@ -198,7 +199,14 @@ class Simulation:
             items (it divides ``world_lanes``; default 1). Both left out: on CUDA ``world_steps.lane_layout`` (a
             small world gives each item a warp of its own; a larger one, one warp of 32 threads), on the CPU one
             thread.
+        contact_threads: how the sphere-sphere contacts are shared out between threads. "sphere" (default): a
+            thread per sphere over its candidates, which sums its own contacts in float32 before adding them to its
+            body. "pair": a thread per candidate (``contacts.sphere_pair_kernel``), each contact adding its own
+            wrench to both bodies; results differ from "sphere" by that float32 rounding of a sphere's sum (the
+            same bits where no sphere has two contacts in its list). Not with ``world_steps``.
     """
+
+    CONTACT_THREADS = ("sphere", "pair")
 
     def __init__(
         self,
@@ -220,8 +228,15 @@ class Simulation:
         world_steps: bool = False,
         world_lanes: int | None = None,
         world_lane_stride: int | None = None,
+        contact_threads: str = "sphere",
     ) -> None:
         check_positive("dt", dt)
+        if contact_threads not in self.CONTACT_THREADS:
+            raise InputError(f"contact_threads must be one of {self.CONTACT_THREADS}, got {contact_threads!r}")
+        if contact_threads != "sphere" and world_steps:
+            raise InputError(f"contact_threads={contact_threads!r} needs world_steps=False (a world's thread "
+                             "loops over its spheres)")
+        self.contact_threads = contact_threads
         check_positive("max_speed", max_speed)
         self.model = model
         self.state = state
@@ -249,6 +264,8 @@ class Simulation:
         threads = _thread_count(cpu_threads) if dev.is_cpu else 1
         self._share_out(1 if self.world_steps else threads)
         self.data = Data.zeros(model, self.parts)  # the per-step arrays (data.py)
+        if contact_threads == "pair":
+            self.data.ss.enable_owners()
         if self.world_steps:  # each world's step count, rebuild request, displacements and faults (world_steps.py)
             self._share_worlds(threads)
             nw = model.n_worlds
@@ -312,6 +329,7 @@ class Simulation:
         self._body_cut = cpu_threads.split(before, ns, parts)
         self._sphere_cut = [int(before[b]) for b in self._body_cut]
         self._contact_cut = list(self._sphere_cut)
+        self._entry_cut: list[int] | None = None  # contact_threads "pair": each part's list entries
         self.parts = parts
 
     def _share_worlds(self, threads: int) -> None:
@@ -330,8 +348,12 @@ class Simulation:
         work = 1 + d.ss.count.numpy().astype(np.int64) + d.st.count.numpy()
         before = np.concatenate([[0], np.cumsum(work)])
         cut = cpu_threads.split(before, int(before[-1]), self.parts)
-        if cut != self._contact_cut:
-            self._contact_cut = cut
+        entry_cut = None
+        if self.contact_threads == "pair":  # the same spheres' list entries (blocks in sphere order on the CPU)
+            start = np.r_[d.ss.start.numpy(), d.ss.capacity]
+            entry_cut = [0, *np.maximum.accumulate(start[cut[1:-1]]).tolist(), d.ss.capacity]
+        if cut != self._contact_cut or entry_cut != self._entry_cut:
+            self._contact_cut, self._entry_cut = cut, entry_cut
             self.recapture()
 
     def _set_bounds(self, bounds: tuple[object, object] | None) -> None:
@@ -468,7 +490,19 @@ class Simulation:
             acc, mesh_acc, energy = part_sums(p)
             first, dim = cc[p], cc[p + 1] - cc[p]
             part = []
-            if ns:
+            if ns and self.contact_threads == "pair":  # a thread per list entry
+                ec = self._entry_cut if self._entry_cut and self._entry_cut[-1] == d.ss.capacity else \
+                    [q * d.ss.capacity // P for q in range(P + 1)]
+                e0, e1 = ec[p], ec[p + 1]
+                part.append(launch(
+                    sphere_pair_kernel, e1 - e0,
+                    inputs=[e0, m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius,
+                            self.materials, self.options, d.sphere_pos, d.sphere_vel, d.sphere_angvel,
+                            d.sphere_arm, d.ss.owner, d.ss.key_a, d.cohesion_now, d.ss.hist],
+                    outputs=[*acc, energy],
+                    device=dev,
+                ))
+            elif ns:
                 part.append(launch(
                     sphere_sphere_kernel, dim,
                     inputs=[first, m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius,
