@@ -11,7 +11,7 @@ out, for ``gpu_ab.sh ringing`` to time beside the tree itself.
 
 Each changes the physics (the rigs still run: the rotations are small, the tool's inertia nearly diagonal), so the
 copies are for timing only; delete them afterwards. A branch can be added beside them with
-``git archive BRANCH warpdem scenes calibration benchmarks | tar x -C _ab_BRANCH``.
+``mkdir _ab_BRANCH && git archive BRANCH warpdem scenes calibration benchmarks | tar x -C _ab_BRANCH``.
 """
 
 from __future__ import annotations

@@ -17,6 +17,7 @@
 # the bed, or it is deposited again. Delete the _ab* directories afterwards.
 OUT=${OUT:-/tmp/gpu_ab}; mkdir -p "$OUT"
 what=${1:-ringing}; rounds=${2:-1}
+case "$what" in ringing|bed|profile) ;; *) echo "gpu_ab.sh: what must be ringing, bed or profile, got '$what'"; exit 2;; esac
 if [ "$what" = profile ]; then
   cd benchmarks
   timeout 200 ncu -k regex:world_steps_kernel --launch-skip 3 --launch-count 1 --section SourceCounters \

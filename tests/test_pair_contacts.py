@@ -39,9 +39,9 @@ def test_pair_threads_on_a_cradle_give_the_same_bits_and_conserve_momentum_and_e
     # References: (1) the per-sphere kernel, bit for bit (each list holds at most one contact, so both round the
     # same single contact forces); (2) closed forms: a collision of free spheres conserves momentum exactly (equal
     # and opposite contact forces, integer sums), and the elastic law (no viscous damping, no sliding in a head-on
-    # row) conserves kinetic energy once the spheres have separated, up to the leapfrog's error: a contact starts
-    # within a step, with an overlap of up to v dt that stores up to kn (v dt)^2 / 2, (kn / m) dt^2 of the kinetic
-    # energy, for each of the row's four contacts.
+    # row) conserves kinetic energy once the spheres have separated, up to the leapfrog's error, of the order of
+    # (omega dt)^2 of the kinetic energy per contact (omega^2 = 2 kn / m for two equal spheres): the tolerance
+    # allows 2 (omega dt)^2 = 4 (kn / m) dt^2 for the row's four contacts (measured: 1e-4, 23 times less).
     runs = {}
     for mode in ("sphere", "pair"):
         model, state = _cradle()
@@ -57,7 +57,6 @@ def test_pair_threads_on_a_cradle_give_the_same_bits_and_conserve_momentum_and_e
     v0 = np.array([0.2, 0.4])
     momentum = (mass[..., None] * vel).sum(axis=1)
     np.testing.assert_allclose(momentum[:, 0], mass[:, 0] * v0, rtol=1e-6)
-    np.testing.assert_allclose(momentum[:, 1:], 0.0, atol=1e-9 * mass[0, 0])
     energy = 0.5 * (mass * (vel ** 2).sum(axis=2)).sum(axis=1)
     kn = 1e7 * 0.01  # Yade's kn = 2 E1 R1 E2 R2 / (E1 R1 + E2 R2) for equal spheres: E R [N/m]
     np.testing.assert_allclose(energy, 0.5 * mass[:, 0] * v0 ** 2, rtol=4 * kn / mass[0, 0] * dt ** 2)
@@ -66,8 +65,8 @@ def test_pair_threads_on_a_cradle_give_the_same_bits_and_conserve_momentum_and_e
 
 
 def _bonded_block(seed: int = 3) -> wd.ModelBuilder:
-    """125 spheres on a 5 x 5 x 5 lattice at 1.98 radii, each moved by up to 0.03 radii (each overlaps its 6
-    neighbours: up to 3 entries in its list; the normals off the axes), cohesive with the moment law, no gravity."""
+    """125 spheres on a 5 x 5 x 5 lattice at 1.98 radii, each moved by up to 0.03 radii (most neighbours overlap:
+    up to 3 entries in a sphere's list; the normals off the axes), cohesive with the moment law, no gravity."""
     rng = np.random.default_rng(seed)
     b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
     b.add_material("m", wd.Material(young=1e7, poisson=0.3, density=2700, friction_angle=30, normal_cohesion=1e6,
@@ -77,6 +76,15 @@ def _bonded_block(seed: int = 3) -> wd.ModelBuilder:
     pos = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3) + rng.uniform(-0.03, 0.03, (125, 3)) * r
     b.add_spheres(pos, r * rng.uniform(0.98, 1.02, len(pos)), "m")
     return b
+
+
+def _expected_owner(sim: wd.Simulation) -> np.ndarray:
+    """The sphere of each entry of the sphere-sphere lists from their start and count in numpy, -1 on free slots."""
+    ss = sim.data.ss.numpy()
+    expect = np.full(sim.data.ss.capacity, -1)
+    for i, (s, c) in enumerate(zip(ss["start"], ss["count"], strict=True)):
+        expect[s:s + c] = i
+    return expect
 
 
 def _kicked(mode: str, tmp_path: object | None = None, load: str | None = None) -> wd.Simulation:
@@ -97,14 +105,15 @@ def test_pair_threads_match_sphere_threads_on_a_bonded_block(tmp_path: object) -
     # Reference: the per-sphere kernel from the same state (a checkpoint of a kicked bonded block after 50 steps,
     # loaded into both: the loaded lists must index their entries' spheres for the pair kernel). One step: the
     # contact histories depend on no sum, so they are equal to the bit; a body's force differs by the float32
-    # rounding of a sphere's partial sums, at most (entries per list) x eps32 x the largest force of the step per
-    # component, and by half a fixed-point resolution per contact (~1e-10 of a sphere's weight, below that).
+    # rounding of a sphere's partial sums: at most (entries per list) x eps32 x the largest partial sum per
+    # component, which in this kicked block (forces of both signs, no static load) is about the largest body force
+    # of the step, and by half a fixed-point resolution per contact (~1e-10 of a sphere's weight, below that).
     path = str(tmp_path / "block.npz")
     sim = _kicked("sphere")
     sim.advance(50)
     wd.checkpoint.save(sim, path)
     a, b = _kicked("sphere", load=path), _kicked("pair", load=path)
-    np.testing.assert_array_equal(b.data.ss.owner.numpy()[:3], [0, 0, 0])  # sphere 0's three partners
+    np.testing.assert_array_equal(b.data.ss.owner.numpy(), _expected_owner(b))
     a.step()
     b.step()
     ha, hb = a.data.ss.numpy()["hist"], b.data.ss.numpy()["hist"]
@@ -135,32 +144,41 @@ def _gathering(contact_threads: str, threads: int) -> wd.Simulation:
                          cpu_threads=threads)
 
 
-def test_pair_entries_index_their_spheres_through_rebuilds_and_growth(monkeypatch: object) -> None:
+def test_pair_entries_index_their_spheres_through_rebuilds_growth_and_loads(monkeypatch: object,
+                                                                            tmp_path: object) -> None:
     # Reference: the CSR expansion of the lists' start and count in numpy (owner[k] = i on sphere i's entries,
     # -1 on free slots), after a run whose lists were rebuilt and grew (capacity factor 1: the first build's
-    # needs, which the gathering spheres outgrow). On the CPU, two threads share the step (the size limit
-    # lowered): their parts cover the entries and give the same bits as one thread (integer sums).
+    # needs, which the gathering spheres outgrow), and after loading checkpoints whose lists differ from the
+    # simulation's: the first one's (smaller capacity, other entries) into the grown run, the grown run's into a
+    # fresh simulation. On the CPU, two threads share the step (the size limit lowered): their parts cover the
+    # entries and give the same bits as one thread (integer sums).
     from warpdem import cpu_threads
 
     monkeypatch.setattr(cpu_threads, "MIN_SPHERES_PER_THREAD", 8)
+    first, grown = str(tmp_path / "first.npz"), str(tmp_path / "grown.npz")
     sims = []
     for threads in (1, 2):
         sim = _gathering("pair", threads)
         cap0 = sim.data.ss.capacity
+        wd.checkpoint.save(sim, first)
         sim.advance(1500)
         sims.append(sim)
     sim = sims[-1]
     assert sim.rebuild_count > 0 and sim.data.ss.capacity > cap0
     assert wd.observers.contact_count(sim).sum() > 100  # the spheres did gather
-    ss = sim.data.ss.numpy()
-    expect = np.full(sim.data.ss.capacity, -1)
-    for i, (s, c) in enumerate(zip(ss["start"], ss["count"], strict=True)):
-        expect[s:s + c] = i
-    np.testing.assert_array_equal(sim.data.ss.owner.numpy(), expect)
+    np.testing.assert_array_equal(sim.data.ss.owner.numpy(), _expected_owner(sim))
     if DEVICE == "cpu":
         assert sims[1].parts == 2
         for name in ("body_pos", "body_vel", "body_angvel"):
             np.testing.assert_array_equal(getattr(sims[1].state, name).numpy(), getattr(sims[0].state, name).numpy())
+    wd.checkpoint.save(sim, grown)
+    wd.checkpoint.load(sim, first)
+    assert sim.data.ss.capacity == cap0
+    np.testing.assert_array_equal(sim.data.ss.owner.numpy(), _expected_owner(sim))
+    fresh = _gathering("pair", 1)
+    wd.checkpoint.load(fresh, grown)
+    assert fresh.data.ss.count.numpy().sum() > cap0
+    np.testing.assert_array_equal(fresh.data.ss.owner.numpy(), _expected_owner(fresh))
 
 
 @pytest.mark.parametrize("kwargs, word", [

@@ -376,9 +376,10 @@ def build(grid: wp.HashGrid, cell: float, skin: float, model: object, state: obj
 
 @wp.kernel
 def _owner_kernel(start: wp.array(dtype=int), count: wp.array(dtype=int), owner_out: wp.array(dtype=int)):
-    """owner_out[k] = i for every entry k of sphere i's block (free slots keep their -1)."""
+    """owner_out[k] = i for every entry k of sphere i's block (free slots keep their -1); entries past the end of
+    owner_out (lists not yet replaced after a shrinking growth) are left out."""
     i = wp.tid()
-    for k in range(start[i], start[i] + count[i]):
+    for k in range(start[i], wp.min(start[i] + count[i], owner_out.shape[0])):
         owner_out[k] = i
 
 
@@ -415,7 +416,8 @@ class PairList:
                   device=self.device)
 
     def grow(self, capacity: int) -> None:
-        """Reallocate the entry arrays with a larger capacity, keeping current entries."""
+        """Reallocate the entry arrays with another capacity (larger, or any when a checkpoint's lists replace
+        them next), keeping the entries that fit."""
         capacity = int(capacity)
         for name in ("key_a", "key_b", "hist"):
             if name == "key_b" and not self.two_keys:
@@ -430,7 +432,7 @@ class PairList:
             self.index_owners()
 
     def copy_from(self, other: PairList) -> None:
-        """Copy start, count and all entries (same capacities)."""
+        """Copy start, count and all entries (same capacities); not ``owner``: :meth:`index_owners` after."""
         wp.copy(self.start, other.start)
         wp.copy(self.count, other.count)
         wp.copy(self.key_a, other.key_a)

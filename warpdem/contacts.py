@@ -135,7 +135,7 @@ def sphere_pair(
     r2 = float(r2d)
     un = float(r1d + r2d - dist)
     active = hist[k].flags & ACTIVE  # the whole history only for a contact (most candidates are none)
-    if active != 0 or un >= 0.0:
+    if not (active == 0 and un < 0.0):  # (a NaN overlap goes on to the law and the fault check)
         h = hist[k]
         n = wp.vec3f(d / dist)
         p = phys_of(mats, w, mi, sphere_material[j], r1, r2)

@@ -349,7 +349,8 @@ class Simulation:
         before = np.concatenate([[0], np.cumsum(work)])
         cut = cpu_threads.split(before, int(before[-1]), self.parts)
         entry_cut = None
-        if self.contact_threads == "pair":  # the same spheres' list entries (blocks in sphere order on the CPU)
+        if self.contact_threads == "pair":  # the same spheres' entries: a CPU build's blocks are in sphere order
+            # (a CUDA-written checkpoint's are not: its entries are cut unevenly until the next rebuild)
             start = np.r_[d.ss.start.numpy(), d.ss.capacity]
             entry_cut = [0, *np.maximum.accumulate(start[cut[1:-1]]).tolist(), d.ss.capacity]
         if cut != self._contact_cut or entry_cut != self._entry_cut:
