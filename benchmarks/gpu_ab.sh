@@ -10,6 +10,8 @@
 #     sh benchmarks/gpu_ab.sh ringing 2   # the ringing batch (13 worlds, a calibration's advance), 2 rounds
 #     sh benchmarks/gpu_ab.sh bed 1       # the deposited bed at 1 M and 4 M spheres, contacts by sphere and by pair
 #                                         # (this tree; the other sides time their default)
+#     BED=file.npz sh benchmarks/gpu_ab.sh paperbed  # this tree only: a saved bed (a paper-scale run's) alone and
+#                                         # tiled to 4 M spheres, in deposition and in Morton order, by sphere and pair
 #     sh benchmarks/gpu_ab.sh profile     # this tree only: Nsight Compute's per-line stall samples of one launch of
 #                                         # world_steps_kernel (ringing) and of each contact kernel (1 M bed)
 #
@@ -17,7 +19,18 @@
 # the bed, or it is deposited again. Delete the _ab* directories afterwards.
 OUT=${OUT:-/tmp/gpu_ab}; mkdir -p "$OUT"
 what=${1:-ringing}; rounds=${2:-1}
-case "$what" in ringing|bed|profile) ;; *) echo "gpu_ab.sh: what must be ringing, bed or profile, got '$what'"; exit 2;; esac
+case "$what" in ringing|bed|paperbed|profile) ;;
+  *) echo "gpu_ab.sh: what must be ringing, bed, paperbed or profile, got '$what'"; exit 2;; esac
+if [ "$what" = paperbed ]; then
+  [ -f "$BED" ] || { echo "gpu_ab.sh paperbed: BED must name a saved bed (.npz), got '$BED'"; exit 2; }
+  BED=$(cd "$(dirname "$BED")" && pwd)/$(basename "$BED")
+  cd benchmarks
+  for order in "" --sorted; do
+    timeout 200 python3 bed_throughput.py --device cuda --bed "$BED" --sizes 0 4000000 $order \
+      --contact-threads sphere pair --json "$OUT/ab_paperbed.jsonl" 2>&1 | grep '"engine"' | cut -c1-240
+  done
+  exit 0
+fi
 if [ "$what" = profile ]; then
   cd benchmarks
   timeout 200 ncu -k regex:world_steps_kernel --launch-skip 3 --launch-count 1 --section SourceCounters \
