@@ -86,13 +86,15 @@ def test_resolutions_are_powers_of_two_set_by_each_bodys_weight() -> None:
     np.testing.assert_array_equal(res_t, 2.0 ** np.floor(np.log2(res_f * gyr)))
 
 
-def test_a_chaotic_run_repeats_to_the_bit() -> None:
+@pytest.mark.parametrize("contact_threads", wd.Simulation.CONTACT_THREADS)
+def test_a_chaotic_run_repeats_to_the_bit(contact_threads: str) -> None:
     # Reference: the same run again. 40 cohesive spheres with rolling resistance settle on a floor for 3,000 steps
     # (contacts form and break: a chaotic system in which any last-bit difference grows). On the CPU this holds by
-    # construction; on CUDA (WARPDEM_TEST_DEVICE=cuda) it holds only because the force sums are order-independent.
+    # construction; on CUDA (WARPDEM_TEST_DEVICE=cuda) it holds only because the force sums are order-independent,
+    # with the contacts a thread per sphere or a thread per pair.
     def run() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         model, state = packing_scene(np.zeros(3)).finalize(DEVICE, n_worlds=2)
-        sim = wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True)
+        sim = wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True, contact_threads=contact_threads)
         rec = sim.run(3000, record_every=500, observers={"floor": wd.observers.mesh_wrench("floor"),
                                                          "ke": wd.observers.group_kinetic_energy("soil")})
         return sim.state.body_pos.numpy(), rec["floor"], rec["ke"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from conftest import DEVICE, square
 
 import warpdem as wd
@@ -27,18 +28,21 @@ def packing_scene(offset: np.ndarray, seed: int = 1) -> wd.ModelBuilder:
     return b
 
 
-def test_world_in_batch_equals_solo_run() -> None:
-    # Reference: the same scene run alone with world 2's parameters. Worlds never interact and every contact's
-    # force sum runs in partner order, so on the CPU the result must be identical (bit for bit).
+@pytest.mark.parametrize("contact_threads", wd.Simulation.CONTACT_THREADS)
+def test_world_in_batch_equals_solo_run(contact_threads: str) -> None:
+    # Reference: the same scene run alone with world 2's parameters. Worlds never interact, every sphere's contacts
+    # are summed in partner order and the body sums are fixed-point integers, so the result must be identical (bit
+    # for bit), with the contacts a thread per sphere or a thread per pair (whose list entries lie elsewhere in
+    # the batch than alone).
     angles = np.array([20.0, 30.0, 40.0])
     damping = np.array([0.1, 0.3, 0.5])
     over = {"material:soil:friction_angle": angles, "damping:soil": damping}
     model, state = packing_scene(np.zeros(3)).finalize(DEVICE, n_worlds=3, overrides=over)
-    batch = wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True)
+    batch = wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True, contact_threads=contact_threads)
     batch.advance(1500)
     solo_over = {k: v[2:3] for k, v in over.items()}
     model1, state1 = packing_scene(np.zeros(3)).finalize(DEVICE, n_worlds=1, overrides=solo_over)
-    solo = wd.Simulation(model1, state1, dt=2e-5, cohesion_on_new_contacts=True)
+    solo = wd.Simulation(model1, state1, dt=2e-5, cohesion_on_new_contacts=True, contact_threads=contact_threads)
     solo.advance(1500)
     nb = model.bodies_per_world
     np.testing.assert_array_equal(state.body_pos.numpy()[2 * nb : 3 * nb], state1.body_pos.numpy())
