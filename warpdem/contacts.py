@@ -1,4 +1,5 @@
-"""Narrow phase and contact law: one kernel per contact kind, one thread per sphere over its candidate list.
+"""Narrow phase and contact law: one kernel per contact kind, one thread per sphere over its candidate list (and,
+for sphere-sphere contacts, optionally one thread per list entry: ``sphere_pair_kernel``).
 
 Sphere-sphere (Yade's Ig2_Sphere_Sphere_ScGeom6D): n = (x2 - x1)/|x2 - x1|, un = R1 + R2 - |x2 - x1|, contact point
 C = x1 + (R1 - un/2) n, relative velocity with Yade's anti-ratcheting factor.
