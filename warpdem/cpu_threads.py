@@ -6,20 +6,120 @@ Python threads. :class:`Parallel` is one such phase of a step: each part's launc
 process-wide :class:`Team`, and the phase ends when every part has. Which thread runs which part does not change
 the result: the kernels that a step shares out write only their own range, and the force sums go through per-part
 fixed-point accumulators (accumulate.py), whose integer totals do not depend on the split.
+
+Between the phases of a step, a thread that has replayed its share waits for the others at a :class:`Barrier`: a
+one-thread kernel that spins briefly and then sleeps on a Linux futex, so that each thread replays a whole step (its
+shares of every phase and the barriers between them) as one Warp CPU graph, and hands over to Python once per many
+steps instead of twice per step.
 """
 
 from __future__ import annotations
 
+import ctypes
 import os
+import platform
 import queue
+import sys
 import threading
 from collections.abc import Callable, Sequence
+
+import warp as wp
+
+wp.set_module_options({"enable_backward": False})
 
 Op = Callable[[], object]
 
 MIN_SPHERES_PER_THREAD = 2048
 """a step is shared out only where each thread gets at least this many spheres (below it the hand-over, ~35 us
 per phase on a 2-core machine, costs more than it saves)."""
+
+
+def _futex_call() -> tuple[int, int]:
+    """(address of libc's ``syscall``, the futex system call's number) on Linux x86-64 and aarch64; (0, 0)
+    elsewhere (the barrier then only spins)."""
+    number = {"x86_64": 202, "amd64": 202, "aarch64": 98, "arm64": 98}.get(platform.machine().lower(), 0)
+    if not sys.platform.startswith("linux") or number == 0:
+        return 0, 0
+    try:
+        return int(ctypes.cast(ctypes.CDLL(None).syscall, ctypes.c_void_p).value or 0), number
+    except Exception:  # noqa: BLE001 - no libc to ask: the barrier only spins
+        return 0, 0
+
+
+FUTEX_SYSCALL, FUTEX_NUMBER = _futex_call()
+BARRIER_SPINS = 4000
+"""spins (each a pause instruction on x86) before a waiting thread sleeps on the futex."""
+BARRIER_TIMEOUT_S = 30
+"""a thread that has waited this long at a barrier gives up and marks it broken (a lost thread: the caller raises
+instead of hanging)."""
+
+
+@wp.func_native("""
+#if !defined(__CUDA_ARCH__)
+int* c = (int*)state.data;  // c[0]: threads arrived, c[1]: generation, c[2]: broken
+if (__atomic_load_n(c + 2, __ATOMIC_ACQUIRE) != 0) return;
+int gen = __atomic_load_n(c + 1, __ATOMIC_ACQUIRE);
+if (__atomic_add_fetch(c, 1, __ATOMIC_ACQ_REL) == parties) {
+    __atomic_store_n(c, 0, __ATOMIC_RELAXED);
+    __atomic_store_n(c + 1, gen + 1, __ATOMIC_RELEASE);
+    if (sys_fn != 0)  // FUTEX_WAKE_PRIVATE, every waiter
+        ((long (*)(long, ...))sys_fn)((long)futex_nr, (long)(c + 1), 129L, 0x7fffffffL, 0L, 0L, 0L);
+    return;
+}
+int spins = 0;
+long slept_ms = 0;
+struct { long sec; long nsec; } timeout = {0, 100000000L};  // 0.1 s per sleep
+while (__atomic_load_n(c + 1, __ATOMIC_ACQUIRE) == gen) {
+    if (spins < spin_limit || sys_fn == 0) {
+#if defined(__x86_64__) || defined(__i386__)
+        __builtin_ia32_pause();
+#endif
+        spins++;
+    } else {  // FUTEX_WAIT_PRIVATE while the generation is still gen (returns at once if it has moved on)
+        ((long (*)(long, ...))sys_fn)((long)futex_nr, (long)(c + 1), 128L, (long)gen, (long)&timeout, 0L, 0L);
+        slept_ms += 100;
+        if (slept_ms > 1000L * (long)timeout_s) {
+            __atomic_store_n(c + 2, 1, __ATOMIC_RELEASE);
+            return;
+        }
+    }
+}
+#endif
+""")
+def _barrier_wait(state: wp.array(dtype=int), parties: int, sys_fn: wp.uint64, futex_nr: int, spin_limit: int,
+                  timeout_s: int):
+    ...
+
+
+@wp.kernel
+def barrier_kernel(state: wp.array(dtype=int), parties: int, sys_fn: wp.uint64, futex_nr: int, spin_limit: int,
+                   timeout_s: int):
+    """Wait until ``parties`` threads have launched it (one thread each): state = (arrived, generation, broken)."""
+    _barrier_wait(state, parties, sys_fn, futex_nr, spin_limit, timeout_s)
+
+
+class Barrier:
+    """A barrier between the CPU threads that replay a step's graphs (:func:`barrier_kernel` in each graph)."""
+
+    def __init__(self, parties: int) -> None:
+        self.parties = int(parties)
+        self.state = wp.zeros(3, dtype=int, device="cpu")
+        self._view = self.state.numpy()  # a view: the CPU array's memory
+
+    def record(self) -> Callable[[], object]:
+        """A recorded launch of the barrier (to capture into a thread's graph)."""
+        return wp.launch(barrier_kernel, 1, inputs=[self.state, self.parties, wp.uint64(FUTEX_SYSCALL),
+                                                    FUTEX_NUMBER, BARRIER_SPINS, BARRIER_TIMEOUT_S],
+                         device="cpu", record_cmd=True).launch
+
+    @property
+    def broken(self) -> bool:
+        """A thread gave up waiting (BARRIER_TIMEOUT_S)."""
+        return bool(self._view[2])
+
+    def reset(self) -> None:
+        """Zero the barrier (no thread may be waiting at it)."""
+        self._view[:] = 0
 
 
 def default_threads() -> int:

@@ -30,6 +30,7 @@ from .contacts import (
     sphere_triangle_kernel,
     tan_kernel,
 )
+from .cpu_threads import Barrier
 from .data import DISP_STRIDE, NO_FAULT, Data
 from .errors import InputError, SimulationError, check_finite, check_positive
 from .integrator import integrate_bodies_kernel, mesh_end_one, spring_kernel, update_spheres_kernel
@@ -310,6 +311,9 @@ class Simulation:
         self._graphs: dict[int, object] = {}  # captured graphs (CUDA, or a CPU thread) by steps per graph
         self._world_ops: list[object] | None = None  # the recorded world_steps launches
         self._step_ops: list[Callable[[], object]] | None = None  # a step's recorded launches (CPU threads)
+        # CPU threads: a barrier between a step's phases, and each thread's step as one CPU graph (_advance_threads)
+        self._barrier = Barrier(self.parts) if dev.is_cpu and self.parts > 1 else None
+        self._lane_graphs: list[Callable[[], object]] | None = None
         self._chunk = 1 << 30  # steps in the next captured graph (capped; see advance)
         self._rebuild_checked()
 
@@ -439,17 +443,18 @@ class Simulation:
         return grew
 
     # ------------------------------------------------------------------ the step
-    def _launch_step(self, record: bool = False) -> list[Callable[[], object]]:
+    def _launch_step(self, record: bool = False, lanes: bool = False) -> list:
         """The kernels of one step (capturable): contacts, springs, integration, checks, and at the end the
         decision whether the candidate lists must be rebuilt before the next one (``rebuild_flag``).
 
         ``record``: nothing runs; returns the step as a list of calls to replay (recorded launches, whose
         arguments are packed once: on the CPU that packing costs more than a small scene's kernels). With several
         CPU threads (``parts``), the contacts and the integration are phases (cpu_threads.Parallel) whose parts
-        cover ranges of spheres and bodies; run directly, the parts run one after the other."""
+        cover ranges of spheres and bodies; run directly, the parts run one after the other. ``lanes`` (with
+        ``record``): the step as one list of launches per CPU thread, with barriers between (:meth:`_lanes`)."""
         d = self.data
         m, s, dev = self.model, self.state, self.device
-        ops: list[Callable[[], object]] = []
+        segments: list[tuple[str, object]] = []  # ("phase", parts) or ("serial", op), in order
         P = self.parts
 
         def launch(kernel: object, dim: int, **kw: object) -> Callable[[], object] | None:
@@ -462,17 +467,10 @@ class Simulation:
 
         def serial(op: Callable[[], object] | None) -> None:
             if op is not None:
-                ops.append(op)
+                segments.append(("serial", op))
 
         def phase(name: str, parts: list[list[Callable[[], object] | None]]) -> None:
-            parts = [[op for op in part if op is not None] for part in parts]
-            parts = [part for part in parts if part]
-            if len(parts) > 1:
-                if _CPU_GRAPHS:  # each thread replays its launches as one CPU graph (no Python per launch)
-                    parts = [[_cpu_graph(part)] for part in parts]
-                ops.append(cpu_threads.Parallel(name, parts))
-            elif parts:
-                ops.extend(parts[0])
+            segments.append(("phase", (name, [[op for op in part if op is not None] for part in parts])))
 
         def part_sums(p: int) -> tuple[list[wp.array], list[wp.array], wp.array]:
             """Part p's slots: body accumulators, mesh accumulators, energy terms."""
@@ -524,10 +522,9 @@ class Simulation:
                     device=dev,
                 ))
             contacts.append(part)
-        phase("contacts", contacts)
         acc, _, _ = part_sums(0)
-        if m.n_springs:
-            serial(launch(
+        if m.n_springs:  # part 0's, after its contacts: it adds into part 0's sums only
+            contacts[0].append(launch(
                 spring_kernel, m.n_springs,
                 inputs=[m.spring_body_a, m.spring_body_b, m.spring_point_a, m.spring_point_b, m.spring_stiffness,
                         m.spring_damping, m.spring_rest_length, m.spring_preload, m.spring_progressive,
@@ -536,6 +533,7 @@ class Simulation:
                 outputs=[*acc, d.spring_force, d.energy],
                 device=dev,
             ))
+        phase("contacts", contacts)
         # motion: each part sums its bodies' forces, moves and checks them, and updates their spheres
         motion: list[list[Callable[[], object] | None]] = []
         lower, upper = wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1])
@@ -574,7 +572,49 @@ class Simulation:
         if P > 1 and self.track_energy:
             serial(launch(accumulate.fold_energy_kernel, d.energy.shape[0], inputs=[d.energy_extra, P],
                           outputs=[d.energy], device=dev))
+        if lanes:
+            return self._lanes(segments)
+        ops: list[Callable[[], object]] = []
+        for kind, item in segments:
+            if kind == "serial":
+                ops.append(item)
+                continue
+            name, parts = item
+            parts = [part for part in parts if part]
+            if len(parts) > 1:
+                if _CPU_GRAPHS:  # each thread replays its launches as one CPU graph (no Python per launch)
+                    parts = [[_cpu_graph(part)] for part in parts]
+                ops.append(cpu_threads.Parallel(name, parts))
+            elif parts:
+                ops.extend(parts[0])
         return ops
+
+    def _lanes(self, segments: list[tuple[str, object]]) -> list[list[Callable[[], object]]]:
+        """A step's recorded launches as one list per CPU thread: each thread its part of every phase, the serial
+        launches on thread 0, and a barrier (cpu_threads.Barrier) wherever one thread's launches read what
+        another's wrote: between a phase and what follows it, and at the end of the step."""
+        lanes: list[list[Callable[[], object]]] = [[] for _ in range(self.parts)]
+        wait = self._barrier.record()
+
+        def barrier() -> None:
+            for lane in lanes:
+                lane.append(wait)
+
+        previous = None
+        for kind, item in segments:
+            if kind == "phase":
+                if previous is not None:  # a phase reads what every earlier launch wrote
+                    barrier()
+                for lane, part in zip(lanes, item[1], strict=True):
+                    lane.extend(part)
+            else:
+                if previous == "phase":  # a serial launch reads what the phase's threads wrote
+                    barrier()
+                lanes[0].append(item)
+            previous = kind
+        for lane in lanes:
+            lane.append(wait)
+        return lanes
 
     def _check(self) -> None:
         """Raise SimulationError on a recorded fault or list overflow; grow lists that are nearly full."""
@@ -658,15 +698,20 @@ class Simulation:
         names the step where it happened) and list capacity.
 
         On CUDA several steps run per graph launch (:meth:`_advance_graphs`), in scenes of fewer than
-        LARGE_STEP_SPHERES spheres. Otherwise the host reads the rebuild flag before each step and rebuilds when
+        LARGE_STEP_SPHERES spheres. Shared between CPU threads, each thread replays its share of a step as one CPU
+        graph with barriers between the phases, step after step, until a rebuild is flagged
+        (:meth:`_advance_threads`). Otherwise the host reads the rebuild flag before each step and rebuilds when
         asked, and the step is one captured graph (CUDA; the CPU with one thread: a Warp CPU graph, replayed in C++
-        with no Python per launch) or, shared between CPU threads, its recorded launches and phases. (A CPU graph of
-        several steps costs ~4 ms of recording per step, more than it saves.)"""
+        with no Python per launch). (A CPU graph of several steps costs ~4 ms of recording per step, more than it
+        saves.)"""
         if self.world_steps and n_steps >= WORLD_STEPS_MIN:
             self._advance_worlds(n_steps)
             return
         if not self.device.is_cpu and self.graph_steps > 1 and not self._large:
             self._advance_graphs(n_steps)
+            return
+        if self._barrier is not None and _CPU_GRAPHS and self.graph_steps > 1:
+            self._advance_threads(n_steps)
             return
         graph = (not self.device.is_cpu or (self.parts == 1 and _CPU_GRAPHS)) and self.graph_steps > 1
         every = max(self.graph_steps, 1)
@@ -692,6 +737,48 @@ class Simulation:
         self._graphs = {}
         self._step_ops = None
         self._world_ops = None
+        self._lane_graphs = None
+
+    def _advance_threads(self, n_steps: int) -> None:
+        """:meth:`advance` shared between CPU threads: each thread replays its share of a step (its parts of the
+        phases, barriers between them; :meth:`_lanes`) as one CPU graph, step after step, until ``n_steps`` have
+        run, a step has flagged a list rebuild, or ``graph_steps`` steps call for the host's check. Every thread
+        reads the rebuild flag after the step's last barrier, so all stop after the same step; the host then
+        rebuilds and hands over again: one hand-over per rebuild interval instead of two per step."""
+        d = self.data
+        flag = d.rebuild_flag.numpy()  # a view of the CPU array
+        every = max(self.graph_steps, 1)
+        spheres = self.model.n_spheres > 0
+        left, since_check = n_steps, 0
+        while left > 0:
+            if spheres:
+                self._rebuild_if_flagged()
+            if self._lane_graphs is None:
+                self._lane_graphs = [_cpu_graph(lane) for lane in self._launch_step(record=True, lanes=True)]
+            chunk = min(left, every - since_check)
+            done = [0] * self.parts
+
+            def run(p: int, graph: Callable[[], object], chunk: int = chunk, done: list[int] = done) -> None:
+                n = 0
+                while n < chunk and not (spheres and n > 0 and flag[0]):
+                    graph()
+                    n += 1
+                done[p] = n
+
+            self._barrier.reset()
+            cpu_threads.Parallel("step", [[lambda p=p, g=g: run(p, g)] for p, g in enumerate(self._lane_graphs)])()
+            if self._barrier.broken or len(set(done)) != 1:
+                raise SimulationError(f"the CPU threads of a step lost each other (steps run by each: {done})",
+                                      cause="threads")
+            n = done[0]
+            self.state.step += n
+            for _ in range(n):
+                self.state.time += self.dt
+            left -= n
+            since_check += n
+            if since_check >= every or left == 0:
+                self._check()
+                since_check = 0
 
     def _steps_graph(self, n: int) -> object:
         """The captured graph of ``n`` steps (cached until arrays move): step 1, then steps 2 .. n each in a
