@@ -9,7 +9,10 @@ import numpy as np
 import pytest
 import warp as wp
 
+import warpdem as wd
 from warpdem import cpu_threads
+
+pytestmark = pytest.mark.skipif(not cpu_threads.BARRIER_OK, reason="the barrier sleeps on a Linux futex only")
 
 
 @wp.kernel
@@ -61,10 +64,43 @@ def test_a_barrier_nobody_else_reaches_breaks_instead_of_hanging(monkeypatch: ob
     # broken (the simulation then raises), rather than waiting forever for a thread that is gone.
     monkeypatch.setattr(cpu_threads, "BARRIER_TIMEOUT_S", 1)
     barrier = cpu_threads.Barrier(2)
+    wait = barrier.record()
     t0 = time.perf_counter()
-    barrier.record()()
+    wait()
     waited = time.perf_counter() - t0
     assert barrier.broken
     assert 0.9 < waited < 5.0
     barrier.reset()
     assert not barrier.broken
+
+
+class _Boom(RuntimeError):
+    pass
+
+
+@pytest.mark.parametrize("thread", [0, 1])
+def test_a_thread_that_raises_releases_the_others_at_once(monkeypatch: object, thread: int) -> None:
+    # Reference: the other threads must not wait BARRIER_TIMEOUT_S (30 s) for a thread that has raised (an error,
+    # or Ctrl-C in the calling thread, thread 0): the error reaches the caller within a few seconds. The scene of
+    # the threads tests (tests/test_determinism.py) on two threads, one of whose step graphs is made to raise.
+    from test_determinism import _threaded_scene
+
+    monkeypatch.setattr(cpu_threads, "MIN_SPHERES_PER_THREAD", 8)
+    model, state = _threaded_scene().finalize("cpu", n_worlds=2)
+    sim = wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True, cpu_threads=2)
+    sim.advance(20)
+    assert sim.parts == 2 and sim._lane_graphs is not None
+    graph = sim._lane_graphs[thread]
+    calls = [0]
+
+    def boom() -> None:
+        calls[0] += 1
+        if calls[0] > 3:
+            raise _Boom("a thread failed")
+        graph()
+
+    sim._lane_graphs[thread] = boom
+    t0 = time.perf_counter()
+    with pytest.raises(_Boom):
+        sim.advance(200)
+    assert time.perf_counter() - t0 < 5.0

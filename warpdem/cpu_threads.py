@@ -47,6 +47,11 @@ def _futex_call() -> tuple[int, int]:
 
 
 FUTEX_SYSCALL, FUTEX_NUMBER = _futex_call()
+BARRIER_OK = FUTEX_SYSCALL != 0
+"""the barrier can sleep (a Linux futex); elsewhere steps shared between threads hand over through Python."""
+_TEAM_LOCK = threading.Lock()
+"""held while the process-wide team runs one simulation's threads that meet at barriers: two simulations stepped
+at once from different Python threads must not interleave their parts on the team's workers."""
 BARRIER_SPINS = 4000
 """spins (each a pause instruction on x86) before a waiting thread sleeps on the futex."""
 BARRIER_TIMEOUT_S = 30
@@ -70,6 +75,7 @@ int spins = 0;
 long slept_ms = 0;
 struct { long sec; long nsec; } timeout = {0, 100000000L};  // 0.1 s per sleep
 while (__atomic_load_n(c + 1, __ATOMIC_ACQUIRE) == gen) {
+    if (__atomic_load_n(c + 2, __ATOMIC_ACQUIRE) != 0) return;  // broken (a thread gave up, or raised)
     if (spins < spin_limit || sys_fn == 0) {
 #if defined(__x86_64__) || defined(__i386__)
         __builtin_ia32_pause();
@@ -114,8 +120,17 @@ class Barrier:
 
     @property
     def broken(self) -> bool:
-        """A thread gave up waiting (BARRIER_TIMEOUT_S)."""
+        """A thread gave up waiting (BARRIER_TIMEOUT_S), or :meth:`break_` was called."""
         return bool(self._view[2])
+
+    def break_(self) -> None:
+        """Release every thread waiting at the barrier now and let later arrivals pass (a thread raised: the
+        others must not wait for it)."""
+        self._view[2] = 1
+        if FUTEX_SYSCALL:
+            libc_syscall = ctypes.CFUNCTYPE(ctypes.c_long, ctypes.c_long, ctypes.c_void_p, ctypes.c_long,
+                                            ctypes.c_long)(FUTEX_SYSCALL)
+            libc_syscall(FUTEX_NUMBER, self.state.ptr + 4, 129, 0x7FFFFFFF)  # FUTEX_WAKE_PRIVATE on the generation
 
     def reset(self) -> None:
         """Zero the barrier (no thread may be waiting at it)."""
@@ -188,6 +203,12 @@ class Team:
 
 
 _TEAM = Team()
+
+
+def run_locked(parts: Sequence[Sequence[Op]]) -> None:
+    """:meth:`Team.run` on the process-wide team, one caller at a time (threads that meet at barriers)."""
+    with _TEAM_LOCK:
+        _TEAM.run(parts)
 
 
 class Parallel:

@@ -30,7 +30,7 @@ from .contacts import (
     sphere_triangle_kernel,
     tan_kernel,
 )
-from .cpu_threads import Barrier
+from .cpu_threads import BARRIER_OK, Barrier
 from .data import DISP_STRIDE, NO_FAULT, Data
 from .errors import InputError, SimulationError, check_finite, check_positive
 from .integrator import integrate_bodies_kernel, mesh_end_one, spring_kernel, update_spheres_kernel
@@ -312,7 +312,7 @@ class Simulation:
         self._world_ops: list[object] | None = None  # the recorded world_steps launches
         self._step_ops: list[Callable[[], object]] | None = None  # a step's recorded launches (CPU threads)
         # CPU threads: a barrier between a step's phases, and each thread's step as one CPU graph (_advance_threads)
-        self._barrier = Barrier(self.parts) if dev.is_cpu and self.parts > 1 else None
+        self._barrier = Barrier(self.parts) if dev.is_cpu and self.parts > 1 and BARRIER_OK else None
         self._lane_graphs: list[Callable[[], object]] | None = None
         self._chunk = 1 << 30  # steps in the next captured graph (capped; see advance)
         self._rebuild_checked()
@@ -750,6 +750,7 @@ class Simulation:
         every = max(self.graph_steps, 1)
         spheres = self.model.n_spheres > 0
         left, since_check = n_steps, 0
+        barrier = self._barrier
         while left > 0:
             if spheres:
                 self._rebuild_if_flagged()
@@ -758,16 +759,22 @@ class Simulation:
             chunk = min(left, every - since_check)
             done = [0] * self.parts
 
-            def run(p: int, graph: Callable[[], object], chunk: int = chunk, done: list[int] = done) -> None:
+            def run(p: int, graph: Callable[[], object], chunk: int = chunk, done: list[int] = done,
+                    barrier: Barrier = barrier) -> None:
                 n = 0
-                while n < chunk and not (spheres and n > 0 and flag[0]):
-                    graph()
-                    n += 1
-                done[p] = n
+                try:
+                    while n < chunk and not (spheres and n > 0 and flag[0]) and not barrier.broken:
+                        graph()
+                        n += 1
+                except BaseException:  # a thread that raises (or is interrupted) releases the others at once
+                    barrier.break_()
+                    raise
+                finally:
+                    done[p] = n
 
-            self._barrier.reset()
-            cpu_threads.Parallel("step", [[lambda p=p, g=g: run(p, g)] for p, g in enumerate(self._lane_graphs)])()
-            if self._barrier.broken or len(set(done)) != 1:
+            barrier.reset()
+            cpu_threads.run_locked([[lambda p=p, g=g: run(p, g)] for p, g in enumerate(self._lane_graphs)])
+            if barrier.broken or len(set(done)) != 1:
                 raise SimulationError(f"the CPU threads of a step lost each other (steps run by each: {done})",
                                       cause="threads")
             n = done[0]
