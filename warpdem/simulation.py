@@ -777,15 +777,7 @@ class Simulation:
             if barrier.broken or len(set(done)) != 1:
                 raise SimulationError(f"the CPU threads of a step lost each other (steps run by each: {done})",
                                       cause="threads")
-            n = done[0]
-            self.state.step += n
-            for _ in range(n):
-                self.state.time += self.dt
-            left -= n
-            since_check += n
-            if since_check >= every or left == 0:
-                self._check()
-                since_check = 0
+            left, since_check = self._count_ran(done[0], left, since_check)
 
     def _steps_graph(self, n: int) -> object:
         """The captured graph of ``n`` steps (cached until arrays move): step 1, then steps 2 .. n each in a
@@ -811,7 +803,6 @@ class Simulation:
         number of steps per graph follows the rebuild interval (powers of two up to ``graph_steps``)."""
         d = self.data
         spheres = self.model.n_spheres > 0
-        every = max(self.graph_steps, 1)
         cap = 1 << (min(self.graph_steps, 256).bit_length() - 1)  # steps per graph: a power of two <= graph_steps
         device_steps = int(d.counters.numpy()[0]) if spheres else 0
         left, since_check = n_steps, 0
@@ -830,14 +821,21 @@ class Simulation:
                 device_steps += 1
                 if self._chunk <= 1:  # grow again, as a graph that no rebuild ended would
                     self._chunk = 2
-            self.state.step += done
-            for _ in range(done):
-                self.state.time += self.dt
-            left -= done
-            since_check += done
-            if since_check >= every or left == 0:
-                self._check()
-                since_check = 0
+            left, since_check = self._count_ran(done, left, since_check)
+
+    def _count_ran(self, done: int, left: int, since_check: int) -> tuple[int, int]:
+        """Count ``done`` steps that ran (of ``left`` still to run) into the state's step and time, the time by
+        repeated addition as step by step; check for faults and list capacity once ``graph_steps`` steps have run
+        since the last check (``since_check``) or none are left. Returns (steps left, steps since the last check)."""
+        self.state.step += done
+        for _ in range(done):
+            self.state.time += self.dt
+        left -= done
+        since_check += done
+        if since_check >= max(self.graph_steps, 1) or left == 0:
+            self._check()
+            since_check = 0
+        return left, since_check
 
     def _advance_worlds(self, n_steps: int) -> None:
         """:meth:`advance` a thread per world (world_steps.py): each launch takes every world as far as ``n_steps``
