@@ -187,7 +187,11 @@ class Diagnosis:
     measured_series: list[tuple[np.ndarray, np.ndarray]] | None = None
     """the measured records per configuration (time [s], signal), when the rig compared records."""
     n_simulations: int = 0
+    """simulated worlds the fits and the verification asked for (a point simulated before is reused, not re-run)."""
     wall_s: float = 0.0
+    """[s] wall time over every call of a resumed diagnosis that recorded it (see ``wall_untimed``)."""
+    wall_untimed: bool = False
+    """some earlier call of a resumed diagnosis recorded no wall time: ``wall_s`` leaves it out."""
     steps: list[dict[str, object]] = field(default_factory=list)
     """the stepwise search: per step, the mechanism named, held-out losses before and after, gain, p."""
     residual_left: bool = False
@@ -265,6 +269,9 @@ class _Fitter:
         self.cache: dict[tuple[str, tuple[float, ...]], np.ndarray] = {}
         self.seen: dict[str, list[tuple[str, tuple[float, ...]]]] = {}
         self.n_sims = 0
+        self.t0 = time.perf_counter()
+        self.wall_before = 0.0  # [s] the earlier calls' wall time, as their checkpoint recorded it
+        self.wall_untimed = False  # a resumed checkpoint that recorded no wall time (written before it did)
         self.checkpoint = Path(checkpoint) if checkpoint else None
         self.key = _checkpoint_key(rig, settings)
         if self.checkpoint is not None and self.checkpoint.exists():
@@ -278,6 +285,8 @@ class _Fitter:
             for name, z, values in data["cache"]:
                 self.cache[(name, tuple(z))] = np.array(values, dtype=np.float64).reshape(rig.n_configs, -1)
             self.n_sims = int(data["n_sims"])
+            self.wall_before = float(data.get("wall_s", 0.0))
+            self.wall_untimed = bool(data.get("wall_untimed", "wall_s" not in data))
             log(f"  resumed from {self.checkpoint}: {len(self.cache)} simulated parameter sets")
         self.sigma = rig.sigma  # fixed before any fit (a rig may simulate its own noise level here)
         self.bound = rig.failure_bound() if hasattr(rig, "failure_bound") else None
@@ -288,8 +297,13 @@ class _Fitter:
         from .archive import write_json_atomic
 
         write_json_atomic(self.checkpoint, {
-            "key": self.key, "n_sims": self.n_sims, "rig_state": getattr(self.rig, "state", dict)(),
+            "key": self.key, "n_sims": self.n_sims, "wall_s": self.wall_s(), "wall_untimed": self.wall_untimed,
+            "rig_state": getattr(self.rig, "state", dict)(),
             "cache": [[k[0], list(k[1]), np.where(np.isfinite(v), v, None).tolist()] for k, v in self.cache.items()]})
+
+    def wall_s(self) -> float:
+        """Wall time [s] of the fit over every call that wrote its checkpoint (this one included)."""
+        return self.wall_before + time.perf_counter() - self.t0
 
     def _key(self, cand: Candidate, z: np.ndarray) -> tuple[str, tuple[float, ...]]:
         return cand.name, tuple(np.round(z, 10).tolist())
@@ -617,10 +631,11 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
             if why:
                 diag.failures.append(f"{name}, {_describe(rig, j)}: {why}")
     diag.n_simulations = fitter.n_sims + int(diag.verification.get("n_simulations", 0))
-    diag.wall_s = time.perf_counter() - t0
+    diag.wall_s = fitter.wall_before + time.perf_counter() - t0
+    diag.wall_untimed = fitter.wall_untimed
     log(f"verdict: {verdict}{': ' + ' + '.join(cause) if cause else ''}"
         f"{' (a residual larger than noise remains)' if cause and diag.residual_left else ''} "
-        f"({diag.n_simulations} simulations, {diag.wall_s:.0f} s)")
+        f"({diag.n_simulations} simulated worlds, {diag.wall_s:.0f} s)")
     return diag
 
 

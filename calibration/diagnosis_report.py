@@ -62,6 +62,7 @@ def to_json(d: Diagnosis) -> dict[str, object]:
         ],
         "n_simulations": d.n_simulations,
         "wall_s": round(d.wall_s, 1),
+        "wall_untimed": d.wall_untimed,
     }
 
 
@@ -178,6 +179,9 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
     return files
 
 
+UNTIMED = " in the calls that timed it (earlier calls of this resumed diagnosis did not)"
+
+
 def write(d: Diagnosis, out: str | Path, command: str = "") -> Path:
     """Write report.md, diagnosis.json and the plots into ``out``; return the report's path."""
     out = Path(out)
@@ -262,7 +266,8 @@ def write(d: Diagnosis, out: str | Path, command: str = "") -> Path:
         rows.append(row)
     lines += [markdown_table(rows), ""]
     lines += ["Stated 1-sigma uncertainties: " + ", ".join(f"{k} {u}" for k, u in d.uncertainty.items()),
-              "", f"{d.n_simulations} DEM simulations, {d.wall_s:.0f} s.", ""]
+              "", f"{d.n_simulations} simulated worlds (a point simulated before is reused, not run again), "
+              f"{d.wall_s:.0f} s of wall time{UNTIMED if d.wall_untimed else ''}.", ""]
     lines += [f"![{f}]({f})" for f in files]
     path = out / "report.md"
     path.write_text("\n".join(lines) + "\n")

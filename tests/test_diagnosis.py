@@ -206,9 +206,12 @@ def test_a_killed_diagnosis_resumes_to_the_same_result(tmp_path: pytest.TempPath
         diagnosis.diagnose(_DiesAfter(rig(), 3), settings, checkpoint=ck)
     saved = json.loads(ck.read_text())
     assert saved["n_sims"] == 3 * len(saved["cache"]) > 0
+    assert saved["wall_s"] > 0.0 and not saved["wall_untimed"]
     resumed = diagnosis.diagnose(rig(), settings, checkpoint=ck)
     assert (resumed.verdict, resumed.cause) == (whole.verdict, whole.cause)
     assert resumed.n_simulations == whole.n_simulations
+    # the wall time adds the killed call's (as its checkpoint recorded it) to the resumed call's
+    assert resumed.wall_s > saved["wall_s"] and not resumed.wall_untimed
     for name, f in whole.fits.items():
         np.testing.assert_array_equal(resumed.fits[name].z_fold, f.z_fold)
         np.testing.assert_array_equal(resumed.fits[name].heldout_loss, f.heldout_loss)
