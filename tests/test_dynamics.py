@@ -333,3 +333,38 @@ def test_body_overrides_are_checked() -> None:
         b.finalize(DEVICE, overrides={"body:wall:mass": [1.0]})
     with pytest.raises(wd.InputError, match="progressive"):
         b.add_spring("s", 0, (0, 0, 0), 1, (1, 0, 0), stiffness=1.0, progressive=-1.0)
+
+
+def test_masked_inverse_solves_the_free_rotations() -> None:
+    # Reference: numpy's inverse of the matrix with the blocked rows and columns replaced by the identity's, for
+    # random symmetric positive-definite matrices and every combination of blocked axes (flag bits 3..5). With one
+    # free axis k the inverse is the identity with 1 / m_kk at (k, k), exactly (integrator.masked_inverse takes
+    # that path without the general 3 x 3 inverse).
+    import warp as wp
+
+    from warpdem.integrator import masked_inverse
+
+    @wp.kernel
+    def inv_kernel(mats: wp.array(dtype=wp.mat33d), flags: wp.array(dtype=int), out: wp.array(dtype=wp.mat33d)):
+        i = wp.tid()
+        out[i] = masked_inverse(mats[i], flags[i])
+
+    rng = np.random.default_rng(4)
+    a = rng.normal(size=(40, 3, 3))
+    mats = a @ a.transpose(0, 2, 1) + 0.5 * np.eye(3)
+    flags = np.arange(40) % 8 * 8
+    out = wp.zeros(40, dtype=wp.mat33d, device=DEVICE)
+    wp.launch(inv_kernel, 40, inputs=[wp.array(mats, dtype=wp.mat33d, device=DEVICE),
+                                      wp.array(flags, dtype=int, device=DEVICE)], outputs=[out], device=DEVICE)
+    got = out.numpy()
+    for m, f, g in zip(mats, flags, got, strict=True):
+        blocked = [(f >> (3 + k)) & 1 for k in range(3)]
+        masked = m.copy()
+        for k in range(3):
+            if blocked[k]:
+                masked[k, :] = masked[:, k] = 0.0
+                masked[k, k] = 1.0
+        np.testing.assert_allclose(g, np.linalg.inv(masked), rtol=1e-12, atol=1e-14)
+        if sum(blocked) == 2:
+            k = blocked.index(0)
+            assert g[k, k] == 1.0 / m[k, k]

@@ -43,10 +43,20 @@ def damp(a: wp.vec3d, v: wp.vec3d, dt: wp.float64, lam: wp.float64) -> wp.vec3d:
 
 @wp.func
 def quat_integrate(q: wp.quatd, omega: wp.vec3d, dt: wp.float64) -> wp.quatd:
-    """Rotate q by the angle |omega| dt about omega (world frame)."""
-    angle = wp.length(omega) * dt
-    if angle > wp.float64(0.0):
-        dq = wp.quat_from_axis_angle(wp.normalize(omega), angle)
+    """Rotate q by the angle |omega| dt about omega (world frame). For a half angle h = |omega| dt / 2 below 0.01
+    rad the rotation (omega sin(h) / |omega|, cos h) comes from the Taylor series of sin(h) / h and cos h to h^6
+    (the first term left out is below 3e-21: under float64 rounding), with no square root, division, sine or
+    cosine; larger angles take the axis and angle. (The series' constants are written as decimals: Warp folds
+    ``1.0 / 6.0`` inside a kernel in float32.)"""
+    h2 = wp.dot(omega, omega) * (dt * dt * wp.float64(0.25))
+    if h2 > wp.float64(0.0):
+        if h2 < wp.float64(1.0e-4):
+            s = wp.float64(0.5) * dt * (wp.float64(1.0) - h2 * wp.float64(0.16666666666666666) * (
+                wp.float64(1.0) - h2 * wp.float64(0.05) * (wp.float64(1.0) - h2 * wp.float64(0.023809523809523808))))
+            c = wp.float64(1.0) - h2 * wp.float64(0.5) * (wp.float64(1.0) - h2 * wp.float64(0.08333333333333333) * (
+                wp.float64(1.0) - h2 * wp.float64(0.03333333333333333)))
+            return wp.normalize(wp.quatd(omega[0] * s, omega[1] * s, omega[2] * s, c) * q)
+        dq = wp.quat_from_axis_angle(wp.normalize(omega), wp.length(omega) * dt)
         return wp.normalize(dq * q)
     return q
 
@@ -74,6 +84,16 @@ def rotational_energy(inertia: wp.vec3d, q: wp.quatd, omega: wp.vec3d) -> wp.flo
 def masked_inverse(mat: wp.mat33d, flags: int) -> wp.mat33d:
     """The inverse of mat with the rows and columns of the blocked rotation components (flag bits 3..5) replaced
     by those of the identity: (masked_inverse * masked rhs) solves mat alpha = rhs with those components at 0."""
+    free = int(0)
+    n_free = int(0)
+    for k in range(3):
+        if (flags & (8 << k)) == 0:
+            free = k
+            n_free += 1
+    if n_free == 1:  # one free axis (a hinge, a sphere turning in a plane): the identity but 1 / mat[k, k] there
+        one = wp.identity(n=3, dtype=wp.float64)
+        one[free, free] = wp.float64(1.0) / mat[free, free]
+        return one
     m = mat
     for k in range(3):
         if (flags & (8 << k)) != 0:
@@ -149,9 +169,8 @@ def integrate_hinged(
             work += friction * wp.length(omega_new) * dt
     q_new = quat_integrate(q, omega_new, dt)
     arm_new = wp.quat_rotate(q_new, pivot_local)
-    rot_new = wp.quat_to_matrix(q_new)
-    return (p + dt * pivot_vel - arm_new, pivot_vel - wp.cross(omega_new, arm_new), omega_new, q_new,
-            rot_new * wp.diag(inertia) * wp.transpose(rot_new) * omega_new, work)
+    l_new = wp.quat_rotate(q_new, wp.cw_mul(inertia, wp.quat_rotate_inv(q_new, omega_new)))
+    return (p + dt * pivot_vel - arm_new, pivot_vel - wp.cross(omega_new, arm_new), omega_new, q_new, l_new, work)
 
 
 @wp.func
@@ -307,8 +326,10 @@ def integrate_body(
                 wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, driven)
             if rot_blocked != 0:
                 # constrained rotation about the free world axes
-                r = wp.quat_to_matrix(q)
-                iw = r * wp.diag(inertia) * wp.transpose(r)
+                iw = inertia[0] * wp.identity(n=3, dtype=wp.float64)  # isotropic: the same in every frame
+                if (flags & FLAG_ASPHERICAL) != 0:
+                    r = wp.quat_to_matrix(q)
+                    iw = r * wp.diag(inertia) * wp.transpose(r)
                 alpha = solve_free_rotations(iw, t - wp.cross(omega, iw * omega), flags)
                 if track_energy != 0:
                     # the driver's torque on the blocked axes, iw alpha - (t - omega x iw omega), times their
