@@ -89,7 +89,7 @@ def bed_scene(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray) -> object:
 
 
 def run_warpdem(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: str, steps: int, warmup: int,
-                scene: str, threads: int | None = None, contact_threads: str = "sphere") -> dict:
+                scene: str, threads: int | None = None, contact_threads: str = "pair") -> dict:
     import warpdem as wd
 
     sim, setup, wall = timed_run(bed_scene(pos, rad, particle), device, steps, warmup, threads, contact_threads)
@@ -147,7 +147,7 @@ def main() -> None:
     p.add_argument("--threads", type=int, default=None, help="CPU threads sharing a step (default: all cores)")
     p.add_argument("--yade", action="store_true", help="also run the bed in Yade 2023.02a (-j2)")
     p.add_argument("--json", default=None, help="append results to this JSON-lines file")
-    p.add_argument("--contact-threads", nargs="+", default=["sphere"], choices=("sphere", "pair"),
+    p.add_argument("--contact-threads", nargs="+", default=["pair"], choices=("sphere", "pair"),
                    help="Simulation(contact_threads=...): each given one is timed in turn")
     args = p.parse_args()
     base = deposited_bed(args.scale, args.seed, Path(args.cache), args.bed)

@@ -42,7 +42,7 @@ def op_name(op: object) -> str:
 
 
 def bed_simulation(pos: np.ndarray, rad: np.ndarray, particle: np.ndarray, device: str, threads: int | None,
-                   contact_threads: str = "sphere") -> object:
+                   contact_threads: str = "pair") -> object:
     """The bonded bed of ``bed_throughput.py`` as a Simulation (cohesion set at its first step)."""
     import warpdem as wd
 
@@ -163,7 +163,7 @@ def main() -> None:
                    help="ringing: time advance() as a calibration runs it, stage by stage and a thread per world")
     p.add_argument("--lineinfo", action="store_true",
                    help="compile CUDA kernels with line information (for a profiler such as Nsight Compute)")
-    p.add_argument("--contact-threads", default="sphere", choices=("sphere", "pair"),
+    p.add_argument("--contact-threads", default="pair", choices=("sphere", "pair"),
                    help="bed: Simulation(contact_threads=...)")
     args = p.parse_args()
     if args.lineinfo:

@@ -41,7 +41,7 @@ def lattice(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
 
 
 def timed_run(builder: object, device: str, steps: int, warmup: int, threads: int | None = None,
-              contact_threads: str = "sphere") -> tuple[object, float, float]:
+              contact_threads: str = "pair") -> tuple[object, float, float]:
     """Build ``builder``'s scene on ``device``, bond every contact at the first step (moment law on, no damping,
     dt = 0.3 x the P-wave step), run ``warmup`` steps, then time ``steps``: (simulation, setup [s], wall [s]).
     ``contact_threads``: Simulation's option of that name."""

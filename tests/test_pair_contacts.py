@@ -17,6 +17,8 @@ import warpdem as wd
 from warpdem.errors import InputError
 
 EPS32 = float(np.finfo(np.float32).eps)
+FMA_ULPS = 16
+"""float32 ulps (of the largest value) that CUDA's fused multiply-adds may move a result between two kernels."""
 
 
 def _cradle(n_worlds: int = 2) -> tuple[wd.Model, wd.State]:
@@ -104,10 +106,14 @@ def _kicked(mode: str, tmp_path: object | None = None, load: str | None = None) 
 def test_pair_threads_match_sphere_threads_on_a_bonded_block(tmp_path: object) -> None:
     # Reference: the per-sphere kernel from the same state (a checkpoint of a kicked bonded block after 50 steps,
     # loaded into both: the loaded lists must index their entries' spheres for the pair kernel). One step: the
-    # contact histories depend on no sum, so they are equal to the bit; a body's force differs by the float32
+    # contact histories depend on no sum, so on the CPU they are equal to the bit; a body's force differs by the float32
     # rounding of a sphere's partial sums: at most (entries per list) x eps32 x the largest partial sum per
     # component, which in this kicked block (forces of both signs, no static load) is about the largest body force
     # of the step, and by half a fixed-point resolution per contact (~1e-10 of a sphere's weight, below that).
+    # On CUDA, nvcc fuses a * b + c into one rounding (FMA) as each kernel's code lets it, so the same law inlined
+    # in the two kernels rounds differently in the last bits (measured on an H100: 24 of 1992 history components,
+    # at most 2.4e-7 on values of order 1, 2 ulps): there every comparison allows FMA_ULPS float32 ulps of the
+    # largest value more. A wrong term of the law would differ by orders of magnitude more.
     path = str(tmp_path / "block.npz")
     sim = _kicked("sphere")
     sim.advance(50)
@@ -116,15 +122,16 @@ def test_pair_threads_match_sphere_threads_on_a_bonded_block(tmp_path: object) -
     np.testing.assert_array_equal(b.data.ss.owner.numpy(), _expected_owner(b))
     a.step()
     b.step()
+    fused = 0 if DEVICE == "cpu" else FMA_ULPS
     ha, hb = a.data.ss.numpy()["hist"], b.data.ss.numpy()["hist"]
     for field in ha.dtype.names:
-        np.testing.assert_array_equal(hb[field], ha[field])
+        np.testing.assert_allclose(hb[field], ha[field], rtol=0.0, atol=fused * EPS32 * np.abs(ha[field]).max())
     fa, fb = a.data.body_force.numpy(), b.data.body_force.numpy()
     ta, tb = a.data.body_torque.numpy(), b.data.body_torque.numpy()
     per_list = int(a.data.ss.count.numpy().max())
     assert per_list == 3 and np.abs(fa).max() > 0.1
-    assert np.abs(fb - fa).max() <= per_list * EPS32 * np.abs(fa).max()
-    assert np.abs(tb - ta).max() <= per_list * EPS32 * np.abs(ta).max()
+    assert np.abs(fb - fa).max() <= (per_list + fused) * EPS32 * np.abs(fa).max()
+    assert np.abs(tb - ta).max() <= (per_list + fused) * EPS32 * np.abs(ta).max()
     assert np.abs(fb - fa).max() > 0.0  # the two really round differently here (else this compares nothing)
 
 
