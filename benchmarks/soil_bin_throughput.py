@@ -8,6 +8,14 @@ one simulation, once per ``--threads`` value (CPU threads sharing a step, throug
 is deposited once and cached (the same cache as ``bed_throughput.py``). Reported: particle-steps per second
 (spheres of all worlds x steps / wall time of the whole call: model build, records and rebuilds included) and the mean
 draught of world 0, which must not depend on the number of threads.
+
+    python benchmarks/soil_bin_throughput.py --device cuda --scale paper --worlds 4 --replicas --travel 0.2
+
+``--replicas``: the worlds stand on replica beds 0 .. worlds - 1 of one population (``scenes.replica_beds``; each
+deposited once and cached) instead of all on one bed: the same run with the parked particles that a shared layout
+needs (reported: spheres per world of the layout, parked ones included, the particles each world simulates, and
+the wall time per step to compare with the same worlds on one bed). ``--travel`` [m] shortens the run (default:
+the scale's).
 """
 
 from __future__ import annotations
@@ -30,6 +38,8 @@ def main() -> None:
     p.add_argument("--cache", default=str(Path(__file__).resolve().parent / ".beds"),
                    help="folder of deposited beds (made once; default: benchmarks/.beds)")
     p.add_argument("--json", default=None, help="append results to this JSON-lines file")
+    p.add_argument("--replicas", action="store_true", help="each world on its own replica bed")
+    p.add_argument("--travel", type=float, default=None, help="[m] of travel (default: the scale's)")
     args = p.parse_args()
 
     import warp as wp
@@ -37,19 +47,25 @@ def main() -> None:
     wp.config.quiet = True
     from scenes.soil_bin import SoilBinConfig, bed_for, run_soil_bin
 
-    config = SoilBinConfig(scale=args.scale, assembly="C", springs=(0,), speed=(0.68,))
-    bed = bed_for(config, device=args.device, cache_dir=args.cache)
+    config = SoilBinConfig(scale=args.scale, assembly="C", springs=(0,), speed=(0.68,), travel=args.travel,
+                           steady_travel=0.5 * args.travel if args.travel else None)
+    if args.replicas:
+        bed = [bed_for(config, device=args.device, cache_dir=args.cache, replica=r) for r in range(args.worlds)]
+    else:
+        bed = bed_for(config, device=args.device, cache_dir=args.cache)
     for threads in args.threads:
         if threads:
             os.environ["WARPDEM_CPU_THREADS"] = str(threads)
         else:
             os.environ.pop("WARPDEM_CPU_THREADS", None)
         run = run_soil_bin(config, [0] * args.worlds, bed=bed, device=args.device)
-        res = {"engine": "warpdem", "scene": "soil bin, rigid sweep", "device": args.device, "scale": args.scale,
+        scene = "soil bin, rigid sweep" + (", replica beds" if args.replicas else "")
+        res = {"engine": "warpdem", "scene": scene, "device": args.device, "scale": args.scale,
                "threads": threads or "all", "worlds": args.worlds, "spheres": run.n_spheres * args.worlds,
                "steps": run.steps, "wall_s": run.wall_s,
                "particle_steps_per_s": run.n_spheres * args.worlds * run.steps / run.wall_s,
-               "draught_mean_n": run.steady[0]["draught_mean"]}
+               "draught_mean_n": run.steady[0]["draught_mean"], "particles_simulated": run.n_particles,
+               "wall_ms_per_step": 1e3 * run.wall_s / run.steps}
         print(json.dumps(res))
         if args.json:
             with open(args.json, "a") as f:

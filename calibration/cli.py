@@ -3,7 +3,8 @@
 
     warpdem reproduce [--scale ci|cpu|paper] [--device cpu|cuda] [--out DIR] [--assembly A|B|C] [--springs 0,16,32]
     warpdem reproduce --workflow full [--scale] [--assembly] [--budget S] [--replicas-min 3] [--replicas-max 8]
-                      [--target-sem 1] [--worlds-per-job 4] [--generations 5] [--population 20] [--parents 7]
+                      [--target-sem 1] [--worlds-per-job 4] [--replica-worlds] [--generations 5] [--population 20]
+                      [--parents 7]
     warpdem ringing   [--spring-model paper|linear] [--springs 4,8,...] [--device] [--out DIR]
     warpdem soil-bin  [--scale] [--assembly] [--springs] [--spring-model] [--viewer] [--viewer-save FILE.rrd]
     warpdem speed-sweep [--scale] [--assembly] [--speeds 0.45,0.5,...] [--device] [--out DIR]
@@ -317,6 +318,7 @@ def run_workflow(args: argparse.Namespace) -> int:
                             springs=args.springs or paper.SPRING_COUNTS, ringing_ga=ga, draught_ga=ga,
                             replicas_min=args.replicas_min, replicas_max=args.replicas_max,
                             target_sem=args.target_sem, worlds_per_job=args.worlds_per_job,
+                            replica_worlds=args.replica_worlds,
                             settle_time=args.settle_time, seed=args.seed, diagnose=not args.no_diagnosis,
                             diagnosis_rounds=_folder_rounds(args), diagnosis_grid=args.diagnosis_grid)
     budget = Budget(args.budget)
@@ -661,6 +663,9 @@ def main(argv: list[str] | None = None) -> int:
                         "[percentage points] (default 1)")
     r.add_argument("--worlds-per-job", type=_number(int, ge=1), default=4,
                    help="full: soil-bin worlds per simulation (default 4)")
+    r.add_argument("--replica-worlds", action="store_true",
+                   help="full: Table 3's replicas as worlds of one simulation (replica beds of one population; "
+                        "each simulation's worlds spread over a group of replicas)")
     r.add_argument("--settle-time", type=_number(float, ge=0, unit="s"), default=0.5,
                    help="full: [s] a bed settles under the soil set before the tool moves (default 0.5)")
     r.add_argument("--no-diagnosis", action="store_true",

@@ -463,6 +463,49 @@ class Workflow:
             chunks(variant, list(c.springs), [speeds[n] for n in c.springs])
         return out
 
+    def group_jobs(self, first: int, end: int) -> list[dict]:
+        """With ``replica_worlds``: the soil-bin jobs of replicas ``first`` .. ``end`` - 1 as worlds of the same
+        simulations (world by world: replica, springs, speed), at most ``worlds_per_job`` worlds each."""
+        c = self.config
+        speeds = c.speeds()
+        kinds = [("rigid", [(0, v) for v in c.rigid_speeds()])]
+        kinds += [(variant, [(n, speeds[n]) for n in c.springs]) for variant in VARIANTS]
+        out = []
+        for kind, rows in kinds:
+            worlds = [(r, n, v) for r in range(first, end) for n, v in rows]
+            for k in range(0, len(worlds), c.worlds_per_job):
+                chunk = worlds[k:k + c.worlds_per_job]
+                out.append({"name": f"g{first}-{end - 1}_{kind}_{k // c.worlds_per_job}", "kind": kind,
+                            "replicas": [w[0] for w in chunk], "springs": [w[1] for w in chunk],
+                            "speeds": [w[2] for w in chunk]})
+        return out
+
+    def groups(self) -> list[list[int]]:
+        """With ``replica_worlds``: the replica groups decided so far, [first, end) each (``table3/groups.json``)."""
+        saved = self._done("table3/groups.json")
+        return [list(g) for g in saved["groups"]] if saved else [[0, self.config.replicas_min]]
+
+    def _beds(self, job: dict, cfg: sb.SoilBinConfig, budget: Budget) -> tuple[sb.Bed | list[sb.Bed], object]:
+        """The bed of a job (a replica's own), or its worlds' replica beds; and its fingerprint(s). A bed that had
+        to be deposited again and came out another realisation sets its replica's finished jobs aside."""
+        replicas = job["replicas"] if "replicas" in job else [job["replica"]]
+        beds, fps = {}, {}
+        for r in dict.fromkeys(replicas):
+            rep = r if "replicas" in job else None
+            deposits = not sb.bed_path(cfg, self.out / "beds", rep).exists()
+            if deposits:  # a deposition must fit whole too (at paper scale minutes: it cannot be checkpointed)
+                budget.require(self._timing("deposit"), f"depositing replica {r}'s bed")
+            t0 = time.perf_counter()
+            beds[r] = sb.bed_for(cfg, device=self.device, cache_dir=self.out / "beds", replica=rep)
+            if deposits:
+                self._timed("deposit", time.perf_counter() - t0)
+            fps[r], old = self._bed_fingerprint(f"replica_{r}", beds[r])
+            if old is not None:
+                self._set_aside(r, old)
+        if "replicas" in job:
+            return [beds[r] for r in replicas], [fps[r] for r in replicas]
+        return beds[job["replica"]], fps[job["replica"]]
+
     def run_job(self, job: dict, soil: dict, ring: dict | None, budget: Budget) -> dict:
         path = self._path(f"table3/{job['name']}.json")
         if (done := self._done(f"table3/{job['name']}.json")) is not None:
@@ -472,7 +515,8 @@ class Workflow:
         timing = f"job_{'rigid' if job['kind'] == 'rigid' else 'passive'}_{len(job['springs'])}"
         cfg = sb.SoilBinConfig(scale=c.scale, assembly=c.assembly, springs=tuple(job["springs"]),
                                speed=tuple(job["speeds"]), support_offset=job["kind"] == "offset",
-                               travel=c.travel, steady_travel=c.steady_travel, seed=c.seed + job["replica"],
+                               travel=c.travel, steady_travel=c.steady_travel,
+                               seed=c.seed if "replicas" in job else c.seed + job["replica"],
                                settle_time=c.settle_time)
         n = len(job["springs"])
         overrides = {"friction_angle": [soil["friction_angle"]] * n, "normal_cohesion": [soil["normal_cohesion"]] * n,
@@ -483,16 +527,7 @@ class Workflow:
             by_n = {r["springs"]: r for r in ring["rows"]}
             knobs = {"stiffness": [by_n[s]["stiffness"] for s in job["springs"]],
                      "dashpot": [by_n[s]["dashpot_n_s_per_m"] for s in job["springs"]]}
-        deposits = not sb.bed_path(cfg, self.out / "beds").exists()
-        if deposits:  # a deposition must fit whole too (at paper scale minutes: it cannot be checkpointed)
-            budget.require(self._timing("deposit"), f"depositing replica {job['replica']}'s bed")
-        t0 = time.perf_counter()
-        bed = sb.bed_for(cfg, device=self.device, cache_dir=self.out / "beds")
-        if deposits:
-            self._timed("deposit", time.perf_counter() - t0)
-        fp, old = self._bed_fingerprint(f"replica_{job['replica']}", bed)
-        if old is not None:
-            self._set_aside(job["replica"], old)
+        bed, fp = self._beds(job, cfg, budget)
         # a job that has not started must fit whole (its checkpoint would not outlive a lost machine); one that
         # has, saves its checkpoint at the deadline. Checked once the bed is ready: depositing it may take minutes
         # (the bed stays in beds/ for the next call)
@@ -502,12 +537,16 @@ class Workflow:
         resumed = ckpt.exists()
         run = sb.run_soil_bin(cfg, list(job["springs"]), bed=bed, device=self.device, speeds=list(job["speeds"]),
                               soil_overrides=overrides, knobs=knobs, checkpoint=ckpt, deadline=budget.deadline)
-        if job["replica"] == 0:  # the series of one bed for the figures
-            keep = {"time": run.time, "travel": run.travel,
-                    **{k: run.series[k] for k in ("draught", "displacement", "ke_tool", "ke_soil")}}
+        owners = job["replicas"] if "replicas" in job else [job["replica"]] * n
+        first = [w for w, r in enumerate(owners) if r == 0]
+        if first:  # the series of one bed (replica 0's worlds) for the figures
+            keep = {"time": run.time, "travel": run.travel, "kind": np.array(job["kind"]),
+                    "springs": np.asarray(job["springs"])[first], "speeds": np.asarray(job["speeds"])[first],
+                    **{k: run.series[k][:, first] for k in ("draught", "displacement", "ke_tool", "ke_soil")}}
             write_atomic(path.with_suffix(".npz"), lambda tmp: np.savez_compressed(tmp, **keep))
-        out = {**job, "bed": fp, "rows": sb.json_safe(run.steady), "dt": run.dt, "steps": run.steps,
-               "spheres": run.n_spheres, "particles": run.n_particles, "wall_s": time.perf_counter() - t0,
+        out = {**job, ("beds" if "replicas" in job else "bed"): fp, "rows": sb.json_safe(run.steady),
+               "dt": run.dt, "steps": run.steps, "spheres": run.n_spheres, "particles": run.n_particles,
+               "wall_s": time.perf_counter() - t0,
                "device": self.device, "versions": versions()}
         write_json_atomic(path, out)
         if not resumed:
@@ -520,14 +559,38 @@ class Workflow:
         """Move the finished jobs of ``replica`` made on the bed ``fingerprint`` to ``table3/stale/``: its bed had
         to be deposited again and came out another realisation, so they would not pair with the jobs to come."""
         stale = self._path("table3/stale")
-        for j in self.jobs(replica):
+        for j in self.jobs_of(replica):
             p = self._path(f"table3/{j['name']}.json")
-            if p.exists() and json.loads(p.read_text()).get("bed") == fingerprint:
+            done = json.loads(p.read_text()) if p.exists() else {}
+            beds = done.get("beds", [done.get("bed")] * len(j["springs"]))
+            if any(fp == fingerprint and r == replica for fp, r in zip(beds, j.get("replicas", [replica] * len(beds)),
+                                                                         strict=True)):
                 stale.mkdir(parents=True, exist_ok=True)
                 for q in (p, p.with_suffix(".npz")):
                     if q.exists():
                         q.replace(stale / f"{q.stem}_{fingerprint}{q.suffix}")
                 self.log(f"  {j['name']} set aside: made on bed {fingerprint}, which was deposited again differently")
+
+    def jobs_of(self, replica: int) -> list[dict]:
+        """The jobs that hold worlds of ``replica``: its own, or its group's (``replica_worlds``)."""
+        if not self.config.replica_worlds:
+            return self.jobs(replica)
+        for first, end in self.groups():
+            if first <= replica < end:
+                return self.group_jobs(first, end)
+        return []
+
+    def replica_group(self, first: int, end: int, soil: dict, ring: dict | None, budget: Budget) -> list[dict]:
+        """Every job of replicas ``first`` .. ``end`` - 1 as worlds of the same simulations, each replica's worlds
+        on one bed."""
+        while True:
+            results = [self.run_job(j, soil, ring, budget) for j in self.group_jobs(first, end)]
+            beds: dict[int, set] = {}
+            for x in results:
+                for r, fp in zip(x["replicas"], x["beds"], strict=True):
+                    beds.setdefault(r, set()).add(fp)
+            if all(len(v) == 1 for v in beds.values()):
+                return results
 
     def replica(self, r: int, soil: dict, ring: dict | None, budget: Budget) -> list[dict]:
         """Every job of replica ``r``, all on one bed."""
@@ -538,6 +601,8 @@ class Workflow:
 
     def table3(self, soil: dict, ring: dict | None, budget: Budget) -> dict:
         c = self.config
+        if c.replica_worlds:
+            return self._table3_grouped(soil, ring, budget)
         replicas = c.replicas_min
         r = 0
         while r < replicas:
@@ -553,19 +618,47 @@ class Workflow:
         write_json_atomic(self._path("table3.json"), stats)
         return stats
 
+    def _table3_grouped(self, soil: dict, ring: dict | None, budget: Budget) -> dict:
+        """``table3`` with replicas as worlds: group after group, each as many new replicas as the standard errors
+        ask for (the groups decided are kept in ``table3/groups.json``, so that a resumed run repeats them)."""
+        c = self.config
+        groups = self.groups()
+        i = 0
+        while i < len(groups):
+            write_json_atomic(self._path("table3/groups.json"), {"groups": groups})
+            self.replica_group(*groups[i], soil, ring, budget)
+            i += 1
+            if i == len(groups):
+                n = groups[-1][1]
+                stats = self.table3_stats(n)
+                sems = [row["reduction"]["sem"] for rows in stats["variants"].values() for row in rows]
+                more = replicas_needed(sems, n, c.target_sem, c.replicas_max)
+                if more > n:
+                    self.log(f"largest reduction SE {max(sems):.2f} pp with {n} replicas: running {more}")
+                    groups.append([n, more])
+        stats = self.table3_stats(groups[-1][1])
+        write_json_atomic(self._path("table3.json"), stats)
+        return stats
+
+    def _replica_jobs(self, replicas: int) -> list[tuple[dict, list[int]]]:
+        """The jobs of replicas 0 .. ``replicas`` - 1, each with its worlds' replicas."""
+        if not self.config.replica_worlds:
+            return [(j, [r] * len(j["springs"])) for r in range(replicas) for j in self.jobs(r)]
+        return [(j, j["replicas"]) for first, end in self.groups() if end <= replicas
+                for j in self.group_jobs(first, end)]
+
     def table3_stats(self, replicas: int) -> dict:
         """Per variant and configuration: draught, rigid reference and reduction over the replicas' jobs."""
         c = self.config
         rows: dict[tuple[str, int], list[dict]] = {}
         rigid: dict[tuple[int, float], dict] = {}
-        for r in range(replicas):
-            for job in self.jobs(r):
-                done = self._done(f"table3/{job['name']}.json")
-                for row in done["rows"]:
-                    if job["kind"] == "rigid":
-                        rigid[(r, sb.speed_key(row["speed"]))] = row
-                    else:
-                        rows.setdefault((job["kind"], row["springs"]), []).append({**row, "replica": r})
+        for job, owners in self._replica_jobs(replicas):
+            done = self._done(f"table3/{job['name']}.json")
+            for row, r in zip(done["rows"], owners, strict=True):
+                if job["kind"] == "rigid":
+                    rigid[(r, sb.speed_key(row["speed"]))] = row
+                else:
+                    rows.setdefault((job["kind"], row["springs"]), []).append({**row, "replica": r})
         speeds = c.speeds()
         out: dict[str, object] = {"replicas": replicas, "variants": {}, "rigid": []}
         for v in c.rigid_speeds():
@@ -676,6 +769,20 @@ class Workflow:
     # ---- everything --------------------------------------------------------------------------------------------
     def replicas_done(self) -> int:
         """How many replicas, from the first, have every job finished on one bed."""
+        if self.config.replica_worlds:
+            n = 0
+            for first, end in self.groups():
+                done = [self._done(f"table3/{j['name']}.json") for j in self.group_jobs(first, end)]
+                if any(d is None for d in done):
+                    return n
+                beds: dict[int, set] = {}
+                for d in done:
+                    for r, fp in zip(d["replicas"], d["beds"], strict=True):
+                        beds.setdefault(r, set()).add(fp)
+                if any(len(v) != 1 for v in beds.values()):
+                    return n
+                n = end
+            return n
         r = 0
         while True:
             done = [self._done(f"table3/{j['name']}.json") for j in self.jobs(r)]

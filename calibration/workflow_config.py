@@ -68,7 +68,13 @@ class WorkflowConfig:
     calibration_travel: float | None = None
     """[m] of the draught calibration's runs (default: its scale's)."""
     seed: int = 0
-    """first bed's deposition seed; replica r uses seed + r."""
+    """first bed's deposition seed; replica r uses seed + r (with ``replica_worlds``: the replicas' population
+    seed, replica r set down from the seed r)."""
+    replica_worlds: bool = False
+    """Table 3's replicas as worlds of one simulation: replica beds of one population (``scenes.replica_beds``),
+    each job's worlds spread over a group of replicas (the first ``replicas_min`` together, then each group that the
+    standard errors ask for), at most ``worlds_per_job`` worlds. Off: a bed per replica, each replica's jobs on its
+    bed alone."""
     diagnose: bool = True
     """stage 5: ``warpdem diagnose`` of Table 3 (the configurations of ``springs``) with the soil of the Table 3
     runs, in the draught calibration's bin (:data:`CALIBRATION_SCALE`): every fitted point is a soil-bin run of

@@ -66,16 +66,17 @@ def plot_series(out: Path, config: WorkflowConfig, table3: dict) -> list[str]:
 
     plt = _plt()
     t3 = paper.table("soil_bin_measured")
-    series = {}
-    for f in sorted((out / "table3").glob("r0_*.npz")):
-        with np.load(f) as d:
-            series[f.stem] = {k: d[k] for k in d.files}
     job_of = {}
-    for name, s in series.items():
-        kind = name.split("_", 1)[1].rsplit("_", 1)[0]
-        done = json.loads((out / "table3" / f"{name}.json").read_text())
-        for w, n in enumerate(done["springs"]):
-            job_of[(kind, n, round(done["speeds"][w], 6))] = (s, w)
+    for f in sorted((out / "table3").glob("*.npz")):  # replica 0's worlds of each job
+        with np.load(f) as d:
+            s = {k: d[k] for k in d.files}
+        if "springs" in s:  # the job's kind and its saved worlds' springs and speeds
+            kind, springs, speeds_w = str(s["kind"]), s["springs"].tolist(), s["speeds"].tolist()
+        else:  # written before they were saved with the series: every world of the job is replica 0's
+            done = json.loads((out / "table3" / f"{f.stem}.json").read_text())
+            kind, springs, speeds_w = f.stem.split("_", 1)[1].rsplit("_", 1)[0], done["springs"], done["speeds"]
+        for w, n in enumerate(springs):
+            job_of[(kind, n, round(speeds_w[w], 6))] = (s, w)
     names = []
     start = config.steady_travel or SCALES[config.scale]["steady_travel"]
     speeds = config.speeds()

@@ -105,6 +105,11 @@ class Bed:
     """mean coordination number after deposition (member contacts between different particles, per particle)."""
     seed: int = 0
     wall_s: float = 0.0
+    population_seed: int | None = None
+    """with replica beds (:func:`deposit`'s ``population_seed``): the seed of the particles' shapes and sizes, shared
+    by every replica; None for a bed whose shapes, sizes and places all come from ``seed``."""
+    population_index: np.ndarray | None = None
+    """with replica beds: each particle's index in the shared population (n_particles,), increasing."""
 
     @property
     def n_particles(self) -> int:
@@ -116,7 +121,9 @@ class Bed:
         write_atomic(path, lambda tmp: np.savez_compressed(
             tmp, centres=self.centres, radii=self.radii, particle=self.particle, bin_size=np.array(self.bin_size),
             depth=self.depth, porosity=self.porosity, coordination=self.coordination, seed=self.seed,
-            wall_s=self.wall_s, spec=np.array(str(asdict(self.spec)))))
+            wall_s=self.wall_s, spec=np.array(str(asdict(self.spec))),
+            **({} if self.population_seed is None else {"population_seed": self.population_seed,
+                                                         "population_index": self.population_index})))
 
     @staticmethod
     def load(path: str | Path) -> Bed:
@@ -130,6 +137,9 @@ class Bed:
                 bed = Bed(spec, tuple(float(v) for v in d["bin_size"]), float(d["depth"]), d["centres"],
                           d["radii"], d["particle"], float(d["porosity"]), float(d["coordination"]), int(d["seed"]),
                           float(d["wall_s"]))
+                if "population_seed" in d:
+                    bed.population_seed = int(d["population_seed"])
+                    bed.population_index = np.asarray(d["population_index"], dtype=np.int64)
         except (OSError, EOFError, KeyError, ValueError, SyntaxError, TypeError, zipfile.BadZipFile) as e:
             raise InputError(f"{str(path)!r} is not a readable bed ({type(e).__name__}: {e}); delete it to deposit "
                              "the bed again") from None
@@ -164,14 +174,23 @@ def bin_mesh(size: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
     return v, f
 
 
+POPULATION_STREAM, PLACES_STREAM = 1, 2
+"""replica beds draw their shapes and sizes from the random streams (population seed, 1, 0 or 1) and their places
+from (seed, 2, population seed): independent streams even where both seeds are equal."""
+
+
 def loose_particles(spec: AssemblySpec, size: tuple[float, float, float], n_particles: int,
-                    seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                    seed: int = 0, population_seed: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``n_particles`` non-overlapping particles on a jittered lattice over x in [-W/2, W/2], y in [0, L], from the
     floor up (as many layers as needed).
 
+    ``population_seed``: the particles' shapes and sizes come from it, their lattice cells, orientations and
+    jitter from ``seed`` (replica beds: the same particles, each set down elsewhere); None: all from ``seed``.
+
     Returns member centres [m] (n, 3), radii [m] (n,), particle index (n,).
     """
-    rng = np.random.default_rng(seed)
+    # replica beds: the places from a stream of their own, apart from the population's (``population``)
+    rng = np.random.default_rng(seed if population_seed is None else [seed, PLACES_STREAM, population_seed])
     r_max = spec.radius * (1 + spec.spread)
     extent = {"A": 1.0, "B": 1.5, "C": 2.0}[spec.kind] * r_max  # bounding radius of a particle
     pitch = 2.02 * extent
@@ -186,8 +205,12 @@ def loose_particles(spec: AssemblySpec, size: tuple[float, float, float], n_part
     cells[:, 1] += (length - ny * pitch) / 2
     cells = cells[np.argsort(cells[:, 2], kind="stable")][:n_particles]
     n = len(cells)
-    shapes = spec.shapes(n, rng)
-    radii_p = rng.uniform(spec.radius * (1 - spec.spread), spec.radius * (1 + spec.spread), n)
+    if population_seed is None:
+        shapes = spec.shapes(n, rng)
+        radii_p = rng.uniform(spec.radius * (1 - spec.spread), spec.radius * (1 + spec.spread), n)
+    else:
+        shapes, radii_p = population(spec, n, population_seed)
+        cells = cells[rng.permutation(n)]
     rot = quats_to_matrices(rng.normal(size=(n, 4)))  # uniformly random rotations
     centres, radii, particle = [], [], []
     for k in range(n):
@@ -200,11 +223,25 @@ def loose_particles(spec: AssemblySpec, size: tuple[float, float, float], n_part
     return np.concatenate(centres), np.concatenate(radii), np.concatenate(particle)
 
 
+def population(spec: AssemblySpec, n: int, seed: int) -> tuple[list[str], np.ndarray]:
+    """The shapes and radii [m] (n,) of ``n`` particles drawn from ``seed`` (replica beds share them); each from a
+    stream of its own, so that a longer draw begins with the same particles."""
+    shapes = spec.shapes(n, np.random.default_rng([seed, POPULATION_STREAM, 0]))
+    radii = np.random.default_rng([seed, POPULATION_STREAM, 1]).uniform(spec.radius * (1 - spec.spread),
+                                                                       spec.radius * (1 + spec.spread), n)
+    return shapes, radii
+
+
 def deposit(spec: AssemblySpec, bin_size: tuple[float, float, float], depth: float, *, seed: int = 0,
             device: str | None = None, friction_angle: float = 30.0, damping: float = 0.4,
             ke_per_particle: float = 1e-6, max_time: float = 3.0, porosity_guess: float = 0.45,
-            progress: object | None = None) -> Bed:
+            progress: object | None = None, population_seed: int | None = None) -> Bed:
     """Deposit particles under gravity into the bin and cut the bed to ``depth`` [m].
+
+    ``population_seed``: a replica bed. Its particles' shapes and sizes come from ``population_seed`` and their
+    places from ``seed``, so that replicas of one population seed differ only in where each particle lies and which
+    ones the cut removed (``Bed.population_index``): such beds can be worlds of one simulation
+    (``scenes.soil_bin.run_soil_bin`` with a list of beds).
 
     Enough particles for 1.15 x depth at porosity ``porosity_guess`` are placed on a loose lattice, deposited with
     local damping ``damping`` and contact friction ``friction_angle`` [deg] (no cohesion) until the mean kinetic
@@ -222,7 +259,8 @@ def deposit(spec: AssemblySpec, bin_size: tuple[float, float, float], depth: flo
               "C": f * particle_volume(spec.radius, 3) + (1 - f) * particle_volume(spec.radius, 1)}[spec.kind]
     v_particle = v_mean * (1 + spec.spread**2)  # <(1 + u)^3> for u uniform in [-spread, spread]
     n_needed = math.ceil(1.15 * depth * w * length * (1 - porosity_guess) / v_particle)
-    centres, radii, particle = loose_particles(spec, (w, length, h), n_needed, seed)
+    centres, radii, particle = loose_particles(spec, (w, length, h), n_needed, seed, population_seed)
+    index = np.arange(int(particle.max()) + 1)  # each particle's index in the population
     mat = wd.Material(young=paper.SOIL_YOUNG, poisson=paper.SOIL_POISSON, density=paper.SOIL_DENSITY,
                       friction_angle=friction_angle)
     bed = Bed(spec, bin_size, depth, centres, radii, particle, seed=seed)
@@ -259,12 +297,15 @@ def deposit(spec: AssemblySpec, bin_size: tuple[float, float, float], depth: flo
             new_index = np.cumsum(keep) - 1
             bed = Bed(spec, bin_size, depth, centres[keep_member], bed.radii[keep_member],
                       new_index[bed.particle[keep_member]], seed=seed)
+            index = index[keep]
         else:
             bed.centres = centres
             z_ss = wd.observers.coordination_number("soil")(sim)
             bed.coordination = float(z_ss[0])
     bed.porosity = porosity(bed)
     bed.wall_s = time.perf_counter() - t0
+    if population_seed is not None:
+        bed.population_seed, bed.population_index = int(population_seed), index.astype(np.int64)
     return bed
 
 

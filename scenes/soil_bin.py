@@ -38,7 +38,7 @@ from warpdem.errors import BudgetExhausted, InputError
 from warpdem.files import write_atomic
 from warpdem.vtk import VtkWriter
 
-from . import paper
+from . import paper, replica_beds
 from .assemblies import AssemblySpec, Bed, bin_mesh, deposit
 from .ringing import check_per_world, series_rate
 from .sweep import SweepTool, add_sweep, build_sweep
@@ -226,35 +226,53 @@ def json_safe(value: object) -> object:
     return value
 
 
-def bed_path(config: SoilBinConfig, cache_dir: str | Path) -> Path:
-    """Where :func:`bed_for` keeps the bed of a config (scale, assembly, member radius, seed) in ``cache_dir``."""
+def bed_path(config: SoilBinConfig, cache_dir: str | Path, replica: int | None = None) -> Path:
+    """Where :func:`bed_for` keeps the bed of a config (scale, assembly, member radius, seed; a replica bed's
+    number) in ``cache_dir``."""
     p = config.preset
     spec = AssemblySpec(kind=config.assembly, radius=config.member_radius or p["radius"])
-    key = hashlib.sha1(json.dumps([asdict(spec), p["bin"], p["bed_depth"], config.seed]).encode()).hexdigest()[:12]
+    what = [asdict(spec), p["bin"], p["bed_depth"], config.seed] + ([] if replica is None else ["replica", replica])
+    key = hashlib.sha1(json.dumps(what).encode()).hexdigest()[:12]
     return Path(cache_dir) / f"bed_{config.scale}_{config.assembly}_{key}.npz"
 
 
 def bed_for(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,
-            progress: object | None = None) -> Bed:
-    """The deposited bed for a config (scale, assembly, seed), read from ``cache_dir`` if it was made before."""
+            progress: object | None = None, replica: int | None = None) -> Bed:
+    """The deposited bed for a config (scale, assembly, seed), read from ``cache_dir`` if it was made before.
+
+    ``replica``: replica bed number ``replica`` (>= 0) of the population ``config.seed`` instead
+    (``assemblies.deposit(seed=replica, population_seed=config.seed)``); replica beds of one config can be worlds
+    of one simulation (:func:`run_soil_bin`)."""
     p = config.preset
     spec = AssemblySpec(kind=config.assembly, radius=config.member_radius or p["radius"])
-    path = bed_path(config, cache_dir) if cache_dir else None
+    path = bed_path(config, cache_dir, replica) if cache_dir else None
     if path is not None and path.exists():
         return Bed.load(path)
-    bed = deposit(spec, p["bin"], p["bed_depth"], seed=config.seed, device=device, progress=progress)
+    if replica is None:
+        bed = deposit(spec, p["bin"], p["bed_depth"], seed=config.seed, device=device, progress=progress)
+    else:
+        if not (isinstance(replica, int) and replica >= 0):
+            raise InputError(f"replica must be an integer >= 0, got {replica!r}")
+        bed = deposit(spec, p["bin"], p["bed_depth"], seed=replica, device=device,
+                      progress=progress, population_seed=config.seed)
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         bed.save(path)
     return bed
 
 
-def place_tool(bed: Bed, working_depth: float, tool: SweepTool | None = None) -> SweepTool:
-    """The sweep with its tip ``working_depth`` below the bed surface and its rearmost point 10 mm inside the bin's
-    rear wall (y = 0). The surface is the mean top of the particles in the upper 10 % of the bed."""
-    tool = tool or build_sweep()
+def bed_surface(bed: Bed) -> float:
+    """The bed's surface [m]: the mean top of the particles in the upper 10 % of the bed."""
     top = bed.centres[:, 2] + bed.radii
-    surface = float(np.mean(np.sort(top)[-max(1, len(top) // 10):]))
+    return float(np.mean(np.sort(top)[-max(1, len(top) // 10):]))
+
+
+def place_tool(bed: Bed | list[Bed], working_depth: float, tool: SweepTool | None = None) -> SweepTool:
+    """The sweep with its tip ``working_depth`` below the bed surface (:func:`bed_surface`; of replica beds, one
+    per world, the mean of their surfaces: one tool pose serves every world) and its rearmost point 10 mm inside
+    the bin's rear wall (y = 0)."""
+    tool = tool or build_sweep()
+    surface = bed_surface(bed) if isinstance(bed, Bed) else float(np.mean([bed_surface(x) for x in bed]))
     dz = surface - working_depth - tool.tip[2]
     dy = 0.01 - float(min(tool.lower.vertices[:, 1].min(), tool.upper.vertices[:, 1].min()))
     return tool.moved(np.array([0.0, dy, dz]))
@@ -290,8 +308,10 @@ class SoilBinRun:
     trend_sem (see ``warpdem.analysis.steady_state``), steady_time_mean [s], ke_tool_/ke_soil_ mean and std,
     coordination_start/_end, bonds_start/_end (unbroken cohesive soil-soil contacts at the first record after the
     bonds are set and at the end)."""
-    n_particles: int = 0
+    n_particles: int | list[int] = 0
+    """soil particles simulated (the bed's, less the tool's starting trench); with replica beds, per world."""
     n_spheres: int = 0
+    """spheres per world (with replica beds, the shared layout's: parked ones and the spring spheres included)."""
     dt: float = 0.0
     steps: int = 0
     wall_s: float = 0.0
@@ -342,7 +362,7 @@ def dashpot_for(tool: SweepTool, stiffness: np.ndarray, damping_ratio: np.ndarra
     return 2.0 * np.asarray(damping_ratio) * np.sqrt(k_rot * i_p) / lever**2
 
 
-def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int], speeds: list[float],
+def _build(config: SoilBinConfig, bed: Bed | list[Bed], tool: SweepTool, springs: list[int], speeds: list[float],
            device: str | None, soil_overrides: dict[str, object] | None = None,
            knobs: dict[str, np.ndarray] | None = None) -> tuple[wd.Model, wd.State, dict]:
     rigid = all(n == 0 for n in springs)
@@ -351,16 +371,26 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
     b.add_material("soil", config.soil_material())
     b.add_material("tool", wd.Material(young=paper.TOOL_YOUNG, poisson=paper.TOOL_POISSON, density=7850.0,
                                        friction_angle=paper.TOOL_FRICTION))
-    v, f = bin_mesh(bed.bin_size)
+    v, f = bin_mesh(bed.bin_size if isinstance(bed, Bed) else bed[0].bin_size)
     b.add_mesh("bin", v, f, "tool")
     v0 = (0.0, speeds[0], 0.0)
     add_sweep(b, tool, "tool", mount="rigid" if rigid else "hinged", velocity=v0, group="tool")
-    keep = clear_start(bed, tool)
-    bed.add_to(b, "soil", group="soil", keep=keep)
+    first_soil = sum(len(r) for r in b.sphere_radius)
+    if isinstance(bed, Bed):
+        layout = None
+        keep = clear_start(bed, tool)
+        bed.add_to(b, "soil", group="soil", keep=keep)
+        info: dict[str, object] = {"n_particles": int(keep.sum())}
+    else:  # replica beds, one per world: one shared layout, each world's missing particles parked
+        travel = config.travel or config.preset["travel"]
+        garage = (-bed[0].bin_size[0], bed[0].bin_size[0], -0.4, bed[0].bin_size[1] + travel + 0.9)
+        layout = replica_beds.shared_layout(bed, [clear_start(x, tool) for x in bed], garage)
+        members = layout.bed.add_to(b, "soil", group="soil")
+        b.set_local_damping(replica_beds.PARKED_GROUP, 0.0)
+        info = {"n_particles": [int(n) for n in layout.n_particles], "garage_bottom": layout.garage_bottom}
     overrides: dict[str, object] = {"body:sweep_lower:velocity": [(0.0, s, 0.0) for s in speeds]}
     for name, values in (soil_overrides or {}).items():
         overrides[f"material:soil:{name}"] = values
-    info: dict[str, object] = {"n_particles": int(keep.sum())}
     if "soil_viscosity" in knobs:
         # a dashpot from a static anchor far ahead to the tip: its force is b v against travel
         tip = np.asarray(tool.tip, dtype=np.float64)
@@ -421,6 +451,8 @@ def _build(config: SoilBinConfig, bed: Bed, tool: SweepTool, springs: list[int],
             })
         info["support_offset_m"] = offsets
     model, state = b.finalize(device, n_worlds=len(springs), overrides=overrides)
+    if layout is not None:
+        replica_beds.place_worlds(model, state, layout, members, first_soil)
     return model, state, info
 
 
@@ -500,7 +532,7 @@ def default_dt(model: wd.Model, spring_model: str, rigid: bool) -> float:
     return dt
 
 
-def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device: str | None = None,
+def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[Bed], device: str | None = None,
                  tool: SweepTool | None = None, progress: object | None = None,
                  viewer: object | None = None, soil_overrides: dict[str, object] | None = None,
                  speeds: list[float] | None = None, knobs: dict[str, object] | None = None,
@@ -508,6 +540,10 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
                  deadline: float | None = None, place: bool = True, vtk: tuple[object, int] | None = None
                  ) -> SoilBinRun:
     """One simulation: rigid tools (every entry of ``springs`` 0) or passive configurations, one world each.
+
+    ``bed``: the bed of every world, or replica beds (``assemblies.deposit(population_seed=...)``), one per world:
+    independent beds as worlds of one simulation (``scenes.replica_beds``; the tool sits at their mean surface,
+    each world's own surface is in ``SoilBinRun``'s steady rows as ``surface_offset``).
 
     ``tool``: the sweep (default :func:`scenes.sweep.build_sweep`), put on the bed's surface by :func:`place_tool`
     unless ``place`` is False (then it is used where it is, e.g. a twin's exported scene).
@@ -538,6 +574,11 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     elif len(speeds) != len(springs) or not all(v > 0 for v in speeds):
         raise ValueError(f"speeds needs one positive value per world ({len(springs)}), got {speeds}")
     speeds = [float(v) for v in speeds]
+    if not isinstance(bed, Bed):
+        bed = list(bed)
+        if len(bed) != len(springs):
+            raise InputError(f"bed: replica beds need one per world ({len(springs)}), got {len(bed)}")
+        replica_beds.check_replicas(bed)
     rigid = all(n == 0 for n in springs)
     knob_arrays = _check_knobs(knobs, len(springs), rigid, config.spring_model)
     tool = place_tool(bed, config.working_depth, tool) if place or tool is None else tool
@@ -548,8 +589,9 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     wd.check_step_count("soil-bin run", config.settle_time + travel / min(speeds), dt,
                         "config.dt" if config.dt else "the Young's moduli and particle size (0.3 x the P-wave step) "
                         "and the springs' stiffness (0.5 x their step)")
-    lo = np.array([-bed.bin_size[0], -0.5, -0.5])
-    hi = np.array([bed.bin_size[0], bed.bin_size[1] + travel + 1.0, 2.0])
+    bin_size = bed.bin_size if isinstance(bed, Bed) else bed[0].bin_size
+    lo = np.array([-bin_size[0], -0.5, min(-0.5, info.get("garage_bottom", 0.0) - 0.1)])
+    hi = np.array([bin_size[0], bin_size[1] + travel + 1.0, 2.0])
     sim = wd.Simulation(model, state, dt=dt, always_use_moment_law=True, bounds=(lo, hi),
                         cohesion_on_new_contacts=config.cohesion_on_new_contacts)
     speeds_a = np.asarray(speeds)
@@ -599,8 +641,9 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     done = 0
     ck = None
     if checkpoint is not None:
-        bed_digest = hashlib.sha256(np.ascontiguousarray(bed.centres).tobytes()
-                                    + np.ascontiguousarray(bed.radii).tobytes()).hexdigest()
+        bed_digest = hashlib.sha256(b"".join(np.ascontiguousarray(x.centres).tobytes()
+                                             + np.ascontiguousarray(x.radii).tobytes()
+                                             for x in ([bed] if isinstance(bed, Bed) else bed))).hexdigest()
         key = json.dumps([asdict(config), list(springs), speeds, {k: np.asarray(v).tolist() for k, v in
                           knob_arrays.items()}, {k: np.asarray(v).tolist() for k, v in (soil_overrides or {}).items()},
                           bed_digest, float(dt)], sort_keys=True, default=str)
@@ -644,6 +687,9 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed, device:
     steady = []
     for w, n in enumerate(springs):
         row: dict[str, float] = {"springs": n, "speed": speeds[w]}
+        if not isinstance(bed, Bed):  # this world's own surface against the tool's (the beds' mean)
+            row["replica_seed"] = bed[w].seed
+            row["surface_offset"] = bed_surface(bed[w]) - float(np.mean([bed_surface(x) for x in bed]))
         moving = out["step"] <= stop[w]
         for k in ("draught", "displacement"):
             st = analysis.steady_state(t[moving], series[k][moving, w], trav[moving, w], start_travel=start)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -91,28 +92,44 @@ def _config(**kw: object) -> WorkflowConfig:
     return WorkflowConfig(**base)
 
 
-def test_paired_reductions_remove_the_bed_effect(tmp_path):
-    """Synthetic jobs: on bed r the rigid draught at speed v is 300 (1 + b_r) + 20 v and every passive run draws
-    (1 - red_n / 100) of its own bed's rigid run at its speed. The paired reductions are red_n on every bed (SE 0)
-    although the draughts scatter; Table 3's MAE follows from red_n by hand."""
-    cfg = _config(springs=paper.SPRING_COUNTS, replicas_min=3, replicas_max=3, worlds_per_job=3)
+def _synthetic_jobs(wf: Workflow, jobs: list[dict], owners: list[list[int]], bed: list[float],
+                    red: dict[int, float]) -> None:
+    """Finished job files: on bed r the rigid draught at speed v is 300 (1 + bed[r]) + 20 v and every passive run
+    draws (1 - red_n / 100) of its own bed's rigid run at its speed."""
+    (wf.out / "table3").mkdir(exist_ok=True)
+    for job, reps in zip(jobs, owners, strict=True):
+        rows = []
+        for n, v, r in zip(job["springs"], job["speeds"], reps, strict=True):
+            rigid = 300.0 * (1 + bed[r]) + 20.0 * v
+            d = rigid if n == 0 else rigid * (1 - red[n] / 100)
+            rows.append({"springs": n, "speed": v, "draught_mean": d, "draught_sem": 2.0,
+                         "displacement_mean": 1e-3 * n, "displacement_sem": 1e-5})
+        (wf.out / "table3" / f"{job['name']}.json").write_text(json.dumps({**job, "rows": rows}))
+
+
+@pytest.mark.parametrize("replica_worlds", [False, True])
+def test_paired_reductions_remove_the_bed_effect(tmp_path, replica_worlds):
+    """Synthetic jobs (``_synthetic_jobs``): the paired reductions are red_n on every bed (SE 0) although the
+    draughts scatter; Table 3's MAE follows from red_n by hand. With the replicas as worlds, each world's row is
+    paired within its own replica (a job holds worlds of several beds)."""
+    cfg = _config(springs=paper.SPRING_COUNTS, replicas_min=3, replicas_max=3, worlds_per_job=3,
+                  replica_worlds=replica_worlds)
     wf = Workflow(tmp_path, cfg)
     red = {n: 0.5 * n - 6.0 for n in cfg.springs}  # -4 ... +10 %
     bed = [0.0, 0.08, -0.05]
-    for r in range(3):
-        for job in wf.jobs(r):
-            rows = []
-            for n, v in zip(job["springs"], job["speeds"], strict=True):
-                rigid = 300.0 * (1 + bed[r]) + 20.0 * v
-                d = rigid if n == 0 else rigid * (1 - red[n] / 100)
-                rows.append({"springs": n, "speed": v, "draught_mean": d, "draught_sem": 2.0,
-                             "displacement_mean": 1e-3 * n, "displacement_sem": 1e-5})
-            (tmp_path / "table3").mkdir(exist_ok=True)
-            (tmp_path / "table3" / f"{job['name']}.json").write_text(json.dumps({**job, "rows": rows}))
+    if replica_worlds:
+        jobs = wf.group_jobs(0, 3)
+        assert any(len(set(j["replicas"])) > 1 for j in jobs)  # worlds of several beds in one simulation
+        owners = [j["replicas"] for j in jobs]
+    else:
+        jobs = [j for r in range(3) for j in wf.jobs(r)]
+        owners = [[j["replica"]] * len(j["springs"]) for j in jobs]
+    _synthetic_jobs(wf, jobs, owners, bed, red)
     st = wf.table3_stats(3)
     assert len(st["rigid"]) == len(cfg.rigid_speeds()) == 6
     for variant in VARIANTS:
         for row in st["variants"][variant]:
+            assert row["reduction"]["n"] == 3
             assert row["reduction"]["mean"] == pytest.approx(red[row["springs"]], abs=1e-9)
             assert row["reduction"]["sem"] == pytest.approx(0.0, abs=1e-9)
             assert row["draught"]["sem"] > 5.0  # the beds' scatter is in the draughts, not in the reductions
@@ -268,6 +285,68 @@ def test_jobs_on_a_bed_deposited_again_differently_are_set_aside(tmp_path):
     left = sorted(p.name for p in (tmp_path / "table3").glob("*.json"))
     assert left == sorted(f"{j['name']}.json" for j in wf.jobs(1))
     assert len(list((tmp_path / "table3" / "stale").glob("*.json"))) == len(wf.jobs(0))
+
+
+def test_group_jobs_on_a_bed_deposited_again_differently_are_set_aside(tmp_path):
+    """Pairing rule with the replicas as worlds: when replica 0's bed came out another realisation, every finished
+    job holding a world of replica 0 moves to table3/stale/; the jobs of a later group stay."""
+    from scenes.assemblies import AssemblySpec, Bed
+
+    wf = Workflow(tmp_path, _config(replica_worlds=True))
+    bed = Bed(AssemblySpec(kind="A", radius=0.02), (0.5, 0.65, 0.45), 0.2, np.zeros((3, 3)), np.full(3, 0.02),
+              np.arange(3))
+    other = Bed(bed.spec, bed.bin_size, bed.depth, bed.centres + 1e-9, bed.radii, bed.particle)
+    fp, _ = wf._bed_fingerprint("replica_0", bed)
+    (tmp_path / "table3").mkdir()
+    (tmp_path / "table3" / "groups.json").write_text(json.dumps({"groups": [[0, 2], [2, 3]]}))
+    first, later = wf.group_jobs(0, 2), wf.group_jobs(2, 3)
+    for j in first + later:
+        beds = [fp if r == 0 else f"bed{r}" for r in j["replicas"]]
+        (tmp_path / "table3" / f"{j['name']}.json").write_text(json.dumps({**j, "beds": beds}))
+    _, old = wf._bed_fingerprint("replica_0", other)
+    assert old == fp
+    wf._set_aside(0, old)
+    holding = [j for j in first if 0 in j["replicas"]]
+    assert 0 < len(holding) <= len(first)
+    left = sorted(p.name for p in (tmp_path / "table3").glob("*.json") if p.name != "groups.json")
+    assert left == sorted(f"{j['name']}.json" for j in first + later if j not in holding)
+    assert len(list((tmp_path / "table3" / "stale").glob("*.json"))) == len(holding)
+
+
+def test_replicas_as_worlds_run_in_groups_each_world_on_its_own_bed(tmp_path):
+    """ci scale, 16 springs, replica beds: the first group holds replicas 0 and 1, and a target standard error no
+    run can reach adds replica 2 as a second group. Reference: replica 0's rigid world run alone on its bed (same
+    tool pose, time step and soil): the same draught to the bit, so the workflow wires each world to its own bed
+    and settings. Every reduction averages three replicas, each world's bed is its replica's (beds.json)."""
+    from scenes import soil_bin as sb
+
+    cfg = _config(springs=(16,), replicas_min=2, replicas_max=3, target_sem=1e-6, replica_worlds=True,
+                  travel=0.1, steady_travel=0.05, diagnose=False)
+    wf = Workflow(tmp_path, cfg, device="cpu")
+    soil = {"friction_angle": 30.0, "normal_cohesion": 500.0, "eta_roll": 0.1}
+    st = wf.table3(soil, None, Budget(None))
+    assert wf.groups() == [[0, 2], [2, 3]]
+    assert wf.replicas_done() == 3
+    for variant in VARIANTS:
+        assert [row["reduction"]["n"] for row in st["variants"][variant]] == [3]
+    prints = json.loads((tmp_path / "beds.json").read_text())
+    job = wf.group_jobs(0, 2)[0]
+    done = json.loads((tmp_path / "table3" / f"{job['name']}.json").read_text())
+    assert job["kind"] == "rigid" and done["replicas"] == [0, 1]
+    assert done["beds"] == [prints[f"replica_{r}"] for r in (0, 1)]
+    run_cfg = sb.SoilBinConfig(scale=cfg.scale, assembly=cfg.assembly, springs=(0, 0), speed=tuple(done["speeds"]),
+                               travel=cfg.travel, steady_travel=cfg.steady_travel, seed=cfg.seed, settle_time=0.0)
+    beds = [sb.bed_for(run_cfg, cache_dir=tmp_path / "beds", replica=r) for r in (0, 1)]
+    tool = sb.place_tool(beds, run_cfg.working_depth)
+    model, _, _ = sb._build(run_cfg, beds, tool, [0, 0], done["speeds"], "cpu")
+    one = replace(run_cfg, springs=(0,), speed=(done["speeds"][0],),
+                  dt=sb.default_dt(model, run_cfg.spring_model, rigid=True))
+    overrides = {"friction_angle": [30.0], "normal_cohesion": [500.0], "shear_cohesion": [250.0], "eta_roll": [0.1],
+                 "eta_twist": [0.1]}
+    alone = sb.run_soil_bin(one, [0], bed=beds[0], device="cpu", speeds=[done["speeds"][0]], tool=tool,
+                            place=False, soil_overrides=overrides)
+    assert done["dt"] == one.dt
+    assert done["rows"][0]["draught_mean"] == alone.steady[0]["draught_mean"]
 
 
 def test_cli_full_workflow_stops_with_exit_3_and_refuses_another_configuration(tmp_path, capsys):

@@ -789,3 +789,74 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         body_angmom=arr(angmom, wp.vec3d),
     )
     return model, state
+
+
+def fit_poses(model: Model, spheres: object, centres: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The poses that put spheres at given centres: for each body owning one of ``spheres`` (global sphere indices
+    (m,); every sphere of such a body must be among them), the centre of mass [m] and orientation that move its
+    spheres' offsets (the model's, float32) onto ``centres`` [m] (m, 3) with the least squared error (Kabsch's
+    rotation, a proper one). A single sphere's body keeps the identity orientation; a body whose spheres are in a
+    row may turn about that row freely (one such pose is returned).
+
+    Returns the bodies (b,), their centres of mass [m] (b, 3) and quaternions (x, y, z, w) (b, 4)."""
+    spheres = np.asarray(spheres, dtype=np.int64).reshape(-1)
+    centres = check_points("centres", centres)
+    if len(centres) != len(spheres):
+        raise InputError(f"centres must have one row per sphere ({len(spheres)}), got {len(centres)}")
+    owner = model.host["sphere_body"][spheres]
+    bodies, inverse, count = np.unique(owner, return_inverse=True, return_counts=True)
+    full = np.bincount(model.host["sphere_body"], minlength=model.n_bodies)[bodies]
+    if np.any(count != full):
+        b = int(bodies[np.flatnonzero(count != full)[0]])
+        raise InputError(f"spheres must hold every sphere of their bodies: body {b} has {int(full[bodies == b][0])}, "
+                         f"{int(count[bodies == b][0])} given")
+    offsets = model.sphere_offset.numpy()[spheres].astype(np.float64)
+    o_mean = np.zeros((len(bodies), 3))
+    c_mean = np.zeros((len(bodies), 3))
+    np.add.at(o_mean, inverse, offsets)
+    np.add.at(c_mean, inverse, centres)
+    o_mean /= count[:, None]
+    c_mean /= count[:, None]
+    h = np.zeros((len(bodies), 3, 3))
+    np.add.at(h, inverse, np.einsum("ni,nj->nij", offsets - o_mean[inverse], centres - c_mean[inverse]))
+    u, _, vt = np.linalg.svd(h)
+    d = np.sign(np.linalg.det(np.einsum("nji,nkj->nik", vt, u)))  # det(V U^T)
+    d[d == 0] = 1.0
+    rot = np.einsum("nji,nj,nkj->nik", vt, np.stack([np.ones_like(d), np.ones_like(d), d], 1), u)
+    rot[count == 1] = np.eye(3)
+    quat = massprops.matrices_to_quats(rot)
+    return bodies, c_mean - np.einsum("nij,nj->ni", rot, o_mean), quat
+
+
+def set_poses(state: State, bodies: object, pos: object, quat: object) -> None:
+    """Put ``bodies`` (global indices (b,)) at rest at centres of mass ``pos`` [m] (b, 3) with orientations ``quat``
+    (x, y, z, w) (b, 4): before a Simulation is made of the state."""
+    bodies = np.asarray(bodies, dtype=np.int64).reshape(-1)
+    host = state.numpy()
+    host["body_pos"][bodies] = np.asarray(pos, dtype=np.float64).reshape(-1, 3)
+    q = np.asarray(quat, dtype=np.float64).reshape(-1, 4)
+    host["body_quat"][bodies] = q / np.linalg.norm(q, axis=1, keepdims=True)
+    for k in ("body_vel", "body_angvel", "body_angmom"):
+        host[k][bodies] = 0.0
+    for k in State.ARRAYS:
+        getattr(state, k).assign(host[k])
+
+
+def hold_bodies(model: Model, state: State, bodies: object, group: str) -> None:
+    """Hold ``bodies`` (global indices (b,)) still where they are: every degree of freedom blocked, at rest, moved
+    into the body group ``group`` (which the builder must have, e.g. from ``set_local_damping(group, 0.0)``) so
+    that a group's observers leave them out. For bodies parked out of reach of everything, e.g. the particles that
+    one world's bed lacks when replica beds share one layout. Before a Simulation is made of the model."""
+    bodies = np.asarray(bodies, dtype=np.int64).reshape(-1)
+    if group not in model.names["group"]:
+        raise InputError(f"group must be one of the model's body groups {sorted(model.names['group'])}, got {group!r}")
+    g = model.group_index(group)
+    flags = model.host["body_flags"]
+    flags[bodies] |= ALL_DOFS
+    model.host["body_group"][bodies] = g
+    model.body_flags.assign(flags.astype(np.int32))
+    model.body_group.assign(model.host["body_group"].astype(np.int32))
+    host = state.numpy()
+    for k in ("body_vel", "body_angvel", "body_angmom"):
+        host[k][bodies] = 0.0
+        getattr(state, k).assign(host[k])
