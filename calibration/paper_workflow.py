@@ -465,7 +465,10 @@ class Workflow:
 
     def group_jobs(self, first: int, end: int) -> list[dict]:
         """With ``replica_worlds``: the soil-bin jobs of replicas ``first`` .. ``end`` - 1 as worlds of the same
-        simulations (world by world: replica, springs, speed), at most ``worlds_per_job`` worlds each."""
+        simulations (world by world: replica, springs, speed), at most ``worlds_per_job`` worlds each. Worlds are
+        dealt out replica after replica, so a job mixes replicas only where one replica's worlds of a kind do not
+        fill whole jobs: the parked particles of a shared layout (``scenes.replica_beds``) stay where they buy
+        fuller simulations."""
         c = self.config
         speeds = c.speeds()
         kinds = [("rigid", [(0, v) for v in c.rigid_speeds()])]
@@ -476,8 +479,8 @@ class Workflow:
             for k in range(0, len(worlds), c.worlds_per_job):
                 chunk = worlds[k:k + c.worlds_per_job]
                 out.append({"name": f"g{first}-{end - 1}_{kind}_{k // c.worlds_per_job}", "kind": kind,
-                            "replicas": [w[0] for w in chunk], "springs": [w[1] for w in chunk],
-                            "speeds": [w[2] for w in chunk]})
+                            "group": [first, end], "replicas": [w[0] for w in chunk],
+                            "springs": [w[1] for w in chunk], "speeds": [w[2] for w in chunk]})
         return out
 
     def groups(self) -> list[list[int]]:
@@ -485,12 +488,14 @@ class Workflow:
         saved = self._done("table3/groups.json")
         return [list(g) for g in saved["groups"]] if saved else [[0, self.config.replicas_min]]
 
-    def _beds(self, job: dict, cfg: sb.SoilBinConfig, budget: Budget) -> tuple[sb.Bed | list[sb.Bed], object]:
-        """The bed of a job (a replica's own), or its worlds' replica beds; and its fingerprint(s). A bed that had
-        to be deposited again and came out another realisation sets its replica's finished jobs aside."""
-        replicas = job["replicas"] if "replicas" in job else [job["replica"]]
+    def _beds(self, job: dict, cfg: sb.SoilBinConfig, budget: Budget
+              ) -> tuple[sb.Bed | list[sb.Bed], object, list[sb.Bed] | None]:
+        """The bed of a job (a replica's own), or its worlds' replica beds; its fingerprint(s); and for a group's job,
+        every replica bed of the group (where the tool goes). A bed that had to be deposited again and came out
+        another realisation sets its replica's finished jobs aside."""
+        replicas = list(range(*job["group"])) if "replicas" in job else [job["replica"]]
         beds, fps = {}, {}
-        for r in dict.fromkeys(replicas):
+        for r in replicas:
             rep = r if "replicas" in job else None
             deposits = not sb.bed_path(cfg, self.out / "beds", rep).exists()
             if deposits:  # a deposition must fit whole too (at paper scale minutes: it cannot be checkpointed)
@@ -503,8 +508,8 @@ class Workflow:
             if old is not None:
                 self._set_aside(r, old)
         if "replicas" in job:
-            return [beds[r] for r in replicas], [fps[r] for r in replicas]
-        return beds[job["replica"]], fps[job["replica"]]
+            return [beds[r] for r in job["replicas"]], [fps[r] for r in job["replicas"]], list(beds.values())
+        return beds[job["replica"]], fps[job["replica"]], None
 
     def run_job(self, job: dict, soil: dict, ring: dict | None, budget: Budget) -> dict:
         path = self._path(f"table3/{job['name']}.json")
@@ -527,7 +532,10 @@ class Workflow:
             by_n = {r["springs"]: r for r in ring["rows"]}
             knobs = {"stiffness": [by_n[s]["stiffness"] for s in job["springs"]],
                      "dashpot": [by_n[s]["dashpot_n_s_per_m"] for s in job["springs"]]}
-        bed, fp = self._beds(job, cfg, budget)
+        bed, fp, group_beds = self._beds(job, cfg, budget)
+        # a group's jobs all put the tool at the group's mean bed surface: each replica's rigid and passive worlds
+        # then cut at one depth below its own surface, whichever replicas share their simulations
+        tool = sb.place_tool(group_beds if group_beds else bed, cfg.working_depth)
         # a job that has not started must fit whole (its checkpoint would not outlive a lost machine); one that
         # has, saves its checkpoint at the deadline. Checked once the bed is ready: depositing it may take minutes
         # (the bed stays in beds/ for the next call)
@@ -536,7 +544,8 @@ class Workflow:
         t0 = time.perf_counter()
         resumed = ckpt.exists()
         run = sb.run_soil_bin(cfg, list(job["springs"]), bed=bed, device=self.device, speeds=list(job["speeds"]),
-                              soil_overrides=overrides, knobs=knobs, checkpoint=ckpt, deadline=budget.deadline)
+                              soil_overrides=overrides, knobs=knobs, checkpoint=ckpt, deadline=budget.deadline,
+                              tool=tool, place=False)
         owners = job["replicas"] if "replicas" in job else [job["replica"]] * n
         first = [w for w, r in enumerate(owners) if r == 0]
         if first:  # the series of one bed (replica 0's worlds) for the figures
@@ -546,6 +555,7 @@ class Workflow:
             write_atomic(path.with_suffix(".npz"), lambda tmp: np.savez_compressed(tmp, **keep))
         out = {**job, ("beds" if "replicas" in job else "bed"): fp, "rows": sb.json_safe(run.steady),
                "dt": run.dt, "steps": run.steps, "spheres": run.n_spheres, "particles": run.n_particles,
+               "tool_tip_z": float(tool.tip[2]),
                "wall_s": time.perf_counter() - t0,
                "device": self.device, "versions": versions()}
         write_json_atomic(path, out)

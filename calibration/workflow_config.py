@@ -73,8 +73,9 @@ class WorkflowConfig:
     replica_worlds: bool = False
     """Table 3's replicas as worlds of one simulation: replica beds of one population (``scenes.replica_beds``),
     each job's worlds spread over a group of replicas (the first ``replicas_min`` together, then each group that the
-    standard errors ask for), at most ``worlds_per_job`` worlds. Off: a bed per replica, each replica's jobs on its
-    bed alone."""
+    standard errors ask for), at most ``worlds_per_job`` worlds, the tool at the group's mean bed surface in every
+    job of the group. The replicas share one draw of particle shapes and sizes. Off: a bed per replica, each
+    replica's jobs on its bed alone, the tool on that bed's surface."""
     diagnose: bool = True
     """stage 5: ``warpdem diagnose`` of Table 3 (the configurations of ``springs``) with the soil of the Table 3
     runs, in the draught calibration's bin (:data:`CALIBRATION_SCALE`): every fitted point is a soil-bin run of

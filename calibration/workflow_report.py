@@ -68,6 +68,8 @@ def plot_series(out: Path, config: WorkflowConfig, table3: dict) -> list[str]:
     t3 = paper.table("soil_bin_measured")
     job_of = {}
     for f in sorted((out / "table3").glob("*.npz")):  # replica 0's worlds of each job
+        if f.name.startswith("."):  # a write that was killed left its temporary file
+            continue
         with np.load(f) as d:
             s = {k: d[k] for k in d.files}
         if "springs" in s:  # the job's kind and its saved worlds' springs and speeds

@@ -139,7 +139,9 @@ def place_worlds(model: wd.Model, state: wd.State, layout: ReplicaLayout, member
     spw = model.spheres_per_world
     local = first_sphere + np.arange(len(members))
     particle_of = layout.bed.particle[members]
-    for w in range(1, n_w):  # world 0 was built from layout.bed as it is
+    for w in range(1, n_w):  # world 0 was built from layout.bed as it is, and so is a world on the same bed
+        if np.array_equal(layout.centres[w], layout.centres[0]):
+            continue
         bodies, pos, quat = fit_poses(model, w * spw + local, layout.centres[w, members])
         set_poses(state, bodies, pos, quat)
     for w in range(n_w):

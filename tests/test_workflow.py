@@ -334,6 +334,10 @@ def test_replicas_as_worlds_run_in_groups_each_world_on_its_own_bed(tmp_path):
     done = json.loads((tmp_path / "table3" / f"{job['name']}.json").read_text())
     assert job["kind"] == "rigid" and done["replicas"] == [0, 1]
     assert done["beds"] == [prints[f"replica_{r}"] for r in (0, 1)]
+    # one tool pose for a group's jobs: each replica's rigid and passive worlds cut at one depth
+    tips = {json.loads((tmp_path / "table3" / f"{j['name']}.json").read_text())["tool_tip_z"]
+            for j in wf.group_jobs(0, 2)}
+    assert len(tips) == 1
     run_cfg = sb.SoilBinConfig(scale=cfg.scale, assembly=cfg.assembly, springs=(0, 0), speed=tuple(done["speeds"]),
                                travel=cfg.travel, steady_travel=cfg.steady_travel, seed=cfg.seed, settle_time=0.0)
     beds = [sb.bed_for(run_cfg, cache_dir=tmp_path / "beds", replica=r) for r in (0, 1)]
