@@ -14,8 +14,23 @@
 #
 #     sh benchmarks/gpu_checks.sh suite K N  # instead: the K-th of N shards (K = 1 .. N) of the whole test suite on
 #                                            # CUDA, test files dealt out in turn, each shard within one call
+#
+#     sh benchmarks/gpu_checks.sh replicas   # instead: Table 3's replicas as worlds on CUDA: their tests, and a
+#                                            # paper-scale rigid run of 4 worlds on one bed and on 4 replica beds
 OUT=${OUT:-/tmp/gpu_checks}; mkdir -p "$OUT"
 export WARPDEM_TEST_DEVICE=cuda
+if [ "$1" = "replicas" ]; then
+  timeout -s INT 180 python3 -m pytest -q -n 8 --dist loadfile --tb=short -p no:cacheprovider -W ignore \
+    tests/test_replica_beds.py tests/test_workflow.py -k "replica or group or paired or fit_poses or parked" > "$OUT/pytest_cuda_replicas.txt" 2>&1
+  echo "rc=$?" >> "$OUT/pytest_cuda_replicas.txt"; tail -5 "$OUT/pytest_cuda_replicas.txt"
+  unset WARPDEM_TEST_DEVICE
+  cd benchmarks
+  for flag in "" --replicas; do
+    timeout 200 python3 soil_bin_throughput.py --device cuda --scale paper --worlds 4 --travel 0.2 $flag \
+      --json "$OUT/results_soil_bin_cuda.jsonl" | cut -c1-400
+  done
+  exit 0
+fi
 if [ "$1" = "suite" ]; then
   files=$(ls tests/test_*.py | awk -v k="$2" -v n="$3" '(NR - 1) % n == k - 1')
   timeout -s INT 560 python3 -m pytest -v -n 14 --dist loadfile --tb=short -p no:cacheprovider -W ignore $files \
