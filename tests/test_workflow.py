@@ -353,6 +353,35 @@ def test_replicas_as_worlds_run_in_groups_each_world_on_its_own_bed(tmp_path):
     assert done["rows"][0]["draught_mean"] == alone.steady[0]["draught_mean"]
 
 
+def test_replica_groups_stopped_anywhere_resume_to_the_uninterrupted_result(tmp_path):
+    """ci scale, replicas as worlds: Table 3 in one call, and again in calls that stop inside a soil-bin run of a
+    shared layout (from its checkpoint) and between jobs, across the second group that the target standard error
+    adds. The groups and the statistics agree to the bit (CPU). This compares warpdem with itself: it checks the
+    bookkeeping of groups, checkpoints and resumes, not the physics (test_replica_beds.py checks that)."""
+    import shutil
+
+    cfg = _config(springs=(16,), replicas_min=2, replicas_max=3, target_sem=1e-6, replica_worlds=True,
+                  travel=0.1, steady_travel=0.05, diagnose=False)
+    soil = {"friction_angle": 30.0, "normal_cohesion": 500.0, "eta_roll": 0.1}
+    whole = Workflow(tmp_path / "whole", cfg, device="cpu").table3(soil, None, Budget(None))
+    shutil.copytree(tmp_path / "whole" / "beds", tmp_path / "pieces" / "beds")
+    budgets = [_PastDeadline(), _StopAfter(1), _PastDeadline()]
+    stops = []
+    for k in range(30):
+        wf = Workflow(tmp_path / "pieces", cfg, device="cpu")
+        try:
+            pieces = wf.table3(soil, None, budgets[k] if k < len(budgets) else _StopAfter(1))
+            break
+        except BudgetExhausted as e:
+            stops.append(str(e))
+    else:
+        pytest.fail(f"Table 3 did not end in 30 calls: {stops[-3:]}")
+    assert any("soil-bin run stopped" in s for s in stops), stops
+    assert any("test stop before" in s for s in stops), stops
+    assert wf.groups() == [[0, 2], [2, 3]]
+    assert json.dumps(pieces, sort_keys=True) == json.dumps(whole, sort_keys=True)
+
+
 def test_cli_full_workflow_stops_with_exit_3_and_refuses_another_configuration(tmp_path, capsys):
     """`warpdem reproduce --workflow full --budget S`: when the next piece would not fit (a budget of 1 ms lets the
     first ringing batch start, then none), it stops with exit code 3 and one line; the same folder with another
