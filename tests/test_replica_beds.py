@@ -98,8 +98,8 @@ def test_replica_beds_share_a_population_and_differ_in_places(beds: list) -> Non
 def test_replica_world_zero_runs_as_its_bed_alone(beds: list, order: tuple[int, int]) -> None:
     # Reference: the bed of world 0 run alone, with the same tool pose (the beds' mean surface). World 0 is built
     # from its bed's centres as the lone run is, and its contacts, summed in fixed point, do not depend on the
-    # parked particles or on the other world: the same draught, coordination and soil kinetic energy to the bit.
-    # Both orders, so that each bed is checked (a later world's poses are fitted: next test).
+    # parked particles or on the other world: the same draught and coordination to the bit (the kinetic energy to
+    # float64 rounding). Both orders, so that each bed is checked (a later world's poses are fitted: next test).
     # The time step is the shared layout's (its smallest particle may be one that only the other bed holds): the
     # lone run takes the same one.
     pair = [beds[k] for k in order]
