@@ -571,7 +571,6 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
     if rig.n_configs < 2:
         raise InputError(f"the diagnosis holds each configuration out in turn and fits the rest: it needs at least "
                          f"2 configurations, the data have {rig.n_configs}")
-    t0 = time.perf_counter()
     fitter = _Fitter(rig, s, log, checkpoint)
     remaining = mechanisms_for(rig, s)
     log(f"diagnosis of the {rig.rig} rig: {rig.n_configs} configurations, observables {', '.join(rig.observables)}; "
@@ -631,7 +630,7 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
             if why:
                 diag.failures.append(f"{name}, {_describe(rig, j)}: {why}")
     diag.n_simulations = fitter.n_sims + int(diag.verification.get("n_simulations", 0))
-    diag.wall_s = fitter.wall_before + time.perf_counter() - t0
+    diag.wall_s = fitter.wall_s()
     diag.wall_untimed = fitter.wall_untimed
     log(f"verdict: {verdict}{': ' + ' + '.join(cause) if cause else ''}"
         f"{' (a residual larger than noise remains)' if cause and diag.residual_left else ''} "

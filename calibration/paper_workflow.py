@@ -264,6 +264,15 @@ def replicas_needed(sems: list[float], n: int, target: float, most: int) -> int:
     return int(min(most, max(n, math.ceil(n * (worst / target) ** 2 - 1e-9))))
 
 
+def _one_bed_per_replica(done: list[dict]) -> bool:
+    """Whether finished group jobs ran every world of a replica on one bed (by the fingerprints they recorded)."""
+    beds: dict[int, set] = {}
+    for d in done:
+        for r, fp in zip(d["replicas"], d["beds"], strict=True):
+            beds.setdefault(r, set()).add(fp)
+    return all(len(v) == 1 for v in beds.values())
+
+
 # ------------------------------------------------------------------------------------------------ the run
 def bed_fingerprint(bed: sb.Bed) -> str:
     """A deposited bed's identity: the first 16 hex digits of the SHA-1 of its sphere centres."""
@@ -595,11 +604,7 @@ class Workflow:
         on one bed."""
         while True:
             results = [self.run_job(j, soil, ring, budget) for j in self.group_jobs(first, end)]
-            beds: dict[int, set] = {}
-            for x in results:
-                for r, fp in zip(x["replicas"], x["beds"], strict=True):
-                    beds.setdefault(r, set()).add(fp)
-            if all(len(v) == 1 for v in beds.values()):
+            if _one_bed_per_replica(results):
                 return results
 
     def replica(self, r: int, soil: dict, ring: dict | None, budget: Budget) -> list[dict]:
@@ -783,13 +788,7 @@ class Workflow:
             n = 0
             for first, end in self.groups():
                 done = [self._done(f"table3/{j['name']}.json") for j in self.group_jobs(first, end)]
-                if any(d is None for d in done):
-                    return n
-                beds: dict[int, set] = {}
-                for d in done:
-                    for r, fp in zip(d["replicas"], d["beds"], strict=True):
-                        beds.setdefault(r, set()).add(fp)
-                if any(len(v) != 1 for v in beds.values()):
+                if any(d is None for d in done) or not _one_bed_per_replica(done):
                     return n
                 n = end
             return n

@@ -139,12 +139,12 @@ def place_worlds(model: wd.Model, state: wd.State, layout: ReplicaLayout, member
     spw = model.spheres_per_world
     local = first_sphere + np.arange(len(members))
     particle_of = layout.bed.particle[members]
-    for w in range(1, n_w):  # world 0 was built from layout.bed as it is, and so is a world on the same bed
-        if np.array_equal(layout.centres[w], layout.centres[0]):
-            continue
-        bodies, pos, quat = fit_poses(model, w * spw + local, layout.centres[w, members])
+    # world 0 was built from layout.bed as it is, and so is a world on the same bed
+    moved = [w for w in range(1, n_w) if not np.array_equal(layout.centres[w], layout.centres[0])]
+    if moved:
+        bodies, pos, quat = fit_poses(model, np.concatenate([w * spw + local for w in moved]),
+                                      np.concatenate([layout.centres[w, members] for w in moved]))
         set_poses(state, bodies, pos, quat)
-    for w in range(n_w):
-        spheres = w * spw + local[layout.parked[w][particle_of]]
-        if len(spheres):
-            hold_bodies(model, state, np.unique(model.host["sphere_body"][spheres]), PARKED_GROUP)
+    parked = np.concatenate([w * spw + local[layout.parked[w][particle_of]] for w in range(n_w)])
+    if len(parked):
+        hold_bodies(model, state, np.unique(model.host["sphere_body"][parked]), PARKED_GROUP)

@@ -685,11 +685,12 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
     series = {k: np.asarray(out[k]) for k in observers}
     start = config.steady_travel or p["steady_travel"]
     steady = []
+    surfaces = None if isinstance(bed, Bed) else [bed_surface(x) for x in bed]
     for w, n in enumerate(springs):
         row: dict[str, float] = {"springs": n, "speed": speeds[w]}
-        if not isinstance(bed, Bed):  # this world's own surface against the tool's (the beds' mean)
+        if surfaces is not None:  # this world's own surface against the tool's (the beds' mean)
             row["replica_seed"] = bed[w].seed
-            row["surface_offset"] = bed_surface(bed[w]) - float(np.mean([bed_surface(x) for x in bed]))
+            row["surface_offset"] = surfaces[w] - float(np.mean(surfaces))
         moving = out["step"] <= stop[w]
         for k in ("draught", "displacement"):
             st = analysis.steady_state(t[moving], series[k][moving, w], trav[moving, w], start_travel=start)
