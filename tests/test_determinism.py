@@ -309,7 +309,8 @@ def test_large_scene_motion_gives_the_bits_of_the_fused_one() -> None:
 
 
 def test_world_steps_give_the_bits_of_the_staged_step() -> None:
-    # Reference: the same run stage by stage, one step at a time (graph_steps=1). With world_steps a thread runs a
+    # Reference: the same run stage by stage, one step at a time (graph_steps=1), contacts a thread per sphere (the
+    # functions a world's thread calls; nvcc fuses a pair kernel's multiply-adds otherwise). With world_steps a thread runs a
     # world's whole steps (contacts, spring, motion, sphere update, the mesh's end of step, the world's own rebuild
     # check) until its lists need a rebuild; the host then rebuilds all worlds' lists and goes on. Three worlds of
     # different friction and damping (so they ask for rebuilds at different steps), spheres, clumps, a mesh and a
@@ -321,7 +322,7 @@ def test_world_steps_give_the_bits_of_the_staged_step() -> None:
     def run(world_steps: bool) -> wd.Simulation:
         model, state = _threaded_scene().finalize(DEVICE, n_worlds=3, overrides=over)
         sim = wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), graph_steps=1,
-                            world_steps=world_steps, track_energy=True)
+                            world_steps=world_steps, contact_threads="sphere", track_energy=True)
         for n in (1200, 1, 57):
             sim.advance(n)
         sim.set_cohesion_now()
@@ -347,7 +348,7 @@ def test_world_steps_give_the_bits_of_the_staged_step() -> None:
 
 @pytest.mark.parametrize("stride", [1, 2])
 def test_world_steps_by_a_block_of_threads_give_the_bits_of_the_staged_step(stride: int) -> None:
-    # Reference: the same run stage by stage (graph_steps=1). With world_lanes=4 each world is a block of 4 threads
+    # Reference: the same run stage by stage (graph_steps=1), contacts a thread per sphere. With world_lanes=4 each world is a block of 4 threads
     # (on the CPU, Warp's fibers with wp.config.enable_cpu_blocks): each stage's spheres, springs, bodies and meshes
     # dealt out between every stride-th of them (stride 2: threads 0 and 2 take items, as CUDA's first thread of
     # each warp does), a barrier between stages, lane 0 ending the step. A barrier left out or a lane taking
@@ -360,7 +361,8 @@ def test_world_steps_by_a_block_of_threads_give_the_bits_of_the_staged_step(stri
         model, state = _threaded_scene().finalize(DEVICE, n_worlds=3, overrides=over)
         sim = wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), graph_steps=1,
                             world_steps=world_steps, world_lanes=4 if world_steps else None,
-                            world_lane_stride=stride if world_steps else None, track_energy=True)
+                            world_lane_stride=stride if world_steps else None, contact_threads="sphere",
+                            track_energy=True)
         for n in (600, 57):
             sim.advance(n)
         sim.set_cohesion_now()

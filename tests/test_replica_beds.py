@@ -109,7 +109,9 @@ def test_replica_world_zero_runs_as_its_bed_alone(beds: list, order: tuple[int, 
     run = sb.run_soil_bin(cfg, [0, 0], bed=pair, device=DEVICE, speeds=[0.68, 0.68], tool=tool, place=False)
     alone = sb.run_soil_bin(cfg, [0], bed=pair[0], device=DEVICE, speeds=[0.68], tool=tool, place=False)
     assert run.n_particles[0] == alone.n_particles
-    assert np.abs(alone.series["draught"][:, 0]).max() > 50.0  # the tool cut the bed
+    # the tool touched the bed and the soil moved (at this travel the tool meets a bed's surface in a few
+    # records only: 1 to 4 of 39 on CUDA's beds), so the bits compared below are not those of an idle world
+    assert np.count_nonzero(alone.series["draught"][:, 0]) >= 1 and alone.series["ke_soil"][:, 0].max() > 0.0
     for key in ("draught", "coordination"):
         np.testing.assert_array_equal(run.series[key][:, 0], alone.series[key][:, 0])
     # the kinetic energy is summed over other bodies in another order: float64 rounding
