@@ -315,6 +315,12 @@ class SoilBinRun:
     dt: float = 0.0
     steps: int = 0
     wall_s: float = 0.0
+    """the whole call [s] (model build, settling, records and rebuilds included)."""
+    setup_s: float = 0.0
+    """the part of ``wall_s`` [s] before the run's first step: tool placement, model build (with replica beds the
+    shared layout and the fitted poses), the Simulation's first lists and the settling (``settle_time``)."""
+    rebuilds: int = 0
+    """candidate-list rebuilds of the simulation (any world's displacement triggers one for all)."""
 
     def save(self, path: str | Path) -> None:
         """Into one .npz (written atomically): the arrays as arrays, the rest as JSON (NaN kept as NaN); :meth:`load`
@@ -654,6 +660,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
             parts.append({k: v for k, v in records.items() if k != "viewer"})
     chunk = every * max(1, int(round(0.05 / (every * dt))))  # 0.05 s of simulated time between checkpoint chances
     saved_at = time.perf_counter()
+    setup_s = saved_at - t0
     for end in sorted(events):
         while done < end:
             k = min(chunk, end - done) if ck is not None else end - done
@@ -707,7 +714,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
         row["bonds_end"] = float(series["bonds"][-1, w])
         steady.append(row)
     return SoilBinRun(tuple(springs), tuple(speeds), t, trav, series, steady, info["n_particles"],
-                      model.spheres_per_world, dt, n_steps, time.perf_counter() - t0)
+                      model.spheres_per_world, dt, n_steps, time.perf_counter() - t0, setup_s, sim.rebuild_count)
 
 
 def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,
