@@ -110,9 +110,9 @@ def _threaded_scene() -> wd.ModelBuilder:
     mesh and a spring, every kind of contribution to the force sums."""
     b = packing_scene(np.zeros(3))
     a = b.add_clump(np.array([[-0.006, 0.0, 0.07], [0.0, 0.0, 0.07]]), np.array([0.005, 0.004]), "soil",
-                    group="soil")
+                    group="soil", name="clump_a")
     c = b.add_clump(np.array([[0.01, 0.004, 0.08], [0.016, 0.004, 0.08]]), np.array([0.004, 0.005]), "soil",
-                    group="soil")
+                    group="soil", name="clump_c")
     b.add_spring("tie", a, (-0.003, 0.0, 0.07), c, (0.013, 0.004, 0.08), stiffness=50.0, damping=0.05)
     return b
 
@@ -310,12 +310,12 @@ def test_large_scene_motion_gives_the_bits_of_the_fused_one() -> None:
 
 def test_world_steps_give_the_bits_of_the_staged_step() -> None:
     # Reference: the same run stage by stage, one step at a time (graph_steps=1), contacts a thread per sphere (the
-    # functions a world's thread calls; nvcc fuses a pair kernel's multiply-adds otherwise). With world_steps a thread runs a
-    # world's whole steps (contacts, spring, motion, sphere update, the mesh's end of step, the world's own rebuild
-    # check) until its lists need a rebuild; the host then rebuilds all worlds' lists and goes on. Three worlds of
-    # different friction and damping (so they ask for rebuilds at different steps), spheres, clumps, a mesh and a
-    # spring, falling and colliding, and a step that turns every contact cohesive midway: the same states and force
-    # sums to the bit, at the same step and time. Only the rebuilds differ (each world's own, not any world's).
+    # functions a world's thread calls; nvcc fuses a pair kernel's multiply-adds otherwise). With world_steps a thread
+    # runs a world's whole steps (contacts, spring, motion, sphere update, the mesh's end of step, the world's own
+    # rebuild check) until its lists need a rebuild; the host then rebuilds all worlds' lists and goes on. Three worlds
+    # of different friction and damping (so they ask for rebuilds at different steps), spheres, clumps, a mesh and a
+    # spring, falling and colliding, and a step that turns every contact cohesive midway: the same states and force sums
+    # to the bit, at the same step and time. Only the rebuilds differ (each world's own, not any world's).
     over = {"material:soil:friction_angle": np.array([20.0, 30.0, 40.0]),
             "damping:soil": np.array([0.1, 0.3, 0.5])}
 
@@ -348,12 +348,12 @@ def test_world_steps_give_the_bits_of_the_staged_step() -> None:
 
 @pytest.mark.parametrize("stride", [1, 2])
 def test_world_steps_by_a_block_of_threads_give_the_bits_of_the_staged_step(stride: int) -> None:
-    # Reference: the same run stage by stage (graph_steps=1), contacts a thread per sphere. With world_lanes=4 each world is a block of 4 threads
-    # (on the CPU, Warp's fibers with wp.config.enable_cpu_blocks): each stage's spheres, springs, bodies and meshes
-    # dealt out between every stride-th of them (stride 2: threads 0 and 2 take items, as CUDA's first thread of
-    # each warp does), a barrier between stages, lane 0 ending the step. A barrier left out or a lane taking
-    # another branch shows as other bits (or a hang). Energies are float64 sums whose order follows the lanes:
-    # equal to float64 rounding (see the test above).
+    # Reference: the same run stage by stage (graph_steps=1), contacts a thread per sphere. With world_lanes=4 each
+    # world is a block of 4 threads (on the CPU, Warp's fibers with wp.config.enable_cpu_blocks): each stage's spheres,
+    # springs, bodies and meshes dealt out between every stride-th of them (stride 2: threads 0 and 2 take items, as
+    # CUDA's first thread of each warp does), a barrier between stages, lane 0 ending the step. A barrier left out or a
+    # lane taking another branch shows as other bits (or a hang). Energies are float64 sums whose order follows the
+    # lanes: equal to float64 rounding (see the test above).
     over = {"material:soil:friction_angle": np.array([20.0, 30.0, 40.0]),
             "damping:soil": np.array([0.1, 0.3, 0.5])}
 
@@ -381,6 +381,46 @@ def test_world_steps_by_a_block_of_threads_give_the_bits_of_the_staged_step(stri
     e_w, e_s = worlds.data.energy.numpy(), staged.data.energy.numpy()
     np.testing.assert_allclose(e_w, e_s, rtol=0, atol=1e-10 * np.abs(e_s).max())
     assert np.abs(staged.state.body_vel.numpy()).max() > 1e-2  # it moved
+
+
+def test_pose_records_of_the_world_kernel_give_the_bits_of_host_reads(monkeypatch: object) -> None:
+    # Reference: the same run with its observers called by the host after each record (wrapped, so that the run
+    # cannot tell they read only poses). With world_steps, Simulation.run has the world kernel copy the observed
+    # bodies' poses at every record and calls the observers on the copies, several records per hand-over: the same
+    # times, steps and observer values to the bit, across list rebuilds, hand-overs (RECORD_CHUNK_STEPS made small
+    # here), a cohesion step that runs staged at the start of a recorded advance (the kernel's records then count
+    # it), and a run that is not a whole number of records (the last part recorded by the host).
+    from warpdem import simulation
+
+    monkeypatch.setattr(simulation, "RECORD_CHUNK_STEPS", 100)
+    over = {"material:soil:friction_angle": np.array([20.0, 30.0, 40.0]),
+            "damping:soil": np.array([0.1, 0.3, 0.5])}
+
+    def run(wrap: bool) -> tuple[wd.Simulation, list[dict[str, np.ndarray]]]:
+        model, state = _threaded_scene().finalize(DEVICE, n_worlds=3, overrides=over)
+        sim = wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), world_steps=True)
+        obs = {"a": wd.observers.body_point("clump_a", (-0.003, 0.0, 0.07)),
+               "c": wd.observers.body_point("clump_c", (0.013, 0.004, 0.08)),
+               "a_com": wd.observers.body_point("clump_a", (-0.003, 0.0, 0.068))}
+        if wrap:
+            obs = {k: (lambda s_, f=f: f(s_)) for k, f in obs.items()}
+        outs = [sim.run(1200, record_every=7, observers=obs)]
+        rebuilds = sim.rebuild_count
+        sim.set_cohesion_now()
+        outs.append(sim.run(1003, record_every=9, observers=obs))
+        assert sim.rebuild_count > rebuilds > 5
+        return sim, outs
+
+    (host, ref), (kernel, got) = run(True), run(False)
+    assert kernel._rec_bodies_host.tolist() == sorted(kernel.model.names["body"][n] for n in ("clump_a", "clump_c"))
+    assert host._rec_bodies_host.size == 0  # the wrapped observers were read by the host
+    for a, b in zip(got, ref, strict=True):
+        assert sorted(a) == sorted(b) == sorted(["time", "step", "a", "c", "a_com"])
+        for k in a:
+            np.testing.assert_array_equal(a[k], b[k])
+    assert len(got[0]["step"]) == 1 + 1200 // 7 + 1 and len(got[1]["step"]) == 1 + 1003 // 9 + 1
+    assert np.ptp(got[1]["a"][:, :, 2]) > 1e-3  # the clumps moved while recorded
+    _assert_same_bits(kernel, host)
 
 
 def test_world_lanes_are_checked_by_name() -> None:

@@ -399,17 +399,29 @@ def body_poses(sim: object, body: str, gather: bool | None = None) -> tuple[np.n
     return pos.numpy(), quat.numpy()
 
 
-def body_point(body: str, point: object) -> Callable[[object], np.ndarray]:
+class BodyPoint:
+    """Observer: world position [m] of a point fixed to a named body, shape (n_worlds, 3) (:func:`body_point`).
+    It reads only the body's pose, so a ``world_steps`` simulation records the poses inside its kernel and calls
+    :meth:`of_poses` (``Simulation.run``)."""
+
+    def __init__(self, body: str, point: object) -> None:
+        self.body = body
+        self.point = np.asarray(point, dtype=np.float64)
+        self.local: np.ndarray | None = None  # the point in each body's frame (n_worlds, 3), from the first pose
+
+    def __call__(self, sim: object) -> np.ndarray:
+        return self.of_poses(*body_poses(sim, self.body))
+
+    def of_poses(self, pos: np.ndarray, quat: np.ndarray) -> np.ndarray:
+        """The point [m] (n_worlds, 3) of the body at positions ``pos`` [m] (n_worlds, 3) and orientations
+        ``quat`` (x, y, z, w) (n_worlds, 4)."""
+        rot = quats_to_matrices(quat)
+        if self.local is None:
+            self.local = np.einsum("nji,nj->ni", rot, self.point - pos)
+        return pos + np.einsum("nij,nj->ni", rot, self.local)
+
+
+def body_point(body: str, point: object) -> BodyPoint:
     """Observer: world position [m] of a point fixed to a named body, shape (n_worlds, 3). ``point`` is given in
     the world at the initial pose [m] (3,); subtract the first record to get its displacement."""
-    point = np.asarray(point, dtype=np.float64)
-    cache: dict[str, np.ndarray] = {}
-
-    def f(sim: object) -> np.ndarray:
-        pos, quat = body_poses(sim, body)
-        rot = quats_to_matrices(quat)
-        if "local" not in cache:  # the point in each body's frame, from the current (first) pose
-            cache["local"] = np.einsum("nji,nj->ni", rot, point - pos)
-        return pos + np.einsum("nij,nj->ni", rot, cache["local"])
-
-    return f
+    return BodyPoint(body, point)

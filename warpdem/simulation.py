@@ -51,6 +51,9 @@ both (a 52-sphere ringing batch on one H100: 81 -> 67 us per step)."""
 WORLD_STEPS_MIN = 32
 """With ``world_steps``, an advance of fewer steps runs stage by stage (the same bits): each advance a thread per
 world costs a hand-over between CPU threads and a few small reads, more than a few steps save."""
+RECORD_CHUNK_STEPS = 4096
+"""With ``world_steps``, :meth:`Simulation.run` hands pose records to the host at least this many steps at a time
+(whole records): the progress callback and the fault check come as often."""
 NO_FAULT_C = wp.constant(NO_FAULT)
 
 
@@ -283,6 +286,11 @@ class Simulation:
             # CUDA clock cycles per world and stage of world_steps.STAGES with its barrier, summed over advances
             # (zeros on the CPU): shape (n_worlds, 4) flattened (world_steps_kernel)
             self.world_stage_cycles = wp.zeros(nw * len(world_steps_mod.STAGES), dtype=wp.int64, device=dev)
+            # poses recorded inside world_steps_kernel for Simulation.run's pose observers (grown on demand)
+            self._rec_bodies = wp.zeros(1, dtype=int, device=dev)
+            self._rec_bodies_host = np.zeros(0, dtype=np.int32)
+            self._rec_pos = wp.zeros(1, dtype=wp.vec3d, device=dev)
+            self._rec_quat = wp.zeros(1, dtype=wp.quatd, device=dev)
 
         self.materials = Materials()
         tan_friction = wp.empty_like(model.mat_friction)  # taken once here, not per contact and step
@@ -841,17 +849,20 @@ class Simulation:
             since_check = 0
         return left, since_check
 
-    def _advance_worlds(self, n_steps: int) -> None:
+    def _advance_worlds(self, n_steps: int, record: tuple[int, int] = (0, 0)) -> None:
         """:meth:`advance` a thread per world (world_steps.py): each launch takes every world as far as ``n_steps``
         steps or until its lists need a rebuild; the host rebuilds and launches again until all have arrived. A step
-        that must give cohesion (:meth:`set_cohesion_now`) runs first, the ordinary way."""
+        that must give cohesion (:meth:`set_cohesion_now`) runs first, the ordinary way. ``record``: (every, bodies
+        per world) for :meth:`_advance_recorded`, (0, 0) for none."""
         d, m = self.data, self.model
         spheres = m.n_spheres > 0
         if spheres:
             self._rebuild_if_flagged()
+        shift = 0  # steps of a recording run before the world kernel's first
         if n_steps > 0 and d.cohesion_now.numpy()[0]:
             self.step()
             n_steps -= 1
+            shift = 1
             if spheres:
                 self._rebuild_if_flagged()
         if n_steps <= 0:
@@ -861,7 +872,7 @@ class Simulation:
         self._world_flag.zero_()
         rebuilds = 0
         while True:
-            self._launch_worlds(n_steps)
+            self._launch_worlds(n_steps, (*record, shift))
             if int(self._world_step.numpy().min()) >= n_steps:
                 break
             self._rebuild_checked()  # some world stopped: its lists no longer hold
@@ -875,14 +886,38 @@ class Simulation:
             self.state.time += self.dt
         self._check()
 
-    def _launch_worlds(self, target: int) -> None:
+    def _advance_recorded(self, records: int, every: int, bodies: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Advance ``records * every`` steps a thread per world, the poses of each world's ``bodies`` (local
+        indices (nb,)) recorded inside world_steps_kernel after every ``every``-th step: positions [m]
+        (records, n_worlds, nb, 3) and quaternions (x, y, z, w) (records, n_worlds, nb, 4), the bits the host would
+        read after those steps, with one hand-over to the host for all of them (on CUDA a record's host reads and
+        launches cost more than its 57 steps of a ringing batch do)."""
+        m = self.model
+        nb = len(bodies)
+        size = records * m.n_worlds * nb
+        if self._rec_pos.shape[0] < size:
+            self._rec_pos = wp.zeros(size, dtype=wp.vec3d, device=self.device)
+            self._rec_quat = wp.zeros(size, dtype=wp.quatd, device=self.device)
+            self._world_ops = None  # the launches hold the arrays
+        if not np.array_equal(self._rec_bodies_host, bodies):
+            self._rec_bodies_host = np.array(bodies, dtype=np.int32)
+            self._rec_bodies = wp.array(self._rec_bodies_host, dtype=int, device=self.device)
+            self._world_ops = None
+        self._advance_worlds(records * every, (every, nb))
+        shape = (records, m.n_worlds, nb)
+        return self._rec_pos.numpy()[:size].reshape(*shape, 3), self._rec_quat.numpy()[:size].reshape(*shape, 4)
+
+    def _launch_worlds(self, target: int, record: tuple[int, int, int] = (0, 0, 0)) -> None:
         """One launch of world_steps_kernel per CPU thread's range of worlds (one on CUDA), recorded once (until
-        arrays move, :meth:`recapture`): only the target and the step count change between advances."""
+        arrays move, :meth:`recapture`): only the target, the step count and the recording (every, bodies per
+        world, shift; world_steps_kernel) change between advances."""
         if self._world_ops is None:
             self._world_ops = self._record_worlds()
         for op in self._world_ops:
-            op.set_param_at_index(3, target)
-            op.set_param_at_index(4, self.state.step)
+            op.set_param_by_name("target", target)
+            op.set_param_by_name("first_step", self.state.step)
+            for name, value in zip(("rec_every", "rec_nb", "rec_shift"), record, strict=True):
+                op.set_param_by_name(name, value)
         if len(self._world_ops) > 1:
             cpu_threads.Parallel("worlds", [[op.launch] for op in self._world_ops])()
         else:
@@ -897,8 +932,8 @@ class Simulation:
         lanes = self.world_lanes
         return [wp.launch(
             world_steps_mod.world_steps_kernel, (cut[j + 1] - cut[j], lanes), block_dim=lanes, record_cmd=True,
-            inputs=[cut[j], lanes, self.world_lane_stride, 0, 0, self.skin, wp.float64(self.dt), *per,
-                    m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, m.sphere_offset,
+            inputs=[cut[j], lanes, self.world_lane_stride, 0, 0, self.skin, wp.float64(self.dt), *per, 0, 0, 0,
+                    m.n_worlds, m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, m.sphere_offset,
                     m.mesh_body, m.mesh_material, m.mesh_tri_offset, d.mesh_rmax, m.tri_vertices,
                     m.spring_body_a, m.spring_body_b, m.spring_point_a, m.spring_point_b, m.spring_stiffness,
                     m.spring_damping, m.spring_rest_length, m.spring_preload, m.spring_progressive,
@@ -912,7 +947,8 @@ class Simulation:
                      d.mesh_force_acc, d.mesh_torque_acc, d.mesh_force_scale, d.mesh_torque_scale, d.energy,
                      d.body_force, d.body_torque, d.mesh_force, d.mesh_torque, d.mesh_force_sum, d.spring_force,
                      self._world_step,
-                     self._world_flag, self._world_disp, self._world_fault, self.world_stage_cycles],
+                     self._world_flag, self._world_disp, self._world_fault, self.world_stage_cycles,
+                     self._rec_bodies, self._rec_pos, self._rec_quat],
             device=self.device,
         ) for j in range(len(cut) - 1)]
 
@@ -925,6 +961,11 @@ class Simulation:
         progress: Callable[[int, int], None] | None = None,
     ) -> dict[str, np.ndarray]:
         """Run ``n_steps`` steps, calling each observer every ``record_every`` steps (and at the start).
+
+        With ``world_steps``, observers that read only one body's pose (they have ``body``, a body name, and
+        ``of_poses(pos (n_worlds, 3), quat (n_worlds, 4))``, as :func:`warpdem.observers.body_point`) are given the
+        poses recorded inside the world kernel, RECORD_CHUNK_STEPS steps or more per hand-over to the host instead
+        of one record's: the same values to the bit.
 
         Returns a time series: {"time": (k,), "step": (k,), name: stacked observer values}.
         """
@@ -941,7 +982,24 @@ class Simulation:
             record()
         done = 0
         chunk = record_every if record_every else n_steps
+        poses = self._pose_recording(observers, record_every)
         while done < n_steps:
+            records = min(-(-RECORD_CHUNK_STEPS // max(record_every, 1)), (n_steps - done) // max(record_every, 1))
+            if poses is not None and records * record_every >= WORLD_STEPS_MIN:
+                bodies, column = poses
+                time, step = self.state.time, self.state.step
+                pos, quat = self._advance_recorded(records, record_every, bodies)
+                for r in range(records):
+                    for _ in range(record_every):  # the additions of advance(): the same bits
+                        time += self.dt
+                    series["time"].append(time)
+                    series["step"].append(step + (r + 1) * record_every)
+                    for k, f in observers.items():
+                        series[k].append(np.asarray(f.of_poses(pos[r, :, column[k]], quat[r, :, column[k]])))
+                done += records * record_every
+                if progress is not None:
+                    progress(done, n_steps)
+                continue
             k = min(chunk, n_steps - done)
             self.advance(k)
             done += k
@@ -950,6 +1008,20 @@ class Simulation:
             if progress is not None:
                 progress(done, n_steps)
         return {k: np.asarray(v) for k, v in series.items()}
+
+    def _pose_recording(self, observers: dict[str, Callable[[Simulation], object]], record_every: int
+                        ) -> tuple[np.ndarray, dict[str, int]] | None:
+        """For :meth:`run`: (the local indices of the bodies whose poses the observers read (nb,), each observer's
+        column among them) when every observer reads one body's pose and the world kernel can record them
+        (``world_steps``, records at least two steps apart); None otherwise."""
+        if not (self.world_steps and record_every >= 2 and observers):
+            return None
+        if not all(hasattr(f, "of_poses") and hasattr(f, "body") for f in observers.values()):
+            return None
+        names = sorted({f.body for f in observers.values()})
+        index = self.model.names["body"]
+        bodies = np.array([index[n] for n in names], dtype=np.int32)
+        return bodies, {k: names.index(f.body) for k, f in observers.items()}
 
     @property
     def rebuild_count(self) -> int:

@@ -100,6 +100,10 @@ def world_steps_kernel(
     bpw: int,
     mpw: int,
     kpw: int,
+    rec_every: int,  # recording (Simulation.run's pose observers): every rec_every-th step, 0 for none
+    rec_shift: int,  # steps of the recording that ran before this advance's world_step 0
+    rec_nb: int,  # bodies recorded per world (local indices in rec_bodies)
+    n_worlds: int,
     # Model:
     sphere_body: wp.array(dtype=int),
     sphere_world: wp.array(dtype=int),
@@ -181,6 +185,9 @@ def world_steps_kernel(
     world_disp: wp.array(dtype=float),
     world_fault: wp.array(dtype=int),
     stage_cycles: wp.array(dtype=wp.int64),
+    rec_bodies: wp.array(dtype=int),
+    rec_pos: wp.array(dtype=wp.vec3d),
+    rec_quat: wp.array(dtype=wp.quatd),
 ):
     """World w's steps from world_step[w] up to ``target`` or until its candidate lists need a rebuild
     (world_flag[w] = 1), by a block of ``lanes`` threads: each stage's items (spheres, bodies, meshes, springs) dealt
@@ -190,7 +197,12 @@ def world_steps_kernel(
 
     ``stage_cycles`` (int64, shape (n_worlds * 4,), CUDA clock cycles; zeros on the CPU) adds up, per world and
     stage of ``STAGES``, the stage's time with its barrier as lane 0 sees it. (The other warps' own times did not
-    split a stage reliably on an H100: threads without items showed thousands of cycles.)"""
+    split a stage reliably on an H100: threads without items showed thousands of cycles.)
+
+    Recording (``rec_every`` > 0): after every step j = world_step + 1 + ``rec_shift`` that is a multiple of
+    ``rec_every``, the poses of the world's bodies ``rec_bodies`` (local indices, (rec_nb,)) go to record
+    r = j / rec_every - 1 of ``rec_pos`` [m] and ``rec_quat`` (x, y, z, w), each flattened from
+    (records, n_worlds, rec_nb): the state the host would read after that step, without a launch per record."""
     t, lane = wp.tid()
     w = t + first_world
     k = world_step[w]
@@ -249,6 +261,13 @@ def world_steps_kernel(
                 mesh_end_one(m0 + q - spw, dm, mesh_body, mesh_rmax, mesh_force_scale, mesh_torque_scale, 1,
                              body_pos, body_quat, mesh_build_pos, mesh_build_quat, mesh_force_acc, mesh_torque_acc,
                              mesh_force, mesh_torque, mesh_force_sum, world_disp)
+        if rec_every > 0:  # the poses are final once the body stage's barrier has passed
+            j = k + 1 + rec_shift
+            if j % rec_every == 0:
+                r0 = ((j // rec_every - 1) * n_worlds + w) * rec_nb
+                for q in range(slot, rec_nb, slots):
+                    rec_pos[r0 + q] = body_pos[b0 + rec_bodies[q]]
+                    rec_quat[r0 + q] = body_quat[b0 + rec_bodies[q]]
         k += 1
         block_sync()
         c_6 = cycle_count()
