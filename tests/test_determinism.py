@@ -383,13 +383,16 @@ def test_world_steps_by_a_block_of_threads_give_the_bits_of_the_staged_step(stri
     assert np.abs(staged.state.body_vel.numpy()).max() > 1e-2  # it moved
 
 
-def test_pose_records_of_the_world_kernel_give_the_bits_of_host_reads(monkeypatch: object) -> None:
+@pytest.mark.parametrize("stop_others", [False, True])
+def test_pose_records_of_the_world_kernel_give_the_bits_of_host_reads(monkeypatch: object, stop_others: bool) -> None:
     # Reference: the same run with its observers called by the host after each record (wrapped, so that the run
     # cannot tell they read only poses). With world_steps, Simulation.run has the world kernel copy the observed
     # bodies' poses at every record and calls the observers on the copies, several records per hand-over: the same
     # times, steps and observer values to the bit, across list rebuilds, hand-overs (RECORD_CHUNK_STEPS made small
     # here), a cohesion step that runs staged at the start of a recorded advance (the kernel's records then count
-    # it), and a run that is not a whole number of records (the last part recorded by the host).
+    # it), and a run that is not a whole number of records (the last part recorded by the host). With stop_others
+    # (CUDA's default where every world's block runs at once; forced here) a world that needs a rebuild stops the
+    # others too: more rebuilds, the same bits.
     from warpdem import simulation
 
     monkeypatch.setattr(simulation, "RECORD_CHUNK_STEPS", 100)
@@ -399,6 +402,7 @@ def test_pose_records_of_the_world_kernel_give_the_bits_of_host_reads(monkeypatc
     def run(wrap: bool) -> tuple[wd.Simulation, list[dict[str, np.ndarray]]]:
         model, state = _threaded_scene().finalize(DEVICE, n_worlds=3, overrides=over)
         sim = wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), world_steps=True)
+        sim.world_stop_others = stop_others and not wrap  # read when the world launches are recorded
         obs = {"a": wd.observers.body_point("clump_a", (-0.003, 0.0, 0.07)),
                "c": wd.observers.body_point("clump_c", (0.013, 0.004, 0.08)),
                "a_com": wd.observers.body_point("clump_a", (-0.003, 0.0, 0.068))}
@@ -412,6 +416,10 @@ def test_pose_records_of_the_world_kernel_give_the_bits_of_host_reads(monkeypatc
         return sim, outs
 
     (host, ref), (kernel, got) = run(True), run(False)
+    if DEVICE == "cpu":
+        assert kernel.world_stop_others == stop_others and not host.world_stop_others
+        # stopping the others adds rebuilds (on the CPU a world's thread runs its worlds one after another)
+        assert (kernel.rebuild_count > host.rebuild_count) == stop_others
     assert kernel._rec_bodies_host.tolist() == sorted(kernel.model.names["body"][n] for n in ("clump_a", "clump_c"))
     assert host._rec_bodies_host.size == 0  # the wrapped observers were read by the host
     for a, b in zip(got, ref, strict=True):

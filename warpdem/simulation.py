@@ -51,6 +51,8 @@ both (a 52-sphere ringing batch on one H100: 81 -> 67 us per step)."""
 WORLD_STEPS_MIN = 32
 """With ``world_steps``, an advance of fewer steps runs stage by stage (the same bits): each advance a thread per
 world costs a hand-over between CPU threads and a few small reads, more than a few steps save."""
+_WORLD_PARAM = {a.label: i for i, a in enumerate(world_steps_mod.world_steps_kernel.adj.args)}
+"""world_steps_kernel's parameters by name: their indices in a recorded launch."""
 RECORD_CHUNK_STEPS = 4096
 """With ``world_steps``, :meth:`Simulation.run` hands pose records to the host at least this many steps at a time
 (whole records): the progress callback and the fault check come as often."""
@@ -283,6 +285,11 @@ class Simulation:
             self._world_fault = wp.array(np.full(nw * world_steps_mod.FAULT_SLOTS, NO_FAULT, np.int32), dtype=int,
                                          device=dev)
             self._no_cohesion = wp.zeros(1, dtype=int, device=dev)
+            # a world that needs a rebuild stops the others (world_steps_kernel's stop_others) where the launch's
+            # blocks all run at once: on CUDA, a block per SM at most (a world's block holds up to 256 threads of
+            # up to 255 registers). On the CPU the worlds of a thread run one after another.
+            self._world_stop = wp.zeros(1, dtype=int, device=dev)
+            self.world_stop_others = bool(dev.is_cuda and nw <= dev.sm_count)
             # CUDA clock cycles per world and stage of world_steps.STAGES with its barrier, summed over advances
             # (zeros on the CPU): shape (n_worlds, 4) flattened (world_steps_kernel)
             self.world_stage_cycles = wp.zeros(nw * len(world_steps_mod.STAGES), dtype=wp.int64, device=dev)
@@ -322,6 +329,7 @@ class Simulation:
         self._large = not dev.is_cpu and ns >= LARGE_STEP_SPHERES  # see LARGE_STEP_SPHERES
         self._graphs: dict[int, object] = {}  # captured graphs (CUDA, or a CPU thread) by steps per graph
         self._world_ops: list[object] | None = None  # the recorded world_steps launches
+        self._world_rec = (0, 0, 0)  # their recording parameters (_launch_worlds)
         self._step_ops: list[Callable[[], object]] | None = None  # a step's recorded launches (CPU threads)
         # CPU threads: a barrier between a step's phases, and each thread's step as one CPU graph (_advance_threads)
         self._barrier = Barrier(self.parts) if dev.is_cpu and self.parts > 1 and BARRIER_OK else None
@@ -870,13 +878,15 @@ class Simulation:
             return
         self._world_step.zero_()
         self._world_flag.zero_()
+        self._world_stop.zero_()
         rebuilds = 0
         while True:
             self._launch_worlds(n_steps, (*record, shift))
             if int(self._world_step.numpy().min()) >= n_steps:
                 break
-            self._rebuild_checked()  # some world stopped: its lists no longer hold
+            self._rebuild_checked()  # some world stopped: its lists no longer hold (or another's did)
             self._world_flag.zero_()
+            self._world_stop.zero_()
             rebuilds += 1
         wp.launch(world_steps_mod.world_end_kernel, 1, inputs=[n_steps, rebuilds, m.n_worlds, self._world_flag,
                                                               self._world_fault],
@@ -913,11 +923,15 @@ class Simulation:
         world, shift; world_steps_kernel) change between advances."""
         if self._world_ops is None:
             self._world_ops = self._record_worlds()
+            self._world_rec = (0, 0, 0)  # as recorded
+        at = _WORLD_PARAM
         for op in self._world_ops:
-            op.set_param_by_name("target", target)
-            op.set_param_by_name("first_step", self.state.step)
-            for name, value in zip(("rec_every", "rec_nb", "rec_shift"), record, strict=True):
-                op.set_param_by_name(name, value)
+            op.set_param_at_index(at["target"], target)
+            op.set_param_at_index(at["first_step"], self.state.step)
+            if record != self._world_rec:  # (a launch's parameters are packed in Python: only what changed)
+                for name, value in zip(("rec_every", "rec_nb", "rec_shift"), record, strict=True):
+                    op.set_param_at_index(at[name], value)
+        self._world_rec = record
         if len(self._world_ops) > 1:
             cpu_threads.Parallel("worlds", [[op.launch] for op in self._world_ops])()
         else:
@@ -933,7 +947,8 @@ class Simulation:
         return [wp.launch(
             world_steps_mod.world_steps_kernel, (cut[j + 1] - cut[j], lanes), block_dim=lanes, record_cmd=True,
             inputs=[cut[j], lanes, self.world_lane_stride, 0, 0, self.skin, wp.float64(self.dt), *per, 0, 0, 0,
-                    m.n_worlds, m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, m.sphere_offset,
+                    m.n_worlds, int(self.world_stop_others),
+                    m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, m.sphere_offset,
                     m.mesh_body, m.mesh_material, m.mesh_tri_offset, d.mesh_rmax, m.tri_vertices,
                     m.spring_body_a, m.spring_body_b, m.spring_point_a, m.spring_point_b, m.spring_stiffness,
                     m.spring_damping, m.spring_rest_length, m.spring_preload, m.spring_progressive,
@@ -947,7 +962,8 @@ class Simulation:
                      d.mesh_force_acc, d.mesh_torque_acc, d.mesh_force_scale, d.mesh_torque_scale, d.energy,
                      d.body_force, d.body_torque, d.mesh_force, d.mesh_torque, d.mesh_force_sum, d.spring_force,
                      self._world_step,
-                     self._world_flag, self._world_disp, self._world_fault, self.world_stage_cycles,
+                     self._world_flag, self._world_disp, self._world_fault, self._world_stop,
+                     self.world_stage_cycles,
                      self._rec_bodies, self._rec_pos, self._rec_quat],
             device=self.device,
         ) for j in range(len(cut) - 1)]

@@ -45,8 +45,9 @@ by side instead of in turn."""
 MAX_ITEM_WARPS = 8
 """warps per world at most when each item has its own warp: the kernel takes up to 255 registers a thread, and
 an SM's 65,536 registers hold 256 such threads."""
-DISP_SLOTS = 2
-"""per world in ``world_disp``: the meshes' largest displacement, the spheres' (since the last list build) [m]."""
+DISP_SLOTS = 3
+"""per world in ``world_disp``: the meshes' largest displacement, the spheres' (since the last list build) [m], and
+1 where another world has stopped for a rebuild (``stop_others``)."""
 STAGES = ("contacts", "bodies", "spheres", "end")
 """the stages of a world's step, as timed in ``stage_cycles``: contacts and springs; body motion; sphere kinematics
 and the meshes' end of step; the end-of-step decision."""
@@ -104,6 +105,7 @@ def world_steps_kernel(
     rec_shift: int,  # steps of the recording that ran before this advance's world_step 0
     rec_nb: int,  # bodies recorded per world (local indices in rec_bodies)
     n_worlds: int,
+    stop_others: int,  # 1: a world that needs a rebuild stops the others (all worlds' blocks resident at once)
     # Model:
     sphere_body: wp.array(dtype=int),
     sphere_world: wp.array(dtype=int),
@@ -184,6 +186,7 @@ def world_steps_kernel(
     world_flag: wp.array(dtype=int),
     world_disp: wp.array(dtype=float),
     world_fault: wp.array(dtype=int),
+    world_stop: wp.array(dtype=int),
     stage_cycles: wp.array(dtype=wp.int64),
     rec_bodies: wp.array(dtype=int),
     rec_pos: wp.array(dtype=wp.vec3d),
@@ -202,7 +205,13 @@ def world_steps_kernel(
     Recording (``rec_every`` > 0): after every step j = world_step + 1 + ``rec_shift`` that is a multiple of
     ``rec_every``, the poses of the world's bodies ``rec_bodies`` (local indices, (rec_nb,)) go to record
     r = j / rec_every - 1 of ``rec_pos`` [m] and ``rec_quat`` (x, y, z, w), each flattened from
-    (records, n_worlds, rec_nb): the state the host would read after that step, without a launch per record."""
+    (records, n_worlds, rec_nb): the state the host would read after that step, without a launch per record.
+
+    ``stop_others`` = 1: a world that needs a rebuild also sets ``world_stop`` (1,), and every world ends its advance
+    after the step in which it sees it, so that the host rebuilds once for all and the next launch runs them side by
+    side again (otherwise the worlds that did not stop run to ``target`` and the stopped one finishes alone
+    afterwards). Only where all the launch's blocks run at once: a block that starts late would see the flag at its
+    first step. A rebuild changes only the order of candidates, so this changes no bits."""
     t, lane = wp.tid()
     w = t + first_world
     k = world_step[w]
@@ -261,6 +270,8 @@ def world_steps_kernel(
                 mesh_end_one(m0 + q - spw, dm, mesh_body, mesh_rmax, mesh_force_scale, mesh_torque_scale, 1,
                              body_pos, body_quat, mesh_build_pos, mesh_build_quat, mesh_force_acc, mesh_torque_acc,
                              mesh_force, mesh_torque, mesh_force_sum, world_disp)
+        if stop_others != 0 and lane == 0:  # another world's stop, read coherently (an atomic) for the whole block
+            world_disp[dm + 2] = float(wp.atomic_add(world_stop, 0, 0))
         if rec_every > 0:  # the poses are final once the body stage's barrier has passed
             j = k + 1 + rec_shift
             if j % rec_every == 0:
@@ -275,6 +286,7 @@ def world_steps_kernel(
         # and takes the same decision; then lane 0 resets them and files the step's fault
         ds = world_disp[dm + 1]
         rebuild = spw > 0 and ds + wp.max(ds, world_disp[dm]) > skin  # no spheres: no lists to rebuild
+        stopped = world_disp[dm + 2] != 0.0
         block_sync()
         if lane == 0:
             if world_fault[fb] != NO_FAULT_W:
@@ -287,9 +299,11 @@ def world_steps_kernel(
             world_disp[dm + 1] = 0.0
             if rebuild:
                 world_flag[w] = 1
+                if stop_others != 0:
+                    wp.atomic_max(world_stop, 0, 1)
         c_7 = cycle_count()
         wall += vec4l(c_2 - c_0, c_4 - c_2, c_6 - c_4, c_7 - c_6)
-        if rebuild:
+        if rebuild or stopped:
             break
     if lane == 0:
         world_step[w] = k
