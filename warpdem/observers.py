@@ -413,12 +413,16 @@ class BodyPoint:
         return self.of_poses(*body_poses(sim, self.body))
 
     def of_poses(self, pos: np.ndarray, quat: np.ndarray) -> np.ndarray:
-        """The point [m] (n_worlds, 3) of the body at positions ``pos`` [m] (n_worlds, 3) and orientations
-        ``quat`` (x, y, z, w) (n_worlds, 4)."""
-        rot = quats_to_matrices(quat)
+        """The point [m] (..., n_worlds, 3) of the body at positions ``pos`` [m] (..., n_worlds, 3) and
+        orientations ``quat`` (x, y, z, w) (..., n_worlds, 4); leading axes (records) are taken in one pass."""
+        pos, quat = np.asarray(pos, dtype=np.float64), np.asarray(quat, dtype=np.float64)
+        n = pos.shape[-2]
+        rot = quats_to_matrices(quat.reshape(-1, 4))
+        flat = pos.reshape(-1, 3)
         if self.local is None:
-            self.local = np.einsum("nji,nj->ni", rot, self.point - pos)
-        return pos + np.einsum("nij,nj->ni", rot, self.local)
+            self.local = np.einsum("nji,nj->ni", rot[:n], self.point - flat[:n])
+        local = np.tile(self.local, (len(flat) // n, 1))
+        return (flat + np.einsum("nij,nj->ni", rot, local)).reshape(pos.shape)
 
 
 def body_point(body: str, point: object) -> BodyPoint:

@@ -979,7 +979,8 @@ class Simulation:
         """Run ``n_steps`` steps, calling each observer every ``record_every`` steps (and at the start).
 
         With ``world_steps``, observers that read only one body's pose (they have ``body``, a body name, and
-        ``of_poses(pos (n_worlds, 3), quat (n_worlds, 4))``, as :func:`warpdem.observers.body_point`) are given the
+        ``of_poses(pos (records, n_worlds, 3), quat (records, n_worlds, 4))``, as
+        :func:`warpdem.observers.body_point`) are given the
         poses recorded inside the world kernel, RECORD_CHUNK_STEPS steps or more per hand-over to the host instead
         of one record's: the same values to the bit.
 
@@ -1005,13 +1006,14 @@ class Simulation:
                 bodies, column = poses
                 time, step = self.state.time, self.state.step
                 pos, quat = self._advance_recorded(records, record_every, bodies)
+                values = {k: f.of_poses(pos[:, :, column[k]], quat[:, :, column[k]]) for k, f in observers.items()}
                 for r in range(records):
                     for _ in range(record_every):  # the additions of advance(): the same bits
                         time += self.dt
                     series["time"].append(time)
                     series["step"].append(step + (r + 1) * record_every)
-                    for k, f in observers.items():
-                        series[k].append(np.asarray(f.of_poses(pos[r, :, column[k]], quat[r, :, column[k]])))
+                    for k in observers:
+                        series[k].append(values[k][r])
                 done += records * record_every
                 if progress is not None:
                     progress(done, n_steps)
