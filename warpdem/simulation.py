@@ -980,9 +980,9 @@ class Simulation:
 
         With ``world_steps``, observers that read only one body's pose (they have ``body``, a body name, and
         ``of_poses(pos (records, n_worlds, 3), quat (records, n_worlds, 4))``, as
-        :func:`warpdem.observers.body_point`) are given the
-        poses recorded inside the world kernel, RECORD_CHUNK_STEPS steps or more per hand-over to the host instead
-        of one record's: the same values to the bit.
+        :func:`warpdem.observers.body_point`) are given the poses recorded inside the world kernel,
+        RECORD_CHUNK_STEPS steps or more per hand-over to the host instead of one record's: the same values to the
+        bit.
 
         Returns a time series: {"time": (k,), "step": (k,), name: stacked observer values}.
         """

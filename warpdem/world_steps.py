@@ -16,6 +16,11 @@ only from its own bodies: with the fixed-point force sums (accumulate.py) every 
 forces are the bits of the stage-by-stage step, however the items of a stage are dealt out. Worlds reach ``target``
 after different rebuilds, which changes nothing but the candidates' order (a rebuild keeps every contact's
 history). A fault is kept per world (the first step's, lowest body) and the host reports the earliest.
+
+Two things keep the host out of the way (on CUDA a hand-over costs more than a ringing batch's 57 steps): the
+kernel can copy chosen bodies' poses at every record (``Simulation.run``'s pose observers), so one launch covers
+thousands of steps; and where all the launch's blocks run at once, a world that needs a rebuild stops the others
+(``stop_others``), so that one host rebuild serves all and the next launch runs them side by side again.
 """
 
 from __future__ import annotations
