@@ -12,8 +12,9 @@
 #    issue's goals (85 individuals: spring spheres < 60 s, linear < 15 s).
 # The GPU image lacks meshio (VTK output) unless staged with it: the shear box and demo tests need it.
 #
-#     sh benchmarks/gpu_checks.sh suite K N  # instead: the K-th of N shards (K = 1 .. N) of the whole test suite on
-#                                            # CUDA, test files dealt out in turn, each shard within one call
+#     sh benchmarks/gpu_checks.sh suite      # instead: the whole test suite on CUDA but tests/test_diagnosis.py,
+#                                            # a test per worker (455 s on one H100 in session 23)
+#     sh benchmarks/gpu_checks.sh suite diagnosis  # then tests/test_diagnosis.py in a call of its own (131 s)
 #
 #     sh benchmarks/gpu_checks.sh replicas   # instead: Table 3's replicas as worlds on CUDA: their tests, and a
 #                                            # paper-scale rigid run of 4 worlds on one bed and on 4 replica beds
@@ -32,11 +33,12 @@ if [ "$1" = "replicas" ]; then
   exit 0
 fi
 if [ "$1" = "suite" ]; then
-  files=$(ls tests/test_*.py | awk -v k="$2" -v n="$3" '(NR - 1) % n == k - 1')
-  timeout -s INT 560 python3 -m pytest -v -n 14 --dist loadfile --tb=short -p no:cacheprovider -W ignore $files \
-    > "$OUT/pytest_cuda_shard_$2_of_$3.txt" 2>&1
-  echo "shard $2 of $3 rc=$?" >> "$OUT/pytest_cuda_shard_$2_of_$3.txt"
-  grep -E "FAILED|ERROR|passed|failed|rc=" "$OUT/pytest_cuda_shard_$2_of_$3.txt" | tail -30
+  part=${2:-main}
+  if [ "$part" = diagnosis ]; then what="tests/test_diagnosis.py"; else what="tests --ignore tests/test_diagnosis.py"; fi
+  timeout -s INT 570 python3 -m pytest -q -n 15 --dist load --tb=short -p no:cacheprovider -W ignore $what \
+    > "$OUT/pytest_cuda_suite_$part.txt" 2>&1
+  echo "suite $part rc=$?" >> "$OUT/pytest_cuda_suite_$part.txt"
+  grep -E "FAILED|ERROR|passed|failed|rc=" "$OUT/pytest_cuda_suite_$part.txt" | tail -30
   exit 0
 fi
 timeout -s INT 200 python3 -m pytest -q -n 12 --dist loadfile --tb=short -p no:cacheprovider -W ignore \
@@ -44,6 +46,7 @@ timeout -s INT 200 python3 -m pytest -q -n 12 --dist loadfile --tb=short -p no:c
   tests/test_rigs.py tests/test_checkpoint.py tests/test_broadphase.py > "$OUT/pytest_cuda.txt" 2>&1
 echo "pytest rc=$?" >> "$OUT/pytest_cuda.txt"; tail -15 "$OUT/pytest_cuda.txt"
 unset WARPDEM_TEST_DEVICE
+python3 -m compileall -q /root/site warpdem scenes calibration > /dev/null 2>&1  # byte-code, as pip installs do
 cd benchmarks
 timeout 120 python3 bed_throughput.py --device cuda --sizes 1000000 4000000 16000000 --json "$OUT/results_bed_cuda.jsonl"
 timeout 45 python3 step_profile.py --device cuda --size 4000000 --steps 100 --json "$OUT/step_profile_cuda.jsonl"
