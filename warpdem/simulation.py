@@ -1001,16 +1001,17 @@ class Simulation:
         chunk = record_every if record_every else n_steps
         poses = self._pose_recording(observers, record_every)
         while done < n_steps:
-            records = min(-(-RECORD_CHUNK_STEPS // max(record_every, 1)), (n_steps - done) // max(record_every, 1))
-            if poses is not None and records * record_every >= WORLD_STEPS_MIN:
+            records = 0 if poses is None else min(-(-RECORD_CHUNK_STEPS // record_every),
+                                                  (n_steps - done) // record_every)
+            if records * record_every >= WORLD_STEPS_MIN:  # whole records, recorded by the world kernel
                 bodies, column = poses
-                time, step = self.state.time, self.state.step
+                t, step = self.state.time, self.state.step
                 pos, quat = self._advance_recorded(records, record_every, bodies)
                 values = {k: f.of_poses(pos[:, :, column[k]], quat[:, :, column[k]]) for k, f in observers.items()}
                 for r in range(records):
                     for _ in range(record_every):  # the additions of advance(): the same bits
-                        time += self.dt
-                    series["time"].append(time)
+                        t += self.dt
+                    series["time"].append(t)
                     series["step"].append(step + (r + 1) * record_every)
                     for k in observers:
                         series[k].append(values[k][r])
