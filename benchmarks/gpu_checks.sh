@@ -11,10 +11,11 @@
 # 3. the ringing batch of a calibration, each kernel's own time, and the two ringing calibrations of the engine
 #    issue's goals (85 individuals: spring spheres < 60 s, linear < 15 s).
 # The GPU image lacks meshio (VTK output) unless staged with it: the shear box and demo tests need it.
+# It lacks rerun-sdk too: the viewer tests skip there unless benchmarks/gpu_viewer_wheels.sh's folders are staged.
 #
 #     sh benchmarks/gpu_checks.sh suite      # instead: the whole test suite on CUDA but tests/test_diagnosis.py,
-#                                            # a test per worker (455 s on one H100 in session 23)
-#     sh benchmarks/gpu_checks.sh suite diagnosis  # then tests/test_diagnosis.py in a call of its own (131 s)
+#                                            # a test per worker (340 s on one H100 in session 24)
+#     sh benchmarks/gpu_checks.sh suite diagnosis  # then tests/test_diagnosis.py in a call of its own (51 s)
 #
 #     sh benchmarks/gpu_checks.sh replicas   # instead: Table 3's replicas as worlds on CUDA: their tests, and a
 #                                            # paper-scale rigid run of 4 worlds on one bed and on 4 replica beds

@@ -14,6 +14,8 @@ rr = pytest.importorskip("rerun")
 pa = pytest.importorskip("pyarrow")
 RrdReader = pytest.importorskip("rerun.chunk").RrdReader
 
+from conftest import DEVICE  # noqa: E402
+
 import warpdem as wd  # noqa: E402
 from warpdem import observers  # noqa: E402
 from warpdem.viewer import COLORMAPS, RerunViewer, speed_colors  # noqa: E402
@@ -48,7 +50,7 @@ def _build(inputs: dict[str, np.ndarray]) -> wd.Simulation:
     b.add_material("m", wd.Material(young=1e7, poisson=0.3, density=DENSITY, friction_angle=30.0))
     b.add_spheres(inputs["pos"], RADIUS, "m", velocities=inputs["vel"][0], name="first")
     b.add_mesh("blade", inputs["blade_v"], inputs["blade_f"], "m", kind="kinematic")
-    model, state = b.finalize("cpu", n_worlds=2, overrides={
+    model, state = b.finalize(DEVICE, n_worlds=2, overrides={
         "body:first:velocity": inputs["vel"][:, 0], "body:blade:velocity": BLADE_VEL,
         "body:blade:angular_velocity": BLADE_ANGVEL})
     return wd.Simulation(model, state, dt=DT)
