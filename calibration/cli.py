@@ -6,7 +6,8 @@
                       [--target-sem 1] [--worlds-per-job 4] [--replica-worlds] [--generations 5] [--population 20]
                       [--parents 7]
     warpdem ringing   [--spring-model paper|linear] [--springs 4,8,...] [--device] [--out DIR]
-    warpdem soil-bin  [--scale] [--assembly] [--springs] [--spring-model] [--viewer] [--viewer-save FILE.rrd]
+    warpdem soil-bin  [--scale] [--assembly] [--springs] [--spring-model] [--replicas N] [--viewer]
+                      [--viewer-save FILE.rrd]
     warpdem speed-sweep [--scale] [--assembly] [--speeds 0.45,0.5,...] [--device] [--out DIR]
     warpdem shear-box [--scale] [--assembly] [--device] [--out DIR]
     warpdem demo      [--device] [--particles N] [--out DIR]
@@ -382,18 +383,20 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
             return RerunViewer(sim, spawn=args.viewer, save_path=args.viewer_save, speed_range=(lo, hi),
                                hide_outside_range=args.hide_outside_range)
 
-    _write_config(out, "soil-bin", device, config=asdict(cfg), preset=sb.SCALES[args.scale])
+    _write_config(out, "soil-bin", device, config=asdict(cfg), preset=sb.SCALES[args.scale], replicas=args.replicas)
     study = sb.run_study(cfg, device=device, cache_dir=out / "beds", progress=lambda d, n: _bar("soil bin", d, n),
                          viewer=viewer, checkpoint_dir=out / "checkpoints",
-                         deposit_progress=_deposit_bar("deposition"), vtk_every=args.vtk, vtk_dir=out / "vtk")
+                         deposit_progress=_deposit_bar("deposition"), vtk_every=args.vtk, vtk_dir=out / "vtk",
+                         replicas=args.replicas)
     (out / "summary.json").write_text(json.dumps(sb.json_safe(study["table"]), indent=2))
     from scenes.reproduce import write_soil_bin_report
 
     report = write_soil_bin_report(out, {"scale": args.scale, "assembly": args.assembly}, study, device)
     for r in study["table"]:
         name = "rigid" if r["springs"] == 0 else f"{r['springs']} springs"
+        over = f", {r['replicas']} replicas" if args.replicas > 1 else ""
         line = (f"{name:>10} at {r['speed']:.2f} m/s: draught {r['draught_mean']:.1f} N (SE {r['draught_sem']:.1f}, "
-                f"std {r['draught_std']:.1f})")
+                f"std {r['draught_std']:.1f}{over})")
         if r["springs"]:
             line += f", displacement {1e3 * r['displacement_mean']:.2f} mm"
             if r["reduction_pct"] is not None:
@@ -694,6 +697,9 @@ def main(argv: list[str] | None = None) -> int:
     s.add_argument("--springs", type=_springs, default=None, help="configurations, 0 = rigid (default 0,16,32)")
     s.add_argument("--spring-model", choices=("paper", "linear"), default=None,
                    help="passive tool's springs: linear spring-dashpot (default) or the paper's spring spheres")
+    s.add_argument("--replicas", type=_number(int, ge=1), default=1, metavar="N",
+                   help="run every configuration on N replica beds (worlds of the same simulations) and report the "
+                   "mean over them with standard errors from their scatter (default 1: one bed)")
     s.add_argument("--viewer", action="store_true", help="stream to the Rerun viewer")
     s.add_argument("--viewer-save", default=None, help="write a Rerun recording (.rrd) instead of / as well")
     s.add_argument("--speed-range", type=_speed_range, default=(0.2, 0.7),

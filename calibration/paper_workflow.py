@@ -51,6 +51,7 @@ from scenes import paper
 from scenes import soil_bin as sb
 from scenes.reproduce import versions
 from scenes.ringing import RingingConfig, build_ringing, run_ringing
+from scenes.soil_bin import ensemble
 from warpdem.errors import BudgetExhausted, InputError, SimulationError
 from warpdem.files import write_atomic
 
@@ -242,19 +243,6 @@ def ringing_batches(problems: list[RingingProblem], device: str | None
 
 
 # ------------------------------------------------------------------------------------------------ ensembles
-def ensemble(values: list[float], record_sems: list[float]) -> dict[str, float]:
-    """Mean of replicas and its standard errors: ``sem`` from the scatter over replicas (std with ddof 1 over
-    sqrt(n); with one replica, its record's own), ``record_sem`` from the records' own standard errors
-    (sqrt(sum sem_r^2) / n), ``std`` over replicas, ``n``."""
-    v = np.asarray(values, dtype=np.float64)
-    s = np.asarray(record_sems, dtype=np.float64)
-    n = len(v)
-    record_sem = float(np.sqrt(np.sum(s**2)) / n) if n else math.nan
-    std = float(np.std(v, ddof=1)) if n > 1 else math.nan
-    return {"mean": float(np.mean(v)) if n else math.nan, "sem": std / math.sqrt(n) if n > 1 else record_sem,
-            "record_sem": record_sem, "std": std, "n": n}
-
-
 def replicas_needed(sems: list[float], n: int, target: float, most: int) -> int:
     """Replicas that bring the largest standard error (from ``n`` replicas) below ``target`` if it falls as
     1/sqrt(n): ceil(n (max sem / target)^2), at least n, at most ``most``."""

@@ -69,12 +69,17 @@ def plot_soil_bin(study: dict, out: Path) -> list[str]:
     for run in runs.values():
         for w, n in enumerate(run.springs):
             series.append((n, run, w))
-    label = {0: "rigid"}
+
+    def name(n: int, run: object, w: int) -> str:
+        """A world's label: its configuration, and its replica bed where it has one."""
+        rep = run.steady[w].get("replica_seed") if len(run.steady) > w else None
+        return (f"rigid at {run.speeds[w]:.2f} m/s" if n == 0 else f"{n} springs") + \
+            ("" if rep is None else f", replica {rep}")
     t3, t7 = paper.table("soil_bin_measured"), paper.table("soil_bin_dem")
     # Fig. 16: draught and displacement vs travel, the laboratory's and the paper's final DEM's means as references
     fig, ax = plt.subplots(len(series), 1, figsize=(10, 2.6 * len(series)), sharex=True, squeeze=False)
     for a, (n, run, w) in zip(ax[:, 0], series, strict=True):
-        a.plot(run.travel[:, w], run.series["draught"][:, w], lw=0.7, label=f"draught, {label.get(n, f'{n} springs')}")
+        a.plot(run.travel[:, w], run.series["draught"][:, w], lw=0.7, label=f"draught, {name(n, run, w)}")
         a.axvspan(study["steady_travel"], float(run.travel[:, w].max()), color="0.93", zorder=0, label="steady")
         i = int(np.argmin(np.abs(t3["speed_mean_m_s"] - run.speeds[w]))) if n == 0 else \
             int(np.nonzero(t3["springs"] == n)[0][0])
@@ -104,7 +109,7 @@ def plot_soil_bin(study: dict, out: Path) -> list[str]:
             sel = run.travel[:, w] >= start
             scale = 1e3 if key == "displacement" else 1.0
             f, amp = analysis.spectrum(run.time[sel], scale * run.series[key][sel, w], cutoff_hz=100.0)
-            a.plot(f, amp, lw=0.8, label=label.get(n, f"{n} springs"))
+            a.plot(f, amp, lw=0.8, label=name(n, run, w))
         a.set_xlim(0, 60)
         a.set_xlabel("frequency [Hz]")
         a.set_ylabel(f"amplitude [{unit}]")
@@ -119,8 +124,8 @@ def plot_soil_bin(study: dict, out: Path) -> list[str]:
         if n == 0:
             continue
         ke = run.series["ke_tool"][:, w]
-        a.plot(run.travel[:, w], ke.sum(axis=-1), lw=0.7, label=f"{n} springs, total")
-        a.plot(run.travel[:, w], ke[:, 1], lw=0.7, ls=":", label=f"{n} springs, rotational")
+        a.plot(run.travel[:, w], ke.sum(axis=-1), lw=0.7, label=f"{name(n, run, w)}, total")
+        a.plot(run.travel[:, w], ke[:, 1], lw=0.7, ls=":", label=f"{name(n, run, w)}, rotational")
     a.set_xlabel("travel [m]")
     a.set_ylabel("kinetic energy of the tool [J]")
     a.legend(fontsize=8)
@@ -222,9 +227,14 @@ def soil_bin_section(assembly: str, study: dict, plots: list[str]) -> list[str]:
     t7 = paper.table("soil_bin_dem")
     a = assembly
     col = {"A": "a", "B": "b", "C": "c"}[a]
-    lines += [f"## Soil bin, assembly {a} ({study['bed'].n_particles} particles, porosity "
-              f"{study['bed'].porosity:.3f}, initial coordination {study['bed'].coordination:.2f}; paper: "
-              f"{ {'A': 4.88, 'B': 9.63, 'C': 9.55}[a]})", "",
+    beds = study.get("beds", [study["bed"]])
+    n_beds = len(beds)
+    what = (f"{study['bed'].n_particles} particles, porosity {study['bed'].porosity:.3f}, initial coordination "
+            f"{study['bed'].coordination:.2f}" if n_beds == 1 else
+            f"{n_beds} replica beds of {min(b.n_particles for b in beds)}-{max(b.n_particles for b in beds)} "
+            f"particles, porosity {min(b.porosity for b in beds):.3f}-{max(b.porosity for b in beds):.3f}, "
+            f"initial coordination {min(b.coordination for b in beds):.2f}-{max(b.coordination for b in beds):.2f}")
+    lines += [f"## Soil bin, assembly {a} ({what}; paper: {({'A': 4.88, 'B': 9.63, 'C': 9.55}[a])})", "",
               "| springs | speed [m/s] | draught ± SE [N] | std [N] | rigid reference ± SE [N] | "
               "reduction ± SE [%] | displacement [mm] | lab draught [N] | lab red. [%] | lab disp. [mm] | "
               f"paper DEM {a} 1 m bin [N] | red. [%] | "
@@ -257,9 +267,14 @@ def soil_bin_section(assembly: str, study: dict, plots: list[str]) -> list[str]:
             _fmt(r["draught_std"]), ref, pm(r["reduction_pct"], r["reduction_sem"], 2) if n else "–",
             _fmt(1e3 * r["displacement_mean"]) if n else "–", _fmt(lab[0], 4), _fmt(lab[1], 2), _fmt(lab[2]),
             paper_dem[0], paper_red[0], paper_dem[1], paper_red[1]]) + " |")
-    lines += ["", f"Steady state after {study['steady_travel']} m of travel; SE: standard error of a steady "
-              "mean from the record's autocorrelation; a reduction's SE propagates both means' (taken as "
-              "independent). Every reduction is against warpdem's rigid run at the configuration's own speed, "
+    se = ("SE: standard error of a steady mean from the record's autocorrelation; a reduction's SE propagates "
+          "both means' (taken as independent)." if n_beds == 1 else
+          f"each value is the mean over the {n_beds} replica beds (worlds of the same simulations, the tool at "
+          "their mean surface) and its SE comes from their scatter (std over sqrt(n)); std: the draught's mean "
+          "fluctuation within a record; a reduction is each replica's own, against its own rigid run, then "
+          "averaged (`summary.json` has every replica's).")
+    lines += ["", f"Steady state after {study['steady_travel']} m of travel; {se} Every reduction is against "
+              "warpdem's rigid run at the configuration's own speed, "
               "as the laboratory paired its runs (Table 3); lab rigid draught: Table 3's rigid runs at that "
               "speed. The paper's DEM (Table 7) took every reduction against one rigid run at 0.68 m/s; its "
               f"columns are assembly {a} in the 1 m bin and the paper's final model (assembly C, 2 m bin, "
@@ -293,7 +308,8 @@ def soil_bin_meaning(rows: list[dict], t3: dict) -> list[str]:
                  if np.sign(r["reduction_pct"]) == np.sign(t3["reduction_pct"][t3["springs"] == r["springs"]][0])]
         out.append(f"- {len(unclear)} of {len(passive)} reductions are within two standard errors of zero, so this "
                    f"run cannot tell their sign; {len(right)} of {len(passive)} have the laboratory's sign. "
-                   "A longer travel or more beds (`warpdem reproduce --workflow full` runs replicas) narrows them.")
+                   "A longer travel or more beds (`warpdem soil-bin --replicas N`; `warpdem reproduce --workflow full` "
+                   "runs replicas until the standard errors meet a target) narrows them.")
         disp = [1e3 * r["displacement_mean"] for r in passive]
         lab = [float(t3["displacement_mean_mm"][t3["springs"] == r["springs"]][0]) for r in passive]
         text = (f"- The passive tool's mean displacement is {min(disp):.2g} to {max(disp):.2g} mm against the "

@@ -212,6 +212,66 @@ def pair_reductions(rows: list[dict[str, object]]) -> list[dict[str, object]]:
     return rows
 
 
+def ensemble(values: list[float], record_sems: list[float]) -> dict[str, float]:
+    """Mean of replicas and its standard errors: ``sem`` from the scatter over replicas (std with ddof 1 over
+    sqrt(n); with one replica, its record's own), ``record_sem`` from the records' own standard errors
+    (sqrt(sum sem_r^2) / n), ``std`` over replicas, ``n``."""
+    v = np.asarray(values, dtype=np.float64)
+    s = np.asarray(record_sems, dtype=np.float64)
+    n = len(v)
+    record_sem = float(np.sqrt(np.sum(s**2)) / n) if n else math.nan
+    std = float(np.std(v, ddof=1)) if n > 1 else math.nan
+    return {"mean": float(np.mean(v)) if n else math.nan, "sem": std / math.sqrt(n) if n > 1 else record_sem,
+            "record_sem": record_sem, "std": std, "n": n}
+
+
+def replica_table(rows: list[dict[str, object]]) -> list[dict[str, object]]:
+    """The table of runs on replica beds: ``rows`` are the worlds' steady rows (each with ``replica_seed``, as
+    :func:`run_soil_bin` gives them on replica beds). Each replica's passive rows are paired with that replica's
+    rigid row at the same speed (:func:`pair_reductions`), as the laboratory paired its runs; then one row per
+    configuration and speed, over the replicas (:func:`ensemble`):
+
+    - ``draught_mean`` [N]: the replicas' mean; ``draught_sem``: its standard error from their scatter (with one
+      replica, the record's own); ``draught_record_sem`` from the records' own; ``draught_replica_std`` over
+      replicas; ``draught_std``: the replicas' mean fluctuation within a record (as a single run's row);
+    - ``displacement_mean``, ``_sem`` [m] likewise;
+    - ``reduction_pct``, ``reduction_sem`` [%, percentage points]: the mean of the replicas' own reductions and its
+      standard error; ``rigid_reference_draught``, ``_sem`` [N] the rigid rows' ensemble (None where a replica has
+      no rigid run at that speed);
+    - ``replicas``: their number; ``per_replica``: each replica's draught, displacement and reduction."""
+    by_replica: dict[int, list[dict[str, object]]] = {}
+    for r in rows:
+        if "replica_seed" not in r:
+            raise InputError("replica_table: every row needs replica_seed (a world on a replica bed)")
+        by_replica.setdefault(int(r["replica_seed"]), []).append(dict(r))
+    groups: dict[tuple[int, float], list[dict[str, object]]] = {}
+    for rep in sorted(by_replica):
+        for r in pair_reductions(by_replica[rep]):
+            groups.setdefault((int(r["springs"]), speed_key(r["speed"])), []).append(r)
+    table = []
+    for (n, _), reps in groups.items():
+        d = ensemble([x["draught_mean"] for x in reps], [x["draught_sem"] for x in reps])
+        disp = ensemble([x["displacement_mean"] for x in reps], [x["displacement_sem"] for x in reps])
+        row: dict[str, object] = {
+            "springs": n, "speed": float(reps[0]["speed"]), "replicas": len(reps),
+            "draught_mean": d["mean"], "draught_sem": d["sem"], "draught_record_sem": d["record_sem"],
+            "draught_replica_std": d["std"], "draught_std": float(np.mean([x["draught_std"] for x in reps])),
+            "displacement_mean": disp["mean"], "displacement_sem": disp["sem"],
+            "rigid_reference_speed": None, "rigid_reference_draught": None, "rigid_reference_sem": None,
+            "reduction_pct": None, "reduction_sem": None}
+        if n and all(x["reduction_pct"] is not None for x in reps):
+            red = ensemble([x["reduction_pct"] for x in reps], [x["reduction_sem"] for x in reps])
+            ref = ensemble([x["rigid_reference_draught"] for x in reps], [x["rigid_reference_sem"] for x in reps])
+            row.update(rigid_reference_speed=reps[0]["rigid_reference_speed"], rigid_reference_draught=ref["mean"],
+                       rigid_reference_sem=ref["sem"], reduction_pct=red["mean"], reduction_sem=red["sem"])
+        row["per_replica"] = [{"replica": int(x["replica_seed"]), "draught_mean": x["draught_mean"],
+                               "draught_sem": x["draught_sem"], "displacement_mean": x["displacement_mean"],
+                               "reduction_pct": x["reduction_pct"], "reduction_sem": x["reduction_sem"]}
+                              for x in reps]
+        table.append(row)
+    return table
+
+
 def json_safe(value: object) -> object:
     """``value`` with every NaN or infinite float (also numpy's, in dicts, lists and tuples) replaced by None, and
     numpy scalars by Python's: what ``json.dumps`` writes as standard JSON (null, not NaN)."""
@@ -721,7 +781,8 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
               progress: object | None = None, viewer: object | None = None, vtk_every: int | None = None,
               vtk_dir: str | Path | None = None,
               checkpoint_dir: str | Path | None = None,
-              deposit_progress: object | None = None, bed: Bed | None = None) -> dict[str, object]:
+              deposit_progress: object | None = None, bed: Bed | None = None,
+              replicas: int = 1) -> dict[str, object]:
     """The bed, the rigid runs (if 0 in springs) and the passive runs (one simulation each, one world per speed or
     configuration). With 0 in ``springs`` the rigid tool runs at every distinct speed of the configurations
     (:meth:`SoilBinConfig.rigid_speeds`, as worlds of one simulation) and every passive row's reduction is against
@@ -732,10 +793,27 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
     kill (a run that had finished is read back, not run again); the subfolders are removed when the study is
     done. ``deposit_progress``: the deposition's progress callback
     (:func:`scenes.assemblies.deposit`) when the bed is made. ``bed``: use this bed instead (e.g. one already made).
-    Returns {"bed", "runs": name -> SoilBinRun, "table": rows, "steady_travel": [m]}."""
+
+    ``replicas`` >= 2: every run on that many replica beds (``bed_for(config, replica=r)``, one population of
+    particles, each bed set down from its own seed) as worlds of the same simulations, the tool at their mean
+    surface; each replica's reductions against its own rigid run, and the table over the replicas
+    (:func:`replica_table`: standard errors from the replicas' scatter). Not with ``bed``.
+    Returns {"bed" (the first replica's with replicas), "beds" (every bed), "runs": name -> SoilBinRun, "table":
+    rows, "steady_travel": [m], "replicas"}."""
     import shutil
 
-    bed = bed or bed_for(config, device=device, cache_dir=cache_dir, progress=deposit_progress)
+    if not (isinstance(replicas, int | np.integer) and not isinstance(replicas, bool) and replicas >= 1):
+        raise InputError(f"replicas must be an integer >= 1, got {replicas!r}")
+    if replicas > 1 and bed is not None:
+        raise InputError(f"replicas = {replicas} deposits its own replica beds: pass no bed")
+    if replicas > 1:
+        beds = [bed_for(config, device=device, cache_dir=cache_dir, progress=deposit_progress, replica=r)
+                for r in range(replicas)]
+        tool = place_tool(beds, config.working_depth)  # one tool pose for every run and replica
+    else:
+        beds = [bed or bed_for(config, device=device, cache_dir=cache_dir, progress=deposit_progress)]
+        tool = None
+    bed = beds[0]
     runs = {}
     passive = [n for n in config.springs if n != 0]
     rigid_speeds = config.rigid_speeds()
@@ -746,14 +824,20 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
     streamed = groups[-1][0]  # the passive run, else the rigid one
     for name, springs, speeds in groups:
         folder = Path(checkpoint_dir) / name if checkpoint_dir is not None else None
-        runs[name] = run_soil_bin(config, springs, bed=bed, device=device, progress=progress, speeds=speeds,
+        world_beds: Bed | list[Bed] = bed
+        if replicas > 1:  # replica after replica, each with every configuration of the group
+            world_beds = [b for b in beds for _ in springs]
+            springs, speeds = springs * replicas, speeds * replicas
+        runs[name] = run_soil_bin(config, springs, bed=world_beds, device=device, progress=progress, speeds=speeds,
                                   viewer=viewer if name == streamed else None, checkpoint=folder,
-                                  vtk=(VtkWriter(Path(vtk_dir) / name), vtk_every) if vtk_every else None)
+                                  vtk=(VtkWriter(Path(vtk_dir) / name), vtk_every) if vtk_every else None,
+                                  tool=tool, place=tool is None)
     if checkpoint_dir is not None:
         for name, _, _ in groups:
             shutil.rmtree(Path(checkpoint_dir) / name, ignore_errors=True)
         with contextlib.suppress(OSError):  # the folder too, unless something else is in it
             Path(checkpoint_dir).rmdir()
-    rows = pair_reductions([r for run in runs.values() for r in run.steady])
-    return {"bed": bed, "runs": runs, "table": rows,
+    rows = [r for run in runs.values() for r in run.steady]
+    rows = replica_table(rows) if replicas > 1 else pair_reductions(rows)
+    return {"bed": bed, "beds": beds, "runs": runs, "table": rows, "replicas": replicas,
             "steady_travel": config.steady_travel or config.preset["steady_travel"]}

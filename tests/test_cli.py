@@ -101,6 +101,8 @@ BAD = [
     ("soil-bin --seed -3", "argument --seed: must be >= 0"),
     ("soil-bin --scale huge", "argument --scale: invalid choice: 'huge'"),
     ("soil-bin --vtk 0", "argument --vtk: must be >= 1"),
+    ("soil-bin --replicas 0", "argument --replicas: must be >= 1"),
+    ("soil-bin --replicas 2.5", "argument --replicas: must be an integer"),
     ("soil-bin --speed-range 0.5", "argument --speed-range: must be LO,HI in m/s, got '0.5'"),
     ("soil-bin --speed-range 0.7,0.2", "argument --speed-range: must be LO,HI with 0 <= LO < HI"),
     ("speed-sweep --speeds 0.5,-1", "argument --speeds: must be one or more speeds > 0"),

@@ -170,3 +170,51 @@ def test_replica_beds_are_checked(beds: list) -> None:
         sb.run_soil_bin(CFG, [0, 0], bed=beds[:1], device=DEVICE, speeds=[0.68, 0.68])
     with pytest.raises(InputError, match="replica must be"):
         sb.bed_for(CFG, device=DEVICE, replica=-1)
+
+
+def test_study_on_replica_beds_pairs_each_replica_and_averages_them(beds: list, tmp_path: object) -> None:
+    # References: (1) world 0 of the study's rigid run is replica bed 0 run alone with the same tool pose and time
+    # step (an independent build of the same physics, as above): the same draught to the bit; (2) the table is the
+    # replicas' statistics written out here in numpy: each passive world's reduction against the rigid world of
+    # its own replica at its speed, 100 (rigid - passive) / rigid, then mean and std (ddof 1) / sqrt(n) over the
+    # replicas. (2) checks the bookkeeping of replica_table, not physics.
+    cfg = replace(CFG, springs=(0, 16))
+    for r, bed in enumerate(beds):  # the fixture's beds, where run_study looks for them
+        bed.save(sb.bed_path(cfg, tmp_path, r))
+    study = sb.run_study(cfg, device=DEVICE, cache_dir=tmp_path, replicas=2)
+    rigid, passive = study["runs"]["rigid"], study["runs"]["passive"]
+    assert passive.springs == (16, 16) and [r["replica_seed"] for r in passive.steady] == [0, 1]
+    v = passive.speeds[0]
+    assert rigid.speeds == (v, v) and [r["replica_seed"] for r in rigid.steady] == [0, 1]
+    tool = sb.place_tool(beds, cfg.working_depth)
+    alone = sb.run_soil_bin(replace(cfg, dt=rigid.dt), [0], bed=beds[0], device=DEVICE, speeds=[v], tool=tool,
+                            place=False)
+    assert np.count_nonzero(alone.series["draught"][:, 0]) >= 1
+    np.testing.assert_array_equal(rigid.series["draught"][:, 0], alone.series["draught"][:, 0])
+
+    table = {r["springs"]: r for r in study["table"]}
+    assert sorted(table) == [0, 16] and table[16]["replicas"] == 2
+    p = np.array([r["draught_mean"] for r in passive.steady])
+    q = np.array([r["draught_mean"] for r in rigid.steady])
+    red = 100.0 * (q - p) / q
+    for row, x in ((table[0], q), (table[16], p)):
+        np.testing.assert_allclose(row["draught_mean"], x.mean(), rtol=1e-12)
+        np.testing.assert_allclose(row["draught_sem"], x.std(ddof=1) / np.sqrt(2), rtol=1e-12)
+    np.testing.assert_allclose(table[16]["reduction_pct"], red.mean(), rtol=1e-12)
+    np.testing.assert_allclose(table[16]["reduction_sem"], red.std(ddof=1) / np.sqrt(2), rtol=1e-12)
+    np.testing.assert_allclose([x["reduction_pct"] for x in table[16]["per_replica"]], red, rtol=1e-12)
+    assert table[0]["reduction_pct"] is None
+    # the report's table carries the replicas' means and standard errors, and says what they are
+    from scenes.reproduce import write_soil_bin_report
+
+    text = write_soil_bin_report(tmp_path, {"scale": "ci", "assembly": "C"}, study, DEVICE).read_text()
+    assert "2 replica beds" in text and "comes from their scatter" in text
+    row16 = next(line for line in text.splitlines() if line.startswith("| 16 |"))
+    r = table[16]
+    assert f"{r['draught_mean']:.4g} ± {r['draught_sem']:.2g}" in row16
+    assert f"{r['reduction_pct']:.2g} ± {r['reduction_sem']:.2g}" in row16
+
+    with pytest.raises(InputError, match="replicas must be an integer >= 1, got 0"):
+        sb.run_study(cfg, device=DEVICE, cache_dir=tmp_path, replicas=0)
+    with pytest.raises(InputError, match="pass no bed"):
+        sb.run_study(cfg, device=DEVICE, bed=beds[0], replicas=2)
