@@ -624,6 +624,11 @@ SHEAR_SCALE_HELP = ("particle size in the 100 mm box: ci = 10 particles across (
 ASSEMBLY_HELP = "A = single spheres, B = two-sphere clumps, C = the paper's mix with elongated three-sphere clumps"
 
 
+RESUMABLE = ("reproduce", "soil-bin", "diagnose", "calibrate")
+"""Commands that save checkpoints into their results folder and resume from them when run again (unless given
+--no-resume)."""
+
+
 def main(argv: list[str] | None = None) -> int:
     from warpdem import __version__
 
@@ -812,6 +817,13 @@ def main(argv: list[str] | None = None) -> int:
     except SimulationError as e:  # a run that went unstable: where and why, in one line
         print(f"warpdem {args.command}: simulation stopped: {e}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:  # Ctrl-C or SIGINT (a time limit): one line, no traceback
+        if args.debug:
+            raise
+        again = args.command in RESUMABLE and not getattr(args, "no_resume", False)
+        print(f"warpdem {args.command}: interrupted" + ("; the same command run again resumes from its last "
+                                                        "checkpoint" if again else ""), file=sys.stderr)
+        return 130
     except Exception as e:  # noqa: BLE001 - an internal error: one line, the traceback with --debug
         if args.debug:
             raise

@@ -277,6 +277,26 @@ def test_the_soil_bin_reports_what_this_means_from_its_numbers() -> None:
     assert "against the laboratory's 4.8 to 12 mm" in text and "moves much less" not in text
 
 
+def test_an_interrupted_command_says_so_in_one_line(tmp_path, monkeypatch, capsys) -> None:
+    """Ctrl-C (or SIGINT from a time limit) during the deposition of `warpdem soil-bin`: Python raises
+    KeyboardInterrupt where the signal lands, here in a progress callback. The command prints one line that says
+    the same command resumes, no traceback, and exits 130 (128 + SIGINT), as shells report an interrupted
+    program; the deposition's bed is not saved half-made."""
+    from calibration import cli
+
+    def bar(label: str, done: float, total: float) -> None:
+        if done / total > 0.2:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_bar", bar)
+    out = tmp_path / "run"
+    rc = cli.main(["--quiet", "soil-bin", "--scale", "ci", "--device", "cpu", "--out", str(out)])
+    err = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
+    assert rc == 130
+    assert err == ["warpdem soil-bin: interrupted; the same command run again resumes from its last checkpoint"]
+    assert not list((out / "beds").glob("*.npz"))
+
+
 class _Killed(BaseException):
     """A kill: not an Exception, so the command's error handling does not catch it (as with SIGKILL)."""
 
