@@ -27,21 +27,23 @@ import hashlib
 import json
 import math
 import time
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
 
 import warpdem as wd
 from warpdem import analysis
+from warpdem import mass as massprops
 from warpdem.errors import BudgetExhausted, InputError
 from warpdem.files import write_atomic
 from warpdem.vtk import VtkWriter
 
 from . import paper, replica_beds
 from .assemblies import AssemblySpec, Bed, bin_mesh, deposit
+from .passive_tool import PassiveTool
 from .ringing import check_per_world, series_rate
-from .sweep import SweepTool, add_sweep, build_sweep
+from .sweep import SweepTool, add_sweep, build_sweep, pitch_matrix
 
 DEFAULT_SET = {"A": 1, "B": 8, "C": 11}
 """GA set (Tables 4-6) per assembly whose shear-box result is closest to the laboratory's (32.3 deg, 6.4 kPa) by the
@@ -60,7 +62,7 @@ SCALES = {
 }
 SPRING_MODELS = ("linear", "paper")
 KNOBS = ("stiffness", "dashpot", "pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
-         "stack_preload")
+         "stack_preload", "tool_mass_scale")
 """per-world settings and extensions of the passive rig with linear springs (``run_soil_bin(knobs=...)``), SI:
 stiffness [N/m] (default DIN 2093 of the configuration), dashpot [N s/m] (default: Table 2's measured damping
 ratio for the hinged tool alone), pivot_friction [N m] (Coulomb torque at the hinge), extra_mass [kg] (added to the
@@ -69,7 +71,8 @@ tool, distributed like its own), progressive [N/m^3] (cubic term of the stack, F
 resistance b v against travel at the share's tip; it adds to the draught), stack_preload [m] (the stack assembled
 compressed by this much at the drawing pose, against a stop: the tool rests on the stop until the spring's load
 exceeds k x stack_preload, then deflects by the excess / k; the stop is STOP_RATIO times the spring's rate). The rigid
-tool takes soil_viscosity only (its motion is prescribed: the resistance only adds to the draught)."""
+tool takes soil_viscosity only (its motion is prescribed: the resistance only adds to the draught). tool_mass_scale
+[-] (> 0) multiplies the tool's mass and inertia (``scenes.passive_tool.PassiveTool.inertia_factor``)."""
 STOP_RATIO = 100.0
 """stiffness of the preloaded stack's stop relative to the stack's rate: the tool presses into it by at most 1 % of
 the preload's compression (a metal stop is stiffer still; this keeps the spring's time step far above the soil's)."""
@@ -430,7 +433,8 @@ def dashpot_for(tool: SweepTool, stiffness: np.ndarray, damping_ratio: np.ndarra
 
 def _build(config: SoilBinConfig, bed: Bed | list[Bed], tool: SweepTool, springs: list[int], speeds: list[float],
            device: str | None, soil_overrides: dict[str, object] | None = None,
-           knobs: dict[str, np.ndarray] | None = None) -> tuple[wd.Model, wd.State, dict]:
+           knobs: dict[str, np.ndarray] | None = None, pitch: np.ndarray | None = None
+           ) -> tuple[wd.Model, wd.State, dict]:
     rigid = all(n == 0 for n in springs)
     knobs = knobs or {}
     b = wd.ModelBuilder(gravity=(0.0, 0.0, -9.81))
@@ -442,15 +446,17 @@ def _build(config: SoilBinConfig, bed: Bed | list[Bed], tool: SweepTool, springs
     v0 = (0.0, speeds[0], 0.0)
     add_sweep(b, tool, "tool", mount="rigid" if rigid else "hinged", velocity=v0, group="tool")
     first_soil = sum(len(r) for r in b.sphere_radius)
+    poses = [tool] if pitch is None else [tool.pitched(a) for a in np.unique(pitch)]
     if isinstance(bed, Bed):
         layout = None
-        keep = clear_start(bed, tool)
+        keep = np.logical_and.reduce([clear_start(bed, t) for t in poses])
         bed.add_to(b, "soil", group="soil", keep=keep)
         info: dict[str, object] = {"n_particles": int(keep.sum())}
     else:  # replica beds, one per world: one shared layout, each world's missing particles parked
         travel = config.travel or config.preset["travel"]
         garage = (-bed[0].bin_size[0], bed[0].bin_size[0], -0.4, bed[0].bin_size[1] + travel + 0.9)
-        layout = replica_beds.shared_layout(bed, [clear_start(x, tool) for x in bed], garage)
+        layout = replica_beds.shared_layout(
+            bed, [np.logical_and.reduce([clear_start(x, t) for t in poses]) for x in bed], garage)
         members = layout.bed.add_to(b, "soil", group="soil")
         b.set_local_damping(replica_beds.PARKED_GROUP, 0.0)
         info = {"n_particles": [int(n) for n in layout.n_particles], "garage_bottom": layout.garage_bottom}
@@ -496,8 +502,9 @@ def _build(config: SoilBinConfig, bed: Bed | list[Bed], tool: SweepTool, springs
                 overrides["spring:spring:stop_stiffness"] = STOP_RATIO * k_eff
             if "pivot_friction" in knobs:
                 overrides["body:sweep_lower:pivot_friction"] = knobs["pivot_friction"]
-            if "extra_mass" in knobs:
-                overrides["body:sweep_lower:mass"] = tool.mass + knobs["extra_mass"]
+            if "extra_mass" in knobs or "tool_mass_scale" in knobs:
+                scale = knobs.get("tool_mass_scale", np.ones(len(springs)))
+                overrides["body:sweep_lower:mass"] = scale * tool.mass + knobs.get("extra_mass", 0.0)
         else:
             sp = paper.SPRING_SPHERE
             r = sp["radius"]
@@ -519,7 +526,24 @@ def _build(config: SoilBinConfig, bed: Bed | list[Bed], tool: SweepTool, springs
     model, state = b.finalize(device, n_worlds=len(springs), overrides=overrides)
     if layout is not None:
         replica_beds.place_worlds(model, state, layout, members, first_soil)
+    if pitch is not None:
+        pitch_tool(model, state, tool, pitch)
+    info["pitch_deg"] = None if pitch is None else pitch.tolist()
     return model, state, info
+
+
+def pitch_tool(model: wd.Model, state: wd.State, tool: SweepTool, pitch: np.ndarray) -> None:
+    """Turn each world's tool backwards by ``pitch`` [deg] (n_worlds,) about its pivot, keeping its velocities:
+    before a Simulation is made of the state."""
+    host = state.numpy()
+    for w, angle in enumerate(pitch):
+        b = model.body_index("sweep_lower", w)
+        rot = pitch_matrix(float(angle))
+        host["body_pos"][b] = tool.pivot + rot @ (host["body_pos"][b] - tool.pivot)
+        q = host["body_quat"][b]
+        host["body_quat"][b] = massprops.matrix_to_quat(rot @ massprops.quat_to_matrix(q))
+    for k in ("body_pos", "body_quat"):
+        getattr(state, k).assign(host[k])
 
 
 def _stop_carriages(sim: wd.Simulation, worlds: np.ndarray) -> None:
@@ -603,8 +627,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
                  viewer: object | None = None, soil_overrides: dict[str, object] | None = None,
                  speeds: list[float] | None = None, knobs: dict[str, object] | None = None,
                  checkpoint: str | Path | None = None, checkpoint_every: float = 60.0,
-                 deadline: float | None = None, place: bool = True, vtk: tuple[object, int] | None = None
-                 ) -> SoilBinRun:
+                 deadline: float | None = None, place: bool = True, vtk: tuple[object, int] | None = None,
+                 passive_tool: PassiveTool | None = None, pitch: list[float] | None = None) -> SoilBinRun:
     """One simulation: rigid tools (every entry of ``springs`` 0) or passive configurations, one world each.
 
     ``bed``: the bed of every world, or replica beds (``assemblies.deposit(population_seed=...)``), one per world:
@@ -627,6 +651,14 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
     the uninterrupted one would (bit for bit on the CPU).
     ``deadline``: a ``time.time()`` [s] after which the run saves its checkpoint and raises
     :class:`warpdem.errors.BudgetExhausted` (needs ``checkpoint``); called again, it continues.
+    ``passive_tool``: the spring-mounted tool described once (``scenes.passive_tool``): its rates, dashpots, series
+    compliance, preload, mass and support offsets set the passive worlds (``knobs`` given as well override its
+    values by name; its ``support_offsets`` replaces ``config.support_offset``), and the displacement is read as
+    the lab reads it, zeroed on the tool at rest on its springs (its closed-form rest pose, no soil). Without it,
+    the displacement is the sensor's motion from the drawing pose.
+    ``pitch``: per world, the tool's backward rotation about its pivot at the start [deg] (n_worlds,) (rigid:
+    the pose it keeps; passive: where its springs take it from). The particles any world's tool would overlap at
+    the start are left out of every world.
     """
     t0 = time.perf_counter()
     if deadline is not None and checkpoint is None:
@@ -646,9 +678,21 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
             raise InputError(f"bed: replica beds need one per world ({len(springs)}), got {len(bed)}")
         replica_beds.check_replicas(bed)
     rigid = all(n == 0 for n in springs)
-    knob_arrays = _check_knobs(knobs, len(springs), rigid, config.spring_model)
     tool = place_tool(bed, config.working_depth, tool) if place or tool is None else tool
-    model, state, info = _build(config, bed, tool, springs, speeds, device, soil_overrides, knob_arrays)
+    rest = np.zeros(len(springs))
+    if passive_tool is not None and not rigid:
+        if config.spring_model != "linear":
+            raise InputError(f"passive_tool needs spring_model 'linear', got {config.spring_model!r}")
+        config = replace(config, support_offset=passive_tool.support_offsets)
+        knobs = {**passive_tool.soil_bin_knobs(springs, tool), **(knobs or {})}
+        rest = passive_tool.rest_readings(springs, tool)
+    knob_arrays = _check_knobs(knobs, len(springs), rigid, config.spring_model)
+    pitches = None
+    if pitch is not None:
+        pitches = np.asarray(pitch, dtype=np.float64).reshape(-1)
+        if len(pitches) != len(springs) or not np.all(np.isfinite(pitches)) or np.any(np.abs(pitches) > 30):
+            raise InputError(f"pitch needs one angle per world ({len(springs)}) within +-30 deg, got {list(pitch)}")
+    model, state, info = _build(config, bed, tool, springs, speeds, device, soil_overrides, knob_arrays, pitches)
     dt = config.dt or default_dt(model, config.spring_model, rigid)
     p = config.preset
     travel = config.travel or p["travel"]
@@ -666,7 +710,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
         _settle(sim, config.settle_time, carriage_vel)
     sim.set_cohesion_now()
     sensor = wd.observers.body_point("sweep_lower", tool.sensor_point)
-    s0 = sensor(sim)[:, 1].copy()
+    s0 = np.full(len(springs), tool.sensor_point[1])  # the drawing pose's (a pitched world's reading starts there)
     contact = wd.observers.mesh_wrench("sweep_lower")
     if "soil_viscosity" in knob_arrays:  # the dashpot pushes back (compression, < 0) while the tool advances
         drag = wd.observers.spring_force("soil_viscosity")
@@ -678,7 +722,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
             return -contact(s)[:, 0, 1]
     observers = {
         "draught": draught,
-        "displacement": lambda s: -(sensor(s)[:, 1] - s0 - np.minimum(speeds_a * s.state.time, travel)),
+        "displacement": lambda s: -(sensor(s)[:, 1] - s0 - np.minimum(speeds_a * s.state.time, travel)) - rest,
         "ke_tool": wd.observers.group_kinetic_energy("tool"),
         "ke_soil": wd.observers.group_kinetic_energy("soil"),
         "coordination": wd.observers.coordination_number("soil"),
@@ -712,7 +756,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
                                              for x in ([bed] if isinstance(bed, Bed) else bed))).hexdigest()
         key = json.dumps([asdict(config), list(springs), speeds, {k: np.asarray(v).tolist() for k, v in
                           knob_arrays.items()}, {k: np.asarray(v).tolist() for k, v in (soil_overrides or {}).items()},
-                          bed_digest, float(dt)], sort_keys=True, default=str)
+                          bed_digest, float(dt)] + ([] if pitches is None else [pitches.tolist()]), sort_keys=True,
+                         default=str)
         ck = RunCheckpoint(checkpoint, hashlib.sha256(key.encode()).hexdigest())
         resumed = ck.load(sim)
         if resumed is not None:

@@ -332,6 +332,27 @@ class SweepTool:
             split_height=None if self.split_height is None else self.split_height + float(off[2]),
         )
 
+    def pitched(self, angle: float) -> SweepTool:
+        """This tool turned backwards by ``angle`` [deg] about its pivot's axis (x): its lower points move against
+        travel (-y) and its tip rises, as the springs let the passive tool bend back (negative: forwards)."""
+        rot = pitch_matrix(angle)
+        pivot = self.pivot
+
+        def turn(p: np.ndarray) -> np.ndarray:
+            return (np.asarray(p, dtype=np.float64) - pivot) @ rot.T + pivot
+
+        return dataclasses.replace(
+            self,
+            lower=Mesh(turn(self.lower.vertices), self.lower.faces.copy()),
+            upper=Mesh(turn(self.upper.vertices), self.upper.faces.copy()),
+            sensor_point=turn(self.sensor_point),
+            spring_direction=rot @ self.spring_direction,
+            tip=turn(self.tip),
+            com=turn(self.com),
+            inertia=rot @ self.inertia @ rot.T,
+            split_height=None,
+        )
+
     def export_stl(self, directory: str | Path) -> dict[str, Path]:
         """Write lower.stl, upper.stl and whole.stl (binary STL, float32 coordinates [m]) into ``directory``.
 
@@ -344,6 +365,14 @@ class SweepTool:
             paths[name] = out / f"{name}.stl"
             mesh.to_trimesh().export(paths[name])
         return paths
+
+
+def pitch_matrix(angle: float) -> np.ndarray:
+    """Rotation matrix (3, 3) of a backward pitch by ``angle`` [deg]: about +x by -angle (y forward, z up, so a
+    point below the pivot moves to -y)."""
+    t = math.radians(-float(angle))
+    c, s = math.cos(t), math.sin(t)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
 
 
 def _volume_centroid(meshes: list[Mesh]) -> tuple[float, np.ndarray]:
