@@ -709,8 +709,12 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
     if config.settle_time > 0:
         _settle(sim, config.settle_time, carriage_vel)
     sim.set_cohesion_now()
-    sensor = wd.observers.body_point("sweep_lower", tool.sensor_point)
-    s0 = np.full(len(springs), tool.sensor_point[1])  # the drawing pose's (a pitched world's reading starts there)
+    # the sensor's material point in each world (pitched where a pitch is given); its reading starts from the
+    # drawing pose's, so a pitched world's displacement includes its pitch
+    points = np.array([tool.sensor_point if pitches is None else tool.pitched(a).sensor_point
+                       for a in (pitches if pitches is not None else [0.0] * len(springs))])
+    sensor = wd.observers.body_point("sweep_lower", points)
+    s0 = np.full(len(springs), tool.sensor_point[1])
     contact = wd.observers.mesh_wrench("sweep_lower")
     if "soil_viscosity" in knob_arrays:  # the dashpot pushes back (compression, < 0) while the tool advances
         drag = wd.observers.spring_force("soil_viscosity")

@@ -427,5 +427,6 @@ class BodyPoint:
 
 def body_point(body: str, point: object) -> BodyPoint:
     """Observer: world position [m] of a point fixed to a named body, shape (n_worlds, 3). ``point`` is given in
-    the world at the initial pose [m] (3,); subtract the first record to get its displacement."""
+    the world at the initial pose [m] (3,), or per world (n_worlds, 3) where the worlds start in other poses;
+    subtract the first record to get its displacement."""
     return BodyPoint(body, point)
