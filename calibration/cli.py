@@ -425,6 +425,31 @@ def run_speed_sweep_cmd(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_passive_tool_cmd(args: argparse.Namespace) -> int:
+    """``warpdem passive-tool``: Table 2 fitted within bounds, the rigid pitch sweep and Table 3 with the tool."""
+    from calibration.passive_study import VARIANTS, PassiveStudy
+    from warpdem.errors import BudgetExhausted
+
+    device = _setup(args)
+    variants = tuple(args.variants.split(",")) if args.variants else VARIANTS
+    bad = [v for v in variants if v not in VARIANTS]
+    if bad:
+        raise InputError(f"--variants must name tool variants among {list(VARIANTS)}, got {args.variants!r}")
+    out = _claim(args, args.out)
+    study = PassiveStudy(out, scale=args.scale, device=device, seed=args.seed, travel=args.travel,
+                         steady_travel=args.steady_travel, log=lambda m: print(m, flush=True))
+    t0 = time.perf_counter()
+    try:
+        study.run(args.budget, variants)
+    except BudgetExhausted as e:
+        from calibration.passive_study import write_report
+
+        print(f"warpdem passive-tool: stopped: {e}; the report so far is {write_report(out)}", file=sys.stderr)
+        return 3
+    print(f"results in {out} (report.md), this call {time.perf_counter() - t0:.0f} s on {device}")
+    return 0
+
+
 def _speeds(text: str) -> tuple[float, ...]:
     try:
         v = tuple(float(x) for x in text.split(",") if x.strip())
@@ -624,7 +649,7 @@ SHEAR_SCALE_HELP = ("particle size in the 100 mm box: ci = 10 particles across (
 ASSEMBLY_HELP = "A = single spheres, B = two-sphere clumps, C = the paper's mix with elongated three-sphere clumps"
 
 
-RESUMABLE = ("reproduce", "soil-bin", "diagnose", "calibrate")
+RESUMABLE = ("reproduce", "soil-bin", "diagnose", "calibrate", "passive-tool")
 """Commands that save checkpoints into their results folder and resume from them when run again (unless given
 --no-resume)."""
 
@@ -712,6 +737,18 @@ def main(argv: list[str] | None = None) -> int:
     s.add_argument("--hide-outside-range", action="store_true", help="show only particles inside the speed range")
     s.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
                    help="write ParaView (VTK) frames of every run into OUT/vtk/<run>/ at every EVERY-th record")
+    t = sub.add_parser("passive-tool", help="the passive tool described once: Table 2 fitted within physical "
+                       "bounds, the rigid tool's pitch sweep and Table 3 with the fitted tool (resumable)")
+    common(t, "results/passive_tool")
+    t.add_argument("--travel", type=_number(float, gt=0, unit="m"), default=None,
+                   help="travel of every soil-bin run [m] (default: the scale's)")
+    t.add_argument("--steady-travel", type=_number(float, gt=0, unit="m"), default=None,
+                   help="travel after which the steady state is averaged [m] (default: the scale's)")
+    t.add_argument("--variants", default=None,
+                   help="tool variants of the passive runs, comma-separated (default fitted,din_preload)")
+    t.add_argument("--budget", type=_number(float, gt=0, unit="s"), default=None,
+                   help="wall time [s] of this call; a soil-bin stage stops into its checkpoint (exit code 3) and "
+                        "the same command continues")
     v = sub.add_parser("speed-sweep", help="rigid draught against speed (one world per speed) and the paper's "
                        "Table 7 reductions re-paired with a rigid run at each configuration's speed")
     common(v, "results/speed_sweep")
@@ -807,7 +844,7 @@ def main(argv: list[str] | None = None) -> int:
         _quiet_warp()
     _BAR["quiet"] = args.quiet
     commands = {"diagnose": run_diagnose_cmd, "demo": run_demo, "reproduce": run_reproduce, "ringing": run_ringing_cmd,
-                "soil-bin": run_soil_bin_cmd,
+                "soil-bin": run_soil_bin_cmd, "passive-tool": run_passive_tool_cmd,
                 "speed-sweep": run_speed_sweep_cmd, "shear-box": run_shear_box_cmd, "calibrate": run_calibrate_cmd}
     try:
         return commands[args.command](args)
