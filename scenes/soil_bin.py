@@ -714,6 +714,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
     points = np.array([tool.sensor_point if pitches is None else tool.pitched(a).sensor_point
                        for a in (pitches if pitches is not None else [0.0] * len(springs))])
     sensor = wd.observers.body_point("sweep_lower", points)
+    sensor(sim)  # the point in the body's frame, from the initial pose (before a checkpoint may move the state on)
     s0 = np.full(len(springs), tool.sensor_point[1])
     contact = wd.observers.mesh_wrench("sweep_lower")
     if "soil_viscosity" in knob_arrays:  # the dashpot pushes back (compression, < 0) while the tool advances

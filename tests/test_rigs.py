@@ -11,6 +11,7 @@ from conftest import DEVICE
 import warpdem as wd
 from scenes import ringing
 from scenes import soil_bin as sb
+from scenes.passive_tool import PassiveTool
 from warpdem import analysis
 
 
@@ -130,14 +131,16 @@ class _Killed(Exception):
     pass
 
 
-def test_a_killed_soil_bin_run_resumes_to_the_same_result(ci_bed, tmp_path) -> None:
+@pytest.mark.parametrize("tool", [None, PassiveTool(preload=1e-3, series_stiffness=5e5)], ids=["knobs", "described"])
+def test_a_killed_soil_bin_run_resumes_to_the_same_result(ci_bed, tmp_path, tool) -> None:
     # Reference: the uninterrupted run. A passive run with two carriage speeds (the faster carriage stops first:
     # a change made mid-run that the checkpoint must hold) is killed after its first stop and run again with the
     # same checkpoint folder; runs are deterministic (integer force sums, on CUDA too), so every record and
-    # statistic must be equal exactly.
+    # statistic must be equal exactly (the displacement too: the sensor's point is taken from the initial pose,
+    # not from the resumed one).
     cfg = sb.SoilBinConfig(scale="ci", assembly="A", springs=(16, 32), travel=0.08, steady_travel=0.02)
     speeds = [0.7, 0.5]
-    whole = sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=speeds)
+    whole = sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=speeds, passive_tool=tool)
     first_stop = 0.08 / 0.7 / whole.dt
 
     def kill(done: int, total: int) -> None:
@@ -147,16 +150,18 @@ def test_a_killed_soil_bin_run_resumes_to_the_same_result(ci_bed, tmp_path) -> N
     folder = tmp_path / "ck"
     with pytest.raises(_Killed):
         sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=speeds, checkpoint=folder,
-                        checkpoint_every=0.0, progress=kill)
+                        checkpoint_every=0.0, progress=kill, passive_tool=tool)
     step = json.loads((folder / "latest.json").read_text())["step"]
     assert first_stop < step < whole.steps
-    again = sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=speeds, checkpoint=folder)
+    again = sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=speeds, checkpoint=folder,
+                            passive_tool=tool)
     np.testing.assert_array_equal(again.time, whole.time)
     for k, v in whole.series.items():
         np.testing.assert_array_equal(again.series[k], v, err_msg=k)
     assert again.steady == whole.steady
     with pytest.raises(ValueError, match="another soil-bin run"):
-        sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=[0.6, 0.5], checkpoint=folder)
+        sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=[0.6, 0.5], checkpoint=folder,
+                        passive_tool=tool)
 
 
 def test_soil_bin_series_give_the_trend_and_a_sensor_drift_moves_it(ci_bed) -> None:
