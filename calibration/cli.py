@@ -431,10 +431,7 @@ def run_passive_tool_cmd(args: argparse.Namespace) -> int:
     from warpdem.errors import BudgetExhausted
 
     device = _setup(args)
-    variants = tuple(args.variants.split(",")) if args.variants else VARIANTS
-    bad = [v for v in variants if v not in VARIANTS]
-    if bad:
-        raise InputError(f"--variants must name tool variants among {list(VARIANTS)}, got {args.variants!r}")
+    variants = args.variants or VARIANTS
     out = _claim(args, args.out)
     study = PassiveStudy(out, scale=args.scale, device=device, seed=args.seed, travel=args.travel,
                          steady_travel=args.steady_travel, log=lambda m: print(m, flush=True))
@@ -448,6 +445,15 @@ def run_passive_tool_cmd(args: argparse.Namespace) -> int:
         return 3
     print(f"results in {out} (report.md), this call {time.perf_counter() - t0:.0f} s on {device}")
     return 0
+
+
+def _variants(text: str) -> tuple[str, ...]:
+    from calibration.passive_study import VARIANTS
+
+    v = tuple(x.strip() for x in text.split(",") if x.strip())
+    if not v or any(x not in VARIANTS for x in v):
+        raise argparse.ArgumentTypeError(f"must name tool variants among {list(VARIANTS)}, got {text!r}")
+    return v
 
 
 def _speeds(text: str) -> tuple[float, ...]:
@@ -744,7 +750,7 @@ def main(argv: list[str] | None = None) -> int:
                    help="travel of every soil-bin run [m] (default: the scale's)")
     t.add_argument("--steady-travel", type=_number(float, gt=0, unit="m"), default=None,
                    help="travel after which the steady state is averaged [m] (default: the scale's)")
-    t.add_argument("--variants", default=None,
+    t.add_argument("--variants", type=_variants, default=None,
                    help="tool variants of the passive runs, comma-separated (default fitted,din_preload)")
     t.add_argument("--budget", type=_number(float, gt=0, unit="s"), default=None,
                    help="wall time [s] of this call; a soil-bin stage stops into its checkpoint (exit code 3) and "

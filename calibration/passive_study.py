@@ -26,7 +26,7 @@ import numpy as np
 
 from scenes import paper
 from scenes import soil_bin as sb
-from scenes.passive_tool import PassiveTool, lever
+from scenes.passive_tool import PassiveTool, from_dict, lever
 from scenes.sweep import build_sweep
 from warpdem.files import write_atomic
 
@@ -202,6 +202,37 @@ def pitch_table(rigid: dict) -> list[dict[str, float]]:
     return out
 
 
+def line_fit(x: list[float], y: list[float], se: list[float] | None = None) -> tuple[float, float]:
+    """Slope of a straight line through (x, y) [y per x] and its standard error: weighted by 1 / se^2 when
+    ``se`` is given (the points' own standard errors), else ordinary least squares (the scatter's)."""
+    x_a, y_a = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    w = np.ones_like(x_a) if se is None else 1.0 / np.asarray(se, dtype=np.float64) ** 2
+    xm = np.sum(w * x_a) / np.sum(w)
+    sxx = np.sum(w * (x_a - xm) ** 2)
+    slope = float(np.sum(w * (x_a - xm) * y_a) / sxx)
+    if se is not None:
+        return slope, float(math.sqrt(1.0 / sxx))
+    resid = y_a - (np.mean(y_a) + slope * (x_a - xm))
+    return slope, float(math.sqrt(np.sum(resid**2) / (len(x_a) - 2) / sxx))
+
+
+def moment_arms(rows: list[dict[str, float]], tool: PassiveTool) -> list[dict[str, float]]:
+    """Per configuration, the stack's force [N] that the mean displacement implies through the tool's own stack
+    law, and the lever of the draught about the pivot it gives [m] (force x stack lever / draught), in the
+    simulation and, with the same stack, in the laboratory (Table 3's displacement and passive draught)."""
+    sweep = build_sweep()
+    a = lever(sweep)
+    t3 = _table3()
+    out = []
+    for r in rows:
+        n = r["springs"]
+        f_sim = tool.stack_force(n, 1e-3 * r["disp_mm"], sweep)
+        f_lab = tool.stack_force(n, 1e-3 * r["lab_disp_mm"], sweep)
+        out.append({"springs": n, "force_n": f_sim, "arm_m": f_sim * a / r["passive_n"], "lab_force_n": f_lab,
+                    "lab_arm_m": f_lab * a / t3[n]["passive_draught_mean_n"]})
+    return out
+
+
 def lab_pitch_relation() -> list[dict[str, float]]:
     """What the laboratory implies: each configuration's mean displacement as a backward pitch (d / 0.1 m) and
     its draught change against the rigid tool (minus its reduction) [%]."""
@@ -255,11 +286,17 @@ def write_report(out: str | Path) -> Path:
         lines += ["", "Laboratory (Table 3): displacement as pitch d / 0.1 m, draught change = -reduction:", "",
                   "| springs | pitch [deg] | change [%] |", "|---:|---:|---:|"]
         lines += [f"| {r['springs']} | {r['pitch_deg']:.2f} | {r['change_pct']:+.2f} |" for r in lab_pitch_relation()]
-        lines.append("")
+        lab = lab_pitch_relation()
+        slope, slope_se = line_fit([r["pitch_deg"] for r in pt], [r["change_pct"] for r in pt],
+                                   [max(r["change_se"], 1e-9) for r in pt])
+        lab_slope, lab_se = line_fit([r["pitch_deg"] for r in lab], [r["change_pct"] for r in lab])
+        lines += ["", f"Straight lines: warpdem's rigid tool {slope:+.2f} +- {slope_se:.2f} % per degree (weighted by "
+                  f"the points' SE; they share pitch 0's run, so the SE is a lower bound); the laboratory's passive "
+                  f"tool {lab_slope:+.2f} +- {lab_se:.2f} % per degree (ordinary least squares over its eight "
+                  "configurations).", ""]
         fig, ax = plt.subplots(figsize=(6, 4))
         ax.errorbar([r["pitch_deg"] for r in pt], [r["change_pct"] for r in pt], yerr=[r["change_se"] for r in pt],
                     fmt="o-", capsize=3, label=f"warpdem, rigid tool pitched, {PITCH_SPEED} m/s")
-        lab = lab_pitch_relation()
         ax.plot([r["pitch_deg"] for r in lab], [r["change_pct"] for r in lab], "s", color="k",
                 label="laboratory: passive tool's mean pitch, -reduction")
         for r in lab:
@@ -290,6 +327,15 @@ def write_report(out: str | Path) -> Path:
                   f"{r['reduction_pct']:+.1f} +- {r['reduction_se']:.1f} | {r['lab_reduction_pct']:+.2f} | "
                   f"{r['disp_mm']:.2f} | {r['disp_std_mm']:.2f} | {r['lab_disp_mm']:.2f} | {r['lab_disp_std_mm']:.2f} |"
                   for r in rows]
+        tool = from_dict(load[f"passive_{v}"]["tool"]) if load[f"passive_{v}"].get("tool") else None
+        if tool is not None:
+            arms = moment_arms(rows, tool)
+            lines += ["", "The stack's force that each mean displacement implies through this tool's stack law, and "
+                      "the draught's lever about the pivot that follows (force x 0.1 m / passive draught):", "",
+                      "| springs | force [N] | lever [m] | lab force [N] | lab lever [m] |",
+                      "|---:|---:|---:|---:|---:|"]
+            lines += [f"| {r['springs']} | {r['force_n']:.0f} | {r['arm_m']:.3f} | {r['lab_force_n']:.0f} | "
+                      f"{r['lab_arm_m']:.3f} |" for r in arms]
         lines.append("")
         fig, axes = plt.subplots(1, 2, figsize=(10, 4))
         n = [r["springs"] for r in rows]

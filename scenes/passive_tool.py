@@ -246,6 +246,13 @@ class PassiveTool:
         """What the lab's sensor reads [m] under a backward moment [N m]: the reading zeroed at rest (no moment)."""
         return self.sensor_reading(springs, moment, tool, offset) - self.sensor_reading(springs, 0.0, tool, offset)
 
+    def stack_force(self, springs: int, reading: float, tool: SweepTool | None = None, offset: float = 0.0) -> float:
+        """The stack's push on the shank [N] (> 0: compression, pushing the tool forward) when the lab's sensor
+        reads ``reading`` [m] (zeroed at rest): -T at the stretch the reading sets. Times the lever, the moment
+        that holds the tool against the soil (less the tool's weight's)."""
+        rest = self.sensor_reading(springs, 0.0, tool, offset)
+        return -self.tension(springs, offset - (rest + reading))
+
     # ------------------------------------------------------------------------------------------- the rigs
     def ringing_config(self, springs: tuple[int, ...] = paper.SPRING_COUNTS, **kw: object) -> object:
         """warpdem's ringing rig (linear springs) for these stacks: a ``scenes.ringing.RingingConfig``. A riding
@@ -367,6 +374,14 @@ def parse(data: dict[str, object], source: str = "") -> PassiveTool:
                 raise InputError(f"tool description: {k} must be a number, got {v!r}")
             kw[k] = float(v)
     return PassiveTool(**kw, source=source)
+
+
+def from_dict(data: dict[str, object]) -> PassiveTool:
+    """A description from :meth:`PassiveTool.to_dict` as JSON stores it (an infinite series stiffness as null)."""
+    d = {k: v for k, v in data.items() if k != "source"}
+    if d.get("series_stiffness") is None:
+        d["series_stiffness"] = math.inf
+    return parse(d, str(data.get("source", "")))
 
 
 def load_toml(path: str | Path) -> PassiveTool:

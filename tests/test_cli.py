@@ -98,6 +98,8 @@ BAD = [
     ("ringing --springs ,", "argument --springs: must list one or more of"),
     ("ringing --springs 16,x", "argument --springs: must be comma-separated spring counts"),
     ("soil-bin --springs 0,17", "argument --springs: must list one or more of"),
+    ("passive-tool --variants fitted,stiff", "argument --variants: must name tool variants among"),
+    ("passive-tool --travel -1", "argument --travel: must be > 0 m"),
     ("soil-bin --seed -3", "argument --seed: must be >= 0"),
     ("soil-bin --scale huge", "argument --scale: invalid choice: 'huge'"),
     ("soil-bin --vtk 0", "argument --vtk: must be >= 1"),

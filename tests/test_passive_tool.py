@@ -147,3 +147,10 @@ def test_description_file_round_trip_and_refusals(tmp_path) -> None:
         PassiveTool(rate_factors={5: 1.0})
     with pytest.raises(InputError, match="load_mass_fraction"):
         PassiveTool(load_mass_fraction=1.5)
+
+
+def test_a_pitch_per_world_is_checked() -> None:
+    cfg = sb.SoilBinConfig(scale="ci", springs=(0, 0), speed=(0.5, 0.5), travel=0.01, steady_travel=0.005)
+    for bad in ([1.0], [0.0, 45.0], [0.0, math.nan]):
+        with pytest.raises(InputError, match="pitch needs one angle per world"):
+            sb.run_soil_bin(cfg, [0, 0], bed=_empty_bed(), device="cpu", pitch=bad)
