@@ -434,7 +434,8 @@ def run_passive_tool_cmd(args: argparse.Namespace) -> int:
     variants = args.variants or VARIANTS
     out = _claim(args, args.out)
     study = PassiveStudy(out, scale=args.scale, device=device, seed=args.seed, travel=args.travel,
-                         steady_travel=args.steady_travel, log=lambda m: print(m, flush=True))
+                         steady_travel=args.steady_travel, shank_length=args.shank_length, pitches=args.pitches,
+                         log=lambda m: print(m, flush=True))
     t0 = time.perf_counter()
     try:
         study.run(args.budget, variants)
@@ -445,6 +446,21 @@ def run_passive_tool_cmd(args: argparse.Namespace) -> int:
         return 3
     print(f"results in {out} (report.md), this call {time.perf_counter() - t0:.0f} s on {device}")
     return 0
+
+
+PITCHES_DEFAULT = (-4.0, -2.0, 2.0, 4.0, 6.0, 8.0, 9.0)
+
+
+def _pitches(text: str) -> tuple[float, ...]:
+    if text.strip() == "none":
+        return ()
+    try:
+        v = tuple(float(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be comma-separated angles [deg] or 'none', got {text!r}") from None
+    if not v or not all(math.isfinite(x) and abs(x) <= 30 for x in v):
+        raise argparse.ArgumentTypeError(f"must be angles within +-30 deg, got {text!r}")
+    return v
 
 
 def _variants(text: str) -> tuple[str, ...]:
@@ -750,6 +766,11 @@ def main(argv: list[str] | None = None) -> int:
                    help="travel of every soil-bin run [m] (default: the scale's)")
     t.add_argument("--steady-travel", type=_number(float, gt=0, unit="m"), default=None,
                    help="travel after which the steady state is averaged [m] (default: the scale's)")
+    t.add_argument("--shank-length", type=_number(float, gt=0, unit="m"), default=0.6,
+                   help="the pivot's height above the blade tip [m] (default 0.6, an assumption: the paper gives none)")
+    t.add_argument("--pitches", type=_pitches, default=PITCHES_DEFAULT,
+                   help="the rigid tool's backward pitches [deg] besides 0, comma-separated, or 'none' (default "
+                        "-4,-2,2,4,6,8,9)")
     t.add_argument("--variants", type=_variants, default=None,
                    help="tool variants of the passive runs, comma-separated (default fitted,din_preload)")
     t.add_argument("--budget", type=_number(float, gt=0, unit="s"), default=None,

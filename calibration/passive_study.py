@@ -27,7 +27,7 @@ import numpy as np
 from scenes import paper
 from scenes import soil_bin as sb
 from scenes.passive_tool import PassiveTool, from_dict, lever
-from scenes.sweep import build_sweep
+from scenes.sweep import SweepParams, build_sweep
 from warpdem.files import write_atomic
 
 from .tool_fit import fit_table2, simulate
@@ -61,14 +61,20 @@ class PassiveStudy:
 
     def __init__(self, out: str | Path, *, scale: str = "paper", device: str | None = None, seed: int = 0,
                  travel: float | None = None, steady_travel: float | None = None, settle_time: float = 0.5,
+                 shank_length: float = SweepParams.shank_length, pitches: tuple[float, ...] = PITCHES,
                  log: object = print) -> None:
         self.out = Path(out)
         self.out.mkdir(parents=True, exist_ok=True)
         self.device, self.log = device, log
+        self.shank_length = float(shank_length)
+        self.pitches = tuple(float(p) for p in pitches if p != 0.0)
+        self.sweep = PassiveTool(shank_length=self.shank_length).sweep()
         self.config = sb.SoilBinConfig(scale=scale, assembly="C", springs=(0,), seed=seed, travel=travel,
                                        steady_travel=steady_travel, settle_time=settle_time, support_offset=False)
         meta = {"scale": scale, "seed": seed, "travel": travel, "steady_travel": steady_travel,
-                "settle_time": settle_time, "soil": SOIL, "pitches": PITCHES, "pitch_speed": PITCH_SPEED}
+                "settle_time": settle_time, "soil": SOIL, "pitches": self.pitches, "pitch_speed": PITCH_SPEED}
+        if self.shank_length != SweepParams.shank_length:
+            meta["shank_length"] = self.shank_length
         p = self.out / "study.json"
         if p.exists() and json.loads(p.read_text()) != sb.json_safe(meta):
             raise ValueError(f"{self.out} holds a study with other settings ({p}); choose another folder")
@@ -82,7 +88,8 @@ class PassiveStudy:
         if (done := self._done("ringing")) is not None:
             return done
         t0 = time.perf_counter()
-        fits = {m: fit_table2(m) for m in ("one rate", "rate per stack")}
+        base = PassiveTool(shank_length=self.shank_length)
+        fits = {m: fit_table2(m, base) for m in ("one rate", "rate per stack")}
         sim = simulate(fits["one rate"], device=self.device)
         out = {"fits": {m: f.to_dict() for m, f in fits.items()}, "simulated": sim,
                "wall_s": time.perf_counter() - t0}
@@ -94,9 +101,10 @@ class PassiveStudy:
         if variant == "fitted":
             d = self.ringing()["fits"]["one rate"]["tool"]
             return PassiveTool(rate_factor=d["rate_factor"], inertia_factor=d["inertia_factor"],
-                               series_stiffness=d["series_stiffness"], load_mass_fraction=d["load_mass_fraction"])
+                               series_stiffness=d["series_stiffness"], load_mass_fraction=d["load_mass_fraction"],
+                               shank_length=self.shank_length)
         if variant == "din_preload":
-            return PassiveTool(preload=PRELOAD_TABLE3)
+            return PassiveTool(preload=PRELOAD_TABLE3, shank_length=self.shank_length)
         raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
 
     def _run(self, stage: str, springs: list[int], speeds: list[float], deadline: float | None,
@@ -113,7 +121,7 @@ class PassiveStudy:
         t0 = time.perf_counter()
         run = sb.run_soil_bin(cfg, springs, bed=bed, device=self.device, speeds=speeds, soil_overrides=overrides,
                               checkpoint=self.out / "checkpoints" / stage, deadline=deadline,
-                              passive_tool=passive_tool, pitch=pitch)
+                              passive_tool=passive_tool, pitch=pitch, tool=self.sweep)
         keep = {"time": run.time, "travel": run.travel, **{k: run.series[k] for k in ("draught", "displacement")}}
         write_atomic(self.out / f"{stage}.npz", lambda tmp: np.savez_compressed(tmp, **keep))
         out = {"rows": run.steady, "springs": springs, "speeds": speeds, "pitch": pitch, "dt": run.dt,
@@ -126,8 +134,9 @@ class PassiveStudy:
     def rigid(self, deadline: float | None = None) -> dict:
         t3 = _table3()
         speeds = sorted({round(r["speed_mean_m_s"], 2) for r in t3.values()})
-        pitch = [0.0] * len(speeds) + list(PITCHES)
-        return self._run("rigid", [0] * len(pitch), speeds + [PITCH_SPEED] * len(PITCHES), deadline, pitch=pitch)
+        pitch = [0.0] * len(speeds) + list(self.pitches)
+        return self._run("rigid", [0] * len(pitch), speeds + [PITCH_SPEED] * len(self.pitches), deadline,
+                         pitch=pitch if self.pitches else None)
 
     def passive(self, variant: str, deadline: float | None = None) -> dict:
         t3 = _table3()
@@ -148,7 +157,8 @@ class PassiveStudy:
 
 # ----------------------------------------------------------------------------------------------------- report
 def _rigid_by_speed(rigid: dict) -> dict[float, dict]:
-    return {round(r["speed"], 2): r for r, p in zip(rigid["rows"], rigid["pitch"], strict=True) if p == 0.0}
+    pitch = rigid["pitch"] or [0.0] * len(rigid["rows"])
+    return {round(r["speed"], 2): r for r, p in zip(rigid["rows"], pitch, strict=True) if p == 0.0}
 
 
 def passive_table(rigid: dict, passive: dict) -> list[dict[str, float]]:
@@ -220,7 +230,7 @@ def moment_arms(rows: list[dict[str, float]], tool: PassiveTool) -> list[dict[st
     """Per configuration, the stack's force [N] that the mean displacement implies through the tool's own stack
     law, and the lever of the draught about the pivot it gives [m] (force x stack lever / draught), in the
     simulation and, with the same stack, in the laboratory (Table 3's displacement and passive draught)."""
-    sweep = build_sweep()
+    sweep = tool.sweep()
     a = lever(sweep)
     t3 = _table3()
     out = []
@@ -277,7 +287,7 @@ def write_report(out: str | Path) -> Path:
         lines += [f"| {r['springs']} | {r['sim_freq_hz']:.3f} | {r['fit_freq_hz']:.3f} | {r['measured_freq_hz']:.2f} | "
                   f"{r['sim_damping']:.3f} | {r['measured_damping']:.3f} |" for r in ring["simulated"]]
         lines.append("")
-    if "rigid" in load:
+    if "rigid" in load and load["rigid"].get("pitch"):
         pt = pitch_table(load["rigid"])
         lines += ["## Pitch sweep of the rigid tool", "", "| pitch [deg] | draught [N] | SE [N] | change [%] |",
                   "|---:|---:|---:|---:|"]

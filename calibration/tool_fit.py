@@ -27,7 +27,6 @@ from scipy.optimize import least_squares
 
 from scenes import paper
 from scenes.passive_tool import BOUNDS, PassiveTool
-from scenes.sweep import build_sweep
 
 MODELS = ("one rate", "rate per stack")
 
@@ -72,7 +71,7 @@ def fit_table2(model: str = "one rate", base: PassiveTool | None = None, starts:
     if model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     base = base or PassiveTool()
-    tool = build_sweep()
+    tool = base.sweep()
     measured = np.array([paper.ringing_row(n)["measured_freq_hz"] for n in paper.SPRING_COUNTS])
     rate_lo, rate_hi = BOUNDS["rate_factor"]
     n_rates = 1 if model == "one rate" else len(paper.SPRING_COUNTS)
@@ -115,7 +114,7 @@ def simulate(fit: ToolFit, device: str | None = None) -> list[dict[str, float]]:
     closed form's and Table 2's."""
     from scenes.ringing import run_ringing
 
-    res = run_ringing(fit.tool.ringing_config(), device=device)
+    res = run_ringing(fit.tool.ringing_config(), device=device, tool=fit.tool.sweep())
     out = []
     for row, f, z in zip(fit.rows, res.frequency_hz, res.damping_ratio, strict=True):
         n = row["springs"]

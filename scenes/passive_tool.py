@@ -45,7 +45,7 @@ import numpy as np
 from warpdem.errors import InputError
 
 from . import paper
-from .sweep import SweepTool, build_sweep
+from .sweep import SweepParams, SweepTool, build_sweep
 
 G = 9.81
 """gravity [m/s^2] (every warpdem rig's)."""
@@ -70,6 +70,11 @@ MIN_RIDING = 1e-3
 """the smallest riding fraction of the ringing load that warpdem's ringing rig simulates as a mass (below: none)."""
 STOP_RATIO = 100.0
 """a preloaded stack rests on a stop this many times stiffer than its rate (``scenes.soil_bin.STOP_RATIO``)."""
+
+
+@functools.cache
+def _sweep(shank_length: float) -> SweepTool:
+    return build_sweep(SweepParams(shank_length=shank_length))
 
 
 @functools.cache
@@ -118,6 +123,9 @@ class PassiveTool:
             stack's dashpot (:meth:`dashpot`), which the soil bin uses as it is.
         support_offsets: apply Table 2's support offsets (the paper's final DEM: the stack's seat moved along
             travel, + against it) in the soil bin.
+        shank_length: the pivot's height above the blade tip [m] (``scenes.sweep.SweepParams.shank_length``; the
+            paper gives none: 0.6 m is warpdem's assumption). It sets the draught's lever about the pivot and the
+            tool's inertia about it (the paper's mass and inertia about the centre of mass, moved there).
         source: where it was read from (empty: built in code).
     """
 
@@ -129,10 +137,11 @@ class PassiveTool:
     load_mass_fraction: float = 0.0
     damping_ratio: dict[int, float] = field(default_factory=dict)
     support_offsets: bool = False
+    shank_length: float = SweepParams.shank_length
     source: str = ""
 
     def __post_init__(self) -> None:
-        for name in ("rate_factor", "inertia_factor", "series_stiffness"):
+        for name in ("rate_factor", "inertia_factor", "series_stiffness", "shank_length"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0 and not math.isnan(v)):
                 raise InputError(f"tool description: {name} must be a positive number, got {v!r}")
@@ -157,6 +166,10 @@ class PassiveTool:
             raise InputError(f"tool description: preload must lie within the stiffest stack's service travel "
                              f"({travel * 1e3:.2f} mm, DIN 2093), got {self.preload * 1e3:.3g} mm")
 
+    def sweep(self) -> SweepTool:
+        """The sweep of this description (its pivot at the origin; ``scenes.soil_bin.place_tool`` places it)."""
+        return _sweep(self.shank_length)
+
     # ------------------------------------------------------------------------------------------- the stacks
     def rate(self, springs: int) -> float:
         """The stack's own rate [N/m]: its factor times DIN 2093's."""
@@ -174,19 +187,19 @@ class PassiveTool:
     # ------------------------------------------------------------------------------------------- the tool
     def pivot_inertia(self, tool: SweepTool | None = None) -> float:
         """The tool's inertia about the pivot axis [kg m^2]: the factor times the sweep's."""
-        tool = tool or build_sweep()
+        tool = tool or self.sweep()
         return float(self.inertia_factor * tool.inertia_about(tool.pivot)[0, 0])
 
     def tool_gravity_stiffness(self, tool: SweepTool | None = None) -> float:
         """The tool's pendulum stiffness about the pivot, m g h_c [N m/rad] (its mass scaled with its inertia)."""
-        tool = tool or build_sweep()
+        tool = tool or self.sweep()
         return float(-self.inertia_factor * tool.mass * G * (tool.com[2] - tool.pivot[2]))
 
     def ringing_stiffness_inertia(self, springs: int, tool: SweepTool | None = None,
                                   load_force: float = paper.LOAD_FORCE) -> tuple[float, float]:
         """The ringing rig's rotational stiffness about the pivot [N m/rad] and inertia [kg m^2], the load
         ``load_force`` [N] at the blade tip: (k_e a^2 + K_g, J) of the module docstring."""
-        tool = tool or build_sweep()
+        tool = tool or self.sweep()
         a = lever(tool)
         r = np.asarray(tool.tip, dtype=np.float64) - tool.pivot
         inertia = self.pivot_inertia(tool) + self.load_mass_fraction * load_force / G * (r[1] ** 2 + r[2] ** 2)
@@ -196,7 +209,7 @@ class PassiveTool:
     def dashpot(self, springs: int, tool: SweepTool | None = None) -> float:
         """The stack's dashpot [N s/m]: the one that gives the ringing rig (load included) its damping ratio,
         2 zeta sqrt(K J) / a^2. The same dashpot acts in the soil bin."""
-        tool = tool or build_sweep()
+        tool = tool or self.sweep()
         k_rot, inertia = self.ringing_stiffness_inertia(springs, tool)
         return 2.0 * self.zeta(springs) * math.sqrt(k_rot * inertia) / lever(tool) ** 2
 
@@ -205,7 +218,7 @@ class PassiveTool:
                           load_force: float = paper.LOAD_FORCE) -> float:
         """Damped frequency [Hz] of the ringing rig (module docstring) on this stack, the load ``load_force`` [N]
         at the blade tip, the stack's dashpot (:meth:`dashpot`, set for the standard load)."""
-        tool = tool or build_sweep()
+        tool = tool or self.sweep()
         k_rot, inertia = self.ringing_stiffness_inertia(springs, tool, load_force)
         zeta = self.dashpot(springs, tool) * lever(tool) ** 2 / (2.0 * math.sqrt(k_rot * inertia))
         return math.sqrt(k_rot / inertia) * math.sqrt(max(0.0, 1.0 - zeta**2)) / (2.0 * math.pi)
@@ -226,7 +239,7 @@ class PassiveTool:
         """The sensor's displacement [m] (backward positive, from the drawing pose) at rest under a backward moment
         ``moment`` about the pivot [N m], the stack's seat moved ``offset`` [m] against travel. Solves the
         moment balance of the module docstring (small rotations) by bisection."""
-        tool = tool or build_sweep()
+        tool = tool or self.sweep()
         a = lever(tool)
         c = tool.com - tool.pivot
         weight = self.inertia_factor * tool.mass * G
@@ -273,7 +286,7 @@ class PassiveTool:
     def soil_bin_knobs(self, springs: list[int] | tuple[int, ...], tool: SweepTool | None = None
                        ) -> dict[str, list[float]]:
         """Per-world knobs of ``scenes.soil_bin.run_soil_bin`` (passive worlds) for these stacks."""
-        tool = tool or build_sweep()
+        tool = tool or self.sweep()
         knobs: dict[str, list[float]] = {
             "stiffness": [self.rate(s) for s in springs],
             "dashpot": [self.dashpot(s, tool) for s in springs],
@@ -292,7 +305,7 @@ class PassiveTool:
 
     def rest_readings(self, springs: list[int] | tuple[int, ...], tool: SweepTool | None = None) -> np.ndarray:
         """The sensor's reading at rest (no soil) per world [m] (n,), from the drawing pose: the lab's zero."""
-        tool = tool or build_sweep()
+        tool = tool or self.sweep()
         return np.array([self.sensor_reading(s, 0.0, tool, o) for s, o in zip(springs, self.offsets(springs),
                                                                               strict=True)])
 

@@ -45,9 +45,10 @@ def test_simulated_ringing_rig_rings_at_the_descriptions_closed_form(device: str
     inertia factor, series compliance, riding load) rings at the closed form's frequency with its damping ratio.
     Tolerance 1 %: the record's fit by eqs. (3)-(5) on 2400 Hz samples and the neglected geometric stiffness of
     the preload (< 0.2 %) (measured agreement: 0.1 %)."""
-    tool = PassiveTool(rate_factor=1.1, inertia_factor=0.95, series_stiffness=5e5, load_mass_fraction=0.3)
+    tool = PassiveTool(rate_factor=1.1, inertia_factor=0.95, series_stiffness=5e5, load_mass_fraction=0.3,
+                       shank_length=0.5)
     springs = (4, 16, 32)
-    res = run_ringing(tool.ringing_config(springs, ring_time=1.5), device=device)
+    res = run_ringing(tool.ringing_config(springs, ring_time=1.5), device=device, tool=tool.sweep())
     for k, n in enumerate(springs):
         assert res.frequency_hz[k] == pytest.approx(tool.ringing_frequency(n), rel=0.01), n
         assert res.damping_ratio[k] == pytest.approx(tool.zeta(n), rel=0.05), n
@@ -67,10 +68,11 @@ def test_static_deflection_under_a_known_moment_matches_the_moment_balance(devic
     reading after the ring-down equals :meth:`PassiveTool.lab_reading` (small rotations: the readings stay under
     4 mm at the 0.1 m lever, theta < 0.04 rad, so the arc and the lines' tilt add < 0.5 %; tolerance 3 %, or
     0.02 mm for a reading held on the stop)."""
-    tool_desc = PassiveTool(rate_factor=1.1, series_stiffness=8e5, preload=preload, inertia_factor=1.05)
+    tool_desc = PassiveTool(rate_factor=1.1, series_stiffness=8e5, preload=preload, inertia_factor=1.05,
+                            shank_length=0.5)
     springs = [4, 32]
     speed, b = 0.25, 300.0
-    sweep = build_sweep().moved(np.array([0.0, 0.3, 0.8]))  # in the air above the bin
+    sweep = tool_desc.sweep().moved(np.array([0.0, 0.3, 0.8]))  # in the air above the bin
     cfg = sb.SoilBinConfig(scale="ci", springs=tuple(springs), speed=(speed,) * 2, travel=0.2,
                            steady_travel=0.1, sample_rate=200.0)
     run = sb.run_soil_bin(cfg, springs, bed=_empty_bed(), device=device, tool=sweep, place=False,
@@ -84,8 +86,9 @@ def test_static_deflection_under_a_known_moment_matches_the_moment_balance(devic
         assert late.mean() == pytest.approx(expected, rel=0.03, abs=2e-5), (n, expected)
     if preload == 0.0:
         assert all(abs(tool_desc.lab_reading(n, moment, sweep)) > 5e-4 for n in springs)
-    else:  # the 4-unit stack's preload (610 N at the 0.1 m lever) holds against the 45 N m, the 32-unit's (137 N)
+    else:  # the 4-unit stack's preload (610 N at the 0.1 m lever) holds against the 37.5 N m, the 32-unit's (137 N) not
         assert abs(tool_desc.lab_reading(4, moment, sweep)) < 2e-5 < 5e-4 < tool_desc.lab_reading(32, moment, sweep)
+    assert tool_desc.sweep().pivot[2] - tool_desc.sweep().tip[2] == pytest.approx(0.5)
 
 
 def test_rest_reading_with_an_offset_and_a_preload_is_the_offset() -> None:
