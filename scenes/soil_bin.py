@@ -706,16 +706,20 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
                         cohesion_on_new_contacts=config.cohesion_on_new_contacts)
     speeds_a = np.asarray(speeds)
     carriage_vel = np.stack([np.zeros_like(speeds_a), speeds_a, np.zeros_like(speeds_a)], axis=1)
-    if config.settle_time > 0:
-        _settle(sim, config.settle_time, carriage_vel)
-    sim.set_cohesion_now()
-    # the sensor's material point in each world (pitched where a pitch is given); its reading starts from the
-    # drawing pose's, so a pitched world's displacement includes its pitch
+    # the sensor's material point in each world (pitched where a pitch is given). With a described tool or a pitch
+    # it is fixed on the body at the initial pose and read from the drawing pose (a pitched world's reading includes
+    # its pitch, the tool's settling is part of the reading, the rest reading is taken off); otherwise it is the
+    # point at the sensor after the settling, read from there. Either way it is fixed before a checkpoint is loaded.
+    drawing = passive_tool is not None or pitches is not None
     points = np.array([tool.sensor_point if pitches is None else tool.pitched(a).sensor_point
                        for a in (pitches if pitches is not None else [0.0] * len(springs))])
     sensor = wd.observers.body_point("sweep_lower", points)
-    sensor(sim)  # the point in the body's frame, from the initial pose (before a checkpoint may move the state on)
-    s0 = np.full(len(springs), tool.sensor_point[1])
+    if drawing:
+        sensor(sim)
+    if config.settle_time > 0:
+        _settle(sim, config.settle_time, carriage_vel)
+    sim.set_cohesion_now()
+    s0 = np.full(len(springs), tool.sensor_point[1]) if drawing else sensor(sim)[:, 1].copy()
     contact = wd.observers.mesh_wrench("sweep_lower")
     if "soil_viscosity" in knob_arrays:  # the dashpot pushes back (compression, < 0) while the tool advances
         drag = wd.observers.spring_force("soil_viscosity")

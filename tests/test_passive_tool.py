@@ -74,7 +74,7 @@ def test_static_deflection_under_a_known_moment_matches_the_moment_balance(devic
     speed, b = 0.25, 300.0
     sweep = tool_desc.sweep().moved(np.array([0.0, 0.3, 0.8]))  # in the air above the bin
     cfg = sb.SoilBinConfig(scale="ci", springs=tuple(springs), speed=(speed,) * 2, travel=0.2,
-                           steady_travel=0.1, sample_rate=200.0)
+                           steady_travel=0.1, sample_rate=200.0, settle_time=0.1)  # the tool settles in the reading
     run = sb.run_soil_bin(cfg, springs, bed=_empty_bed(), device=device, tool=sweep, place=False,
                           knobs={"soil_viscosity": [b] * 2}, passive_tool=tool_desc)
     depth = float(sweep.pivot[2] - sweep.tip[2])
