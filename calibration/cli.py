@@ -370,6 +370,14 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
     from scenes import soil_bin as sb
 
     device = _setup(args)
+    tool = None
+    if args.tool is not None:  # read before the folder is claimed: a bad file leaves nothing behind
+        from scenes.passive_tool import load_toml
+
+        if (args.spring_model or "linear") != "linear":
+            raise InputError(f"--tool describes linear spring stacks; --spring-model must be linear, got "
+                             f"{args.spring_model!r}")
+        tool = load_toml(args.tool)
     out = _claim(args, args.out)
     cfg = sb.SoilBinConfig(scale=args.scale, assembly=args.assembly, springs=args.springs or (0, 16, 32),
                            spring_model=args.spring_model or "linear", seed=args.seed)
@@ -383,11 +391,12 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
             return RerunViewer(sim, spawn=args.viewer, save_path=args.viewer_save, speed_range=(lo, hi),
                                hide_outside_range=args.hide_outside_range)
 
-    _write_config(out, "soil-bin", device, config=asdict(cfg), preset=sb.SCALES[args.scale], replicas=args.replicas)
+    _write_config(out, "soil-bin", device, config=asdict(cfg), preset=sb.SCALES[args.scale], replicas=args.replicas,
+                  tool=None if tool is None else tool.to_dict())
     study = sb.run_study(cfg, device=device, cache_dir=out / "beds", progress=lambda d, n: _bar("soil bin", d, n),
                          viewer=viewer, checkpoint_dir=out / "checkpoints",
                          deposit_progress=_deposit_bar("deposition"), vtk_every=args.vtk, vtk_dir=out / "vtk",
-                         replicas=args.replicas)
+                         replicas=args.replicas, passive_tool=tool)
     (out / "summary.json").write_text(json.dumps(sb.json_safe(study["table"]), indent=2))
     from scenes.reproduce import write_soil_bin_report
 
@@ -752,6 +761,10 @@ def main(argv: list[str] | None = None) -> int:
     s.add_argument("--replicas", type=_number(int, ge=1), default=1, metavar="N",
                    help="run every configuration on N replica beds (worlds of the same simulations) and report the "
                    "mean over them with standard errors from their scatter (default 1: one bed)")
+    s.add_argument("--tool", default=None, metavar="TOML",
+                   help="the passive tool described once (scenes/passive_tool.py: rates, inertia, series compliance, "
+                        "preload, pivot height, offsets), e.g. a passive-tool run's tool_fitted.toml; the displacement "
+                        "is then zeroed on the tool at rest, as the laboratory reads it")
     s.add_argument("--viewer", action="store_true", help="stream to the Rerun viewer")
     s.add_argument("--viewer-save", default=None, help="write a Rerun recording (.rrd) instead of / as well")
     s.add_argument("--speed-range", type=_speed_range, default=(0.2, 0.7),

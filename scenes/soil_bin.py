@@ -836,7 +836,7 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
               vtk_dir: str | Path | None = None,
               checkpoint_dir: str | Path | None = None,
               deposit_progress: object | None = None, bed: Bed | None = None,
-              replicas: int = 1) -> dict[str, object]:
+              replicas: int = 1, passive_tool: PassiveTool | None = None) -> dict[str, object]:
     """The bed, the rigid runs (if 0 in springs) and the passive runs (one simulation each, one world per speed or
     configuration). With 0 in ``springs`` the rigid tool runs at every distinct speed of the configurations
     (:meth:`SoilBinConfig.rigid_speeds`, as worlds of one simulation) and every passive row's reduction is against
@@ -852,6 +852,7 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
     particles, each bed set down from its own seed) as worlds of the same simulations, the tool at their mean
     surface; each replica's reductions against its own rigid run, and the table over the replicas
     (:func:`replica_table`: standard errors from the replicas' scatter). Not with ``bed``.
+    ``passive_tool``: the passive runs' tool, described once (see :func:`run_soil_bin`).
     Returns {"bed" (the first replica's with replicas), "beds" (every bed), "runs": name -> SoilBinRun, "table":
     rows, "steady_travel": [m], "replicas"}."""
     import shutil
@@ -860,13 +861,14 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
         raise InputError(f"replicas must be an integer >= 1, got {replicas!r}")
     if replicas > 1 and bed is not None:
         raise InputError(f"replicas = {replicas} deposits its own replica beds: pass no bed")
+    geometry = passive_tool.sweep() if passive_tool is not None else None  # the rigid tool's too: one tool
     if replicas > 1:
         beds = [bed_for(config, device=device, cache_dir=cache_dir, progress=deposit_progress, replica=r)
                 for r in range(replicas)]
-        tool = place_tool(beds, config.working_depth)  # one tool pose for every run and replica
+        tool = place_tool(beds, config.working_depth, geometry)  # one tool pose for every run and replica
     else:
         beds = [bed or bed_for(config, device=device, cache_dir=cache_dir, progress=deposit_progress)]
-        tool = None
+        tool = geometry
     bed = beds[0]
     runs = {}
     passive = [n for n in config.springs if n != 0]
@@ -885,7 +887,8 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
         runs[name] = run_soil_bin(config, springs, bed=world_beds, device=device, progress=progress, speeds=speeds,
                                   viewer=viewer if name == streamed else None, checkpoint=folder,
                                   vtk=(VtkWriter(Path(vtk_dir) / name), vtk_every) if vtk_every else None,
-                                  tool=tool, place=tool is None)
+                                  tool=tool, place=replicas == 1,
+                                  passive_tool=passive_tool if name == "passive" else None)
     if checkpoint_dir is not None:
         for name, _, _ in groups:
             shutil.rmtree(Path(checkpoint_dir) / name, ignore_errors=True)

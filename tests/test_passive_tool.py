@@ -157,3 +157,17 @@ def test_a_pitch_per_world_is_checked() -> None:
     for bad in ([1.0], [0.0, 45.0], [0.0, math.nan]):
         with pytest.raises(InputError, match="pitch needs one angle per world"):
             sb.run_soil_bin(cfg, [0, 0], bed=_empty_bed(), device="cpu", pitch=bad)
+
+
+def test_soil_bin_command_refuses_a_bad_tool_file_before_claiming_its_folder(tmp_path, capsys) -> None:
+    from calibration.cli import main
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text("rate_factr = 1.0\n")
+    for path, words in ((tmp_path / "missing.toml", "cannot be read"), (bad, "unknown keys ['rate_factr']")):
+        out = tmp_path / "out"
+        capsys.readouterr()
+        assert main(["soil-bin", "--scale", "ci", "--device", "cpu", "--tool", str(path), "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("warpdem soil-bin: error: tool description") and words in err[0]
+        assert not out.exists()
