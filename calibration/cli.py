@@ -280,6 +280,9 @@ def run_reproduce(args: argparse.Namespace) -> int:
             raise InputError(f"--vtk {args.vtk}: ParaView frames are written by the quick workflow (and by "
                              "soil-bin, speed-sweep, shear-box, demo), not by --workflow full")
         return run_workflow(args)
+    if args.tool is not None:
+        raise InputError(f"--tool {args.tool}: the described tool is used by --workflow full (and by soil-bin), not "
+                         "by the quick workflow")
     from scenes.reproduce import reproduce
 
     device = _setup(args)
@@ -322,6 +325,12 @@ def run_workflow(args: argparse.Namespace) -> int:
                             replica_worlds=args.replica_worlds,
                             settle_time=args.settle_time, seed=args.seed, diagnose=not args.no_diagnosis,
                             diagnosis_rounds=_folder_rounds(args), diagnosis_grid=args.diagnosis_grid)
+    if args.tool is not None:
+        from dataclasses import replace
+
+        from scenes.passive_tool import load_toml
+
+        config = replace(config, passive_tool=load_toml(args.tool).to_dict())
     budget = Budget(args.budget)
     _claim(args, args.out, adopt="workflow.json")
     wf = Workflow(args.out, config, device=device, log=lambda m: print(m, flush=True))
@@ -732,6 +741,9 @@ def main(argv: list[str] | None = None) -> int:
                         "each simulation's worlds spread over a group of replicas)")
     r.add_argument("--settle-time", type=_number(float, ge=0, unit="s"), default=0.5,
                    help="full: [s] a bed settles under the soil set before the tool moves (default 0.5)")
+    r.add_argument("--tool", default=None, metavar="TOML",
+                   help="full: Table 3's passive jobs use this passive tool, described once (scenes/passive_tool.py; "
+                        "a passive-tool run's tool_fitted.toml), instead of the ringing calibration's springs")
     r.add_argument("--no-diagnosis", action="store_true",
                    help="full: leave out the last stage, the diagnosis of Table 3")
     r.add_argument("--diagnosis-rounds", type=_number(int, ge=1), default=None,

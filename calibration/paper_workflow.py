@@ -49,6 +49,7 @@ import numpy as np
 
 from scenes import paper
 from scenes import soil_bin as sb
+from scenes.passive_tool import from_dict
 from scenes.reproduce import versions
 from scenes.ringing import RingingConfig, build_ringing, run_ringing
 from scenes.soil_bin import ensemble
@@ -524,15 +525,18 @@ class Workflow:
         overrides = {"friction_angle": [soil["friction_angle"]] * n, "normal_cohesion": [soil["normal_cohesion"]] * n,
                      "shear_cohesion": [0.5 * soil["normal_cohesion"]] * n, "eta_roll": [soil["eta_roll"]] * n,
                      "eta_twist": [soil["eta_roll"]] * n}
-        knobs = None
-        if job["kind"] != "rigid" and ring is not None:
+        knobs, described = None, None
+        if c.passive_tool is not None:
+            described = replace(from_dict(c.passive_tool), support_offsets=job["kind"] == "offset")
+        if job["kind"] != "rigid" and ring is not None and described is None:
             by_n = {r["springs"]: r for r in ring["rows"]}
             knobs = {"stiffness": [by_n[s]["stiffness"] for s in job["springs"]],
                      "dashpot": [by_n[s]["dashpot_n_s_per_m"] for s in job["springs"]]}
         bed, fp, group_beds = self._beds(job, cfg, budget)
         # a group's jobs all put the tool at the group's mean bed surface: each replica's rigid and passive worlds
         # then cut at one depth below its own surface, whichever replicas share their simulations
-        tool = sb.place_tool(group_beds if group_beds else bed, cfg.working_depth)
+        tool = sb.place_tool(group_beds if group_beds else bed, cfg.working_depth,
+                             None if described is None else described.sweep())
         # a job that has not started must fit whole (its checkpoint would not outlive a lost machine); one that
         # has, saves its checkpoint at the deadline. Checked once the bed is ready: depositing it may take minutes
         # (the bed stays in beds/ for the next call)
@@ -542,7 +546,7 @@ class Workflow:
         resumed = ckpt.exists()
         run = sb.run_soil_bin(cfg, list(job["springs"]), bed=bed, device=self.device, speeds=list(job["speeds"]),
                               soil_overrides=overrides, knobs=knobs, checkpoint=ckpt, deadline=budget.deadline,
-                              tool=tool, place=False)
+                              tool=tool, place=False, passive_tool=None if job["kind"] == "rigid" else described)
         owners = job["replicas"] if "replicas" in job else [job["replica"]] * n
         first = [w for w, r in enumerate(owners) if r == 0]
         if first:  # the series of one bed (replica 0's worlds) for the figures

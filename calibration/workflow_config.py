@@ -87,7 +87,18 @@ class WorkflowConfig:
     diagnosis_mechanisms: tuple[str, ...] | None = None
     """the candidate mechanisms of the diagnosis (None: every one that applies to the soil bin)."""
 
+    passive_tool: dict[str, object] | None = None
+    """the passive tool described once (``scenes.passive_tool.PassiveTool.to_dict``; ``--tool`` reads a TOML):
+    Table 3's passive jobs use it instead of the ringing calibration's linear springs, with Table 2's support
+    offsets in the "offset" jobs and none in the "no_offset" ones, and read the displacement zeroed at rest; rigid
+    and passive jobs take its geometry (pivot height). None: the ringing GA's stiffness and dashpot (the paper's
+    way). The diagnosis stage keeps its own rig model either way."""
+
     def __post_init__(self) -> None:
+        if self.passive_tool is not None:
+            from scenes.passive_tool import from_dict
+
+            from_dict(self.passive_tool)  # a bad description is refused here, by name
         if self.scale not in CALIBRATION_SCALE:
             raise InputError(f"scale must be one of {sorted(CALIBRATION_SCALE)}, got {self.scale!r}")
         for n in self.springs:

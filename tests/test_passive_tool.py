@@ -171,3 +171,36 @@ def test_soil_bin_command_refuses_a_bad_tool_file_before_claiming_its_folder(tmp
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith("warpdem soil-bin: error: tool description") and words in err[0]
         assert not out.exists()
+    capsys.readouterr()
+    assert main(["reproduce", "--scale", "ci", "--tool", str(bad), "--out", str(tmp_path / "q")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "used by --workflow full" in err[0] and not (tmp_path / "q").exists()
+
+
+def test_workflow_passive_job_runs_the_described_tool(tmp_path) -> None:
+    """The full workflow's Table 3 passive job with a described tool is the soil-bin run with that tool: the same
+    records to the bit as ``run_soil_bin(passive_tool=...)`` on the job's bed (CPU runs are deterministic), the
+    offsets of an "offset" job applied, the displacement zeroed at rest. Bookkeeping of the wiring: the tool's
+    physics is checked against closed forms above."""
+    from calibration.paper_workflow import Budget, Workflow
+    from calibration.workflow_config import WorkflowConfig
+
+    desc = PassiveTool(preload=1e-3, shank_length=0.5)
+    cfg = WorkflowConfig(scale="ci", assembly="A", springs=(16, 32), replicas_min=1, replicas_max=1, settle_time=0.0,
+                         travel=0.12, steady_travel=0.06, passive_tool=desc.to_dict())
+    wf = Workflow(tmp_path / "wf", cfg, device="cpu", log=lambda m: None)
+    soil = {"friction_angle": 30.0, "normal_cohesion": 1000.0, "eta_roll": 0.01}
+    job = {"name": "r0_offset_0", "kind": "offset", "replica": 0, "springs": [16, 32], "speeds": [0.68, 0.52]}
+    out = wf.run_job(job, soil, None, Budget(None))
+    bed = sb.bed_for(sb.SoilBinConfig(scale="ci", assembly="A", seed=0), cache_dir=tmp_path / "wf" / "beds")
+    n = 2
+    run = sb.run_soil_bin(
+        sb.SoilBinConfig(scale="ci", assembly="A", springs=(16, 32), speed=(0.68, 0.52), travel=0.12,
+                         steady_travel=0.06), [16, 32], bed=bed, device="cpu", speeds=[0.68, 0.52],
+        soil_overrides={"friction_angle": [30.0] * n, "normal_cohesion": [1000.0] * n, "shear_cohesion": [500.0] * n,
+                        "eta_roll": [0.01] * n, "eta_twist": [0.01] * n},
+        tool=sb.place_tool(bed, paper.WORKING_DEPTH, desc.sweep()), place=False,
+        passive_tool=replace(desc, support_offsets=True))
+    assert [r["draught_mean"] for r in out["rows"]] == [r["draught_mean"] for r in run.steady]
+    assert [r["displacement_mean"] for r in out["rows"]] == [r["displacement_mean"] for r in run.steady]
+    assert out["tool_tip_z"] == pytest.approx(float(sb.place_tool(bed, paper.WORKING_DEPTH, desc.sweep()).tip[2]))
