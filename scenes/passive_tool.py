@@ -181,7 +181,7 @@ class PassiveTool:
         return k if math.isinf(self.series_stiffness) else k * self.series_stiffness / (k + self.series_stiffness)
 
     def zeta(self, springs: int) -> float:
-        """The damping ratio of the tool on this stack alone [-] (Table 2's measured where not given)."""
+        """The ringing rig's damping ratio on this stack [-], load included (Table 2's measured where not given)."""
         return float(self.damping_ratio.get(springs, _row(springs)["measured_damping"]))
 
     # ------------------------------------------------------------------------------------------- the tool
