@@ -445,28 +445,24 @@ def run_speed_sweep_cmd(args: argparse.Namespace) -> int:
 
 def run_passive_tool_cmd(args: argparse.Namespace) -> int:
     """``warpdem passive-tool``: Table 2 fitted within bounds, the rigid pitch sweep and Table 3 with the tool."""
-    from calibration.passive_study import VARIANTS, PassiveStudy
+    from calibration.passive_study import PITCHES, VARIANTS, PassiveStudy, write_report
     from warpdem.errors import BudgetExhausted
 
     device = _setup(args)
     variants = args.variants or VARIANTS
     out = _claim(args, args.out)
     study = PassiveStudy(out, scale=args.scale, device=device, seed=args.seed, travel=args.travel,
-                         steady_travel=args.steady_travel, shank_length=args.shank_length, pitches=args.pitches,
+                         steady_travel=args.steady_travel, shank_length=args.shank_length,
+                         pitches=PITCHES if args.pitches is None else args.pitches,
                          log=lambda m: print(m, flush=True))
     t0 = time.perf_counter()
     try:
         study.run(args.budget, variants)
     except BudgetExhausted as e:
-        from calibration.passive_study import write_report
-
         print(f"warpdem passive-tool: stopped: {e}; the report so far is {write_report(out)}", file=sys.stderr)
         return 3
     print(f"results in {out} (report.md), this call {time.perf_counter() - t0:.0f} s on {device}")
     return 0
-
-
-PITCHES_DEFAULT = (-4.0, -2.0, 2.0, 4.0, 6.0, 8.0, 9.0)
 
 
 def _pitches(text: str) -> tuple[float, ...]:
@@ -793,7 +789,7 @@ def main(argv: list[str] | None = None) -> int:
                    help="travel after which the steady state is averaged [m] (default: the scale's)")
     t.add_argument("--shank-length", type=_number(float, gt=0, unit="m"), default=0.6,
                    help="the pivot's height above the blade tip [m] (default 0.6, an assumption: the paper gives none)")
-    t.add_argument("--pitches", type=_pitches, default=PITCHES_DEFAULT,
+    t.add_argument("--pitches", type=_pitches, default=None,
                    help="the rigid tool's backward pitches [deg] besides 0, comma-separated, or 'none' (default "
                         "-4,-2,2,4,6,8,9)")
     t.add_argument("--variants", type=_variants, default=None,

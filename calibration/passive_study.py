@@ -99,10 +99,7 @@ class PassiveStudy:
 
     def tool(self, variant: str) -> PassiveTool:
         if variant == "fitted":
-            d = self.ringing()["fits"]["one rate"]["tool"]
-            return PassiveTool(rate_factor=d["rate_factor"], inertia_factor=d["inertia_factor"],
-                               series_stiffness=d["series_stiffness"], load_mass_fraction=d["load_mass_fraction"],
-                               shank_length=self.shank_length)
+            return from_dict(self.ringing()["fits"]["one rate"]["tool"])  # fitted on this study's geometry
         if variant == "din_preload":
             return PassiveTool(preload=PRELOAD_TABLE3, shank_length=self.shank_length)
         raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")

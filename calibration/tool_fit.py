@@ -26,7 +26,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from scenes import paper
-from scenes.passive_tool import BOUNDS, PassiveTool
+from scenes.passive_tool import BOUNDS, PassiveTool, bound_status
 
 MODELS = ("one rate", "rate per stack")
 
@@ -100,9 +100,7 @@ def fit_table2(model: str = "one rate", base: PassiveTool | None = None, starts:
                                   + (("rate_factor",) if model == "one rate" else ()))
     if model == "rate per stack":
         for n, v in fitted.rate_factors.items():
-            lo_r, hi_r = BOUNDS["rate_factor"]
-            bounds[f"rate_factor[{n}]"] = ("at its lower bound" if v <= lo_r * (1 + 1e-6) else
-                                           "at its upper bound" if v >= hi_r * (1 - 1e-6) else "inside")
+            bounds[f"rate_factor[{n}]"] = bound_status(v, BOUNDS["rate_factor"])
     errors = np.array([r["error_pct"] for r in rows])
     return ToolFit(model, fitted, rows, bounds, float(np.sqrt(np.mean(errors**2))),
                    int(np.sum(np.abs(errors) <= 5.0)))

@@ -37,7 +37,7 @@ from __future__ import annotations
 import functools
 import math
 import tomllib
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -49,9 +49,6 @@ from .sweep import SweepParams, SweepTool, build_sweep
 
 G = 9.81
 """gravity [m/s^2] (every warpdem rig's)."""
-UNIT_RATE = 3.0e6
-"""rate of one spring unit (two discs in parallel) [N/m]: the paper's k_DIN(n) = UNIT_RATE / n for n units in series
-(7.5e5 N/m for 4 ... 0.94e5 for 32; the paper prints 0.94e5 for 3.0e6 / 32 = 0.9375e5)."""
 DISC_CONE_HEIGHT = 0.7e-3
 """free cone height h0 of a DIN 2093 series B 25 x 12.2 x 0.9 disc [m]."""
 SERVICE_TRAVEL = 0.75
@@ -312,17 +309,7 @@ class PassiveTool:
     # ------------------------------------------------------------------------------------------- files
     def bounds_report(self, names: tuple[str, ...] = tuple(BOUNDS), rtol: float = 1e-6) -> dict[str, str]:
         """For each bounded number: "inside", "at its lower bound" or "at its upper bound" (within ``rtol``)."""
-        out = {}
-        for name in names:
-            lo, hi = BOUNDS[name]
-            v = getattr(self, name)
-            if math.isfinite(lo) and v <= lo * (1 + rtol) + 1e-12:
-                out[name] = "at its lower bound"
-            elif math.isfinite(hi) and v >= hi * (1 - rtol) - 1e-12:
-                out[name] = "at its upper bound"
-            else:
-                out[name] = "inside"
-        return out
+        return {name: bound_status(getattr(self, name), BOUNDS[name], rtol) for name in names}
 
     def to_toml(self) -> str:
         """The description as TOML (``load_toml`` reads it back)."""
@@ -349,6 +336,16 @@ class PassiveTool:
         for name in ("rate_factors", "damping_ratio"):
             d[name] = {str(k): v for k, v in d[name].items()}
         return d
+
+
+def bound_status(value: float, bounds: tuple[float, float], rtol: float = 1e-6) -> str:
+    """"at its lower bound", "at its upper bound" or "inside" ``bounds`` (lo, hi), within ``rtol``."""
+    lo, hi = bounds
+    if math.isfinite(lo) and value <= lo * (1 + rtol) + 1e-12:
+        return "at its lower bound"
+    if math.isfinite(hi) and value >= hi * (1 - rtol) - 1e-12:
+        return "at its upper bound"
+    return "inside"
 
 
 def lever(tool: SweepTool) -> float:
@@ -407,8 +404,3 @@ def load_toml(path: str | Path) -> PassiveTool:
     except tomllib.TOMLDecodeError as e:
         raise InputError(f"tool description {str(p)!r} is not valid TOML: {e}") from None
     return parse(data, str(p))
-
-
-def with_values(tool: PassiveTool, **changes: object) -> PassiveTool:
-    """A copy with some numbers changed (checked like a new description)."""
-    return replace(tool, **changes)

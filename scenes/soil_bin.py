@@ -711,8 +711,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
     # its pitch, the tool's settling is part of the reading, the rest reading is taken off); otherwise it is the
     # point at the sensor after the settling, read from there. Either way it is fixed before a checkpoint is loaded.
     drawing = passive_tool is not None or pitches is not None
-    points = np.array([tool.sensor_point if pitches is None else tool.pitched(a).sensor_point
-                       for a in (pitches if pitches is not None else [0.0] * len(springs))])
+    points = (np.tile(tool.sensor_point, (len(springs), 1)) if pitches is None
+              else np.array([tool.pitched(a).sensor_point for a in pitches]))
     sensor = wd.observers.body_point("sweep_lower", points)
     if drawing:
         sensor(sim)

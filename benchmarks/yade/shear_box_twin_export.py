@@ -54,6 +54,7 @@ wp.config.quiet = True
 
 import warpdem as wd  # noqa: E402
 from scenes import shear_box as sbx  # noqa: E402
+from soil_bin_twin_export import material_keys  # noqa: E402  (this folder: run as a script, or on sys.path)
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
@@ -84,20 +85,6 @@ def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     u, w = q[:, :3], q[:, 3:4]
     t = 2.0 * np.cross(u, v)
     return v + w * t + np.cross(u, t)
-
-
-def material_keys(prefix: str, m: wd.Material, model: wd.Model, index: int) -> dict[str, np.ndarray]:
-    out = {f"{prefix}_{k}": np.asarray(v) for k, v in asdict(m).items()}
-    out[f"{prefix}_friction_angle_deg"] = np.float64(m.friction_angle)
-    out[f"{prefix}_friction_angle_rad"] = np.float64(np.radians(m.friction_angle))
-    out.pop(f"{prefix}_friction_angle")
-    for key, arr in (("young", model.mat_young), ("poisson", model.mat_poisson), ("friction_angle_rad",
-                     model.mat_friction), ("normal_cohesion", model.mat_normal_cohesion),
-                     ("shear_cohesion", model.mat_shear_cohesion), ("eta_roll", model.mat_eta_roll),
-                     ("eta_twist", model.mat_eta_twist), ("alpha_kr", model.mat_alpha_kr),
-                     ("alpha_ktw", model.mat_alpha_ktw)):
-        out[f"{prefix}_{key}_f32"] = np.float64(arr.numpy()[index])  # world 0's copy
-    return out
 
 
 def export(scale: str) -> Path:
