@@ -272,6 +272,9 @@ def write_report(out: str | Path) -> Path:
                       f"{t['inertia_factor']:.3f}; series stiffness {t['series_stiffness']:.3g} N/m; riding load "
                       f"fraction {t['load_mass_fraction']:.3g}", "",
                       "Bounds: " + "; ".join(f"{k} {v}" for k, v in f["bounds"].items()), "",
+                      *(["A number on its bound: the data ask for more than its physical range allows, so a "
+                         "mechanism is missing from this tool model (not absorbed into the number).", ""]
+                        if any(v != "inside" for v in f["bounds"].values()) else []),
                       "| springs | lab f [Hz] | fitted f [Hz] | error [%] | stack rate [N/m] | with series [N/m] |",
                       "|---:|---:|---:|---:|---:|---:|"]
             lines += [f"| {r['springs']} | {r['measured_freq_hz']:.2f} | {r['fit_freq_hz']:.2f} | "
