@@ -181,7 +181,7 @@ CLAIM = ".warpdem-run.json"
 """The file that marks a results folder as one run's: the command and every parameter that makes the run (not the
 device: a run may continue on another one, and output options such as --quiet do not count)."""
 _NOT_IDENTITY = {"argv", "out", "verbose", "quiet", "debug", "overwrite", "budget", "no_resume", "device", "vtk",
-                 "beds", "defaults", "diagnosis_rounds"}
+                 "beds", "defaults", "given", "diagnosis_rounds"}
 
 
 def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) -> Path:
@@ -192,6 +192,8 @@ def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) 
     import shutil
 
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {str(out)!r} is a file, not a folder; choose a new or empty folder")
     mine = json.loads(json.dumps({"command": args.command, **{k: v for k, v in sorted(vars(args).items())
                                                                 if k not in _NOT_IDENTITY | {"command"}}},
                                  default=str))
@@ -206,7 +208,7 @@ def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) 
         defaults = json.loads(json.dumps(getattr(args, "defaults", {}), default=str))
         if same_or_extended(held, mine, defaults):
             # a run made before these options existed, continued with them at their defaults
-            write_text_atomic(claim, json.dumps(mine, indent=1))
+            _write_claim(claim, mine)
             return out
         if not getattr(args, "overwrite", False):
             diff = [k for k in sorted(set(held) | set(mine)) if held.get(k) != mine.get(k)]
@@ -217,8 +219,18 @@ def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) 
     elif out.exists() and any(out.iterdir()) and not (adopt and (out / adopt).exists()) and \
             _command_of(out) != args.command:
         raise InputError(f"--out {str(out)!r} is not empty and holds no warpdem run; choose a new or empty folder")
-    write_text_atomic(claim, json.dumps(mine, indent=1))
+    _write_claim(claim, mine)
     return out
+
+
+def _write_claim(claim: Path, mine: dict[str, object]) -> None:
+    """Write the claim, the run's first file: a folder that cannot be made or written (read-only, under a file) is
+    refused here, naming --out, before anything runs."""
+    try:
+        write_text_atomic(claim, json.dumps(mine, indent=1))
+    except OSError as e:
+        raise InputError(f"--out {str(claim.parent)!r} cannot be written ({e.strerror or e}); choose a folder you "
+                         "can write to") from None
 
 
 def _command_of(out: Path) -> str | None:
@@ -238,7 +250,27 @@ def _springs(text: str) -> tuple[int, ...]:
     if not v or any(n not in allowed for n in v):
         raise argparse.ArgumentTypeError(f"must list one or more of {','.join(map(str, allowed))} (0 = rigid), got "
                                          f"{text!r}")
+    twice = sorted({n for n in v if v.count(n) > 1})
+    if twice:
+        raise argparse.ArgumentTypeError(f"lists {','.join(map(str, twice))} more than once (each configuration runs "
+                                         f"once), got {text!r}")
     return v
+
+
+MAX_REPLICAS = 32
+"""the most replica beds of ``soil-bin --replicas``: each replica deposits a bed of its own and adds a world per
+configuration to every simulation (time and memory grow with N), while the standard error falls only as 1/sqrt(N):
+32 beds take it to 18 % of one bed's scatter."""
+
+
+def _replicas(text: str) -> int:
+    n = int(_number(int, ge=1)(text))
+    if n > MAX_REPLICAS:
+        raise argparse.ArgumentTypeError(
+            f"must be at most {MAX_REPLICAS}, got {text!r}: each replica deposits a bed of its own and adds a world "
+            f"per configuration to every simulation, while the standard error falls only as 1/sqrt(N) "
+            f"({MAX_REPLICAS} beds: {100 / math.sqrt(MAX_REPLICAS):.0f} % of one bed's scatter)")
+    return n
 
 
 def _quiet_warp() -> None:
@@ -274,7 +306,35 @@ def _setup(args: argparse.Namespace) -> str:
     return args.device or _default_device()
 
 
+FULL_ONLY = ("budget", "replicas_min", "replicas_max", "target_sem", "worlds_per_job", "replica_worlds", "settle_time",
+             "no_diagnosis", "diagnosis_rounds", "diagnosis_grid", "generations", "population", "parents")
+"""options of ``reproduce`` that only the full workflow reads (the quick one refuses them)."""
+
+
+def _given(parser: argparse.ArgumentParser, argv: list[str]) -> set[str]:
+    """The destinations of the options typed in ``argv`` (whole, abbreviated as argparse allows, or --NAME=VALUE),
+    to tell an option given at its default from one left out."""
+    given = set()
+    for token in argv:
+        if token == "--":
+            break
+        flag = token.split("=", 1)[0]
+        if not flag.startswith("--"):
+            continue
+        exact = [a for a in parser._actions if flag in a.option_strings]
+        prefix = [a for a in parser._actions if any(o.startswith(flag) for o in a.option_strings)]
+        given |= {a.dest for a in exact or (prefix if len(prefix) == 1 else [])}
+    return given
+
+
 def run_reproduce(args: argparse.Namespace) -> int:
+    if args.workflow == "quick":
+        full = [f"--{d.replace('_', '-')}" + ("" if isinstance(v, bool) else f" {v:g}")
+                for d in FULL_ONLY if d in getattr(args, "given", ()) for v in [getattr(args, d)]]
+        if full:
+            raise InputError(f"{', '.join(full)}: only --workflow full reads {'them' if len(full) > 1 else 'it'}, "
+                             "the quick workflow (the default) does not; add --workflow full or leave "
+                             f"{'them' if len(full) > 1 else 'it'} out")
     if args.workflow == "full":
         if args.vtk:
             raise InputError(f"--vtk {args.vtk}: ParaView frames are written by the quick workflow (and by "
@@ -549,10 +609,33 @@ def run_shear_box_cmd(args: argparse.Namespace) -> int:
 def _gene_range(text: str) -> tuple[str, tuple[float, float]]:
     try:
         name, rng = text.split("=")
-        lo, hi = rng.split(":")
-        return name.strip(), (float(lo), float(hi))
+        lo, hi = (float(x) for x in rng.split(":"))
     except ValueError:
         raise argparse.ArgumentTypeError(f"--gene must be NAME=LOW:HIGH, got {text!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise argparse.ArgumentTypeError(f"--gene must be NAME=LOW:HIGH with finite LOW < HIGH, got {text!r}")
+    return name.strip(), (lo, hi)
+
+
+def _genes(args: argparse.Namespace) -> dict[str, tuple[float, float]] | None:
+    """--gene ranges checked against the calibration's genes (names, once each, a log gene's LOW > 0) before
+    anything runs."""
+    from calibration.genes import with_ranges
+    from calibration.problems import DRAUGHT_GENES, RINGING_GENES
+
+    if not args.gene:
+        return None
+    names = [n for n, _ in args.gene]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise InputError(f"--gene {twice[0]} given more than once; give each gene's range once")
+    defaults = RINGING_GENES[args.spring_model] if args.kind == "ringing" else DRAUGHT_GENES
+    for name, (lo, hi) in args.gene:
+        try:
+            with_ranges(defaults, {name: (lo, hi)})
+        except ValueError as e:
+            raise InputError(f"--gene {name}={lo:g}:{hi:g}: {e}") from None
+    return dict(args.gene)
 
 
 def run_calibrate_cmd(args: argparse.Namespace) -> int:
@@ -562,7 +645,7 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
     device = _setup(args)
     settings = GASettings(generations=args.generations, population=args.population, parents=args.parents,
                           seed=args.seed, refine_iterations=args.refine)
-    genes = dict(args.gene) if args.gene else None
+    genes = _genes(args)
     if args.kind == "ringing":
         kw: dict[str, object] = {"springs": args.springs, "spring_model": args.spring_model, "fitness": args.fitness}
     else:
@@ -610,16 +693,58 @@ def _keyvals(text: str) -> dict[str, float]:
     return out
 
 
-def run_diagnose_cmd(args: argparse.Namespace) -> int:
-    import json
+_NOT_PARAMS = {"self", "measured", "device", "fixed", "uncertainty", "description", "bed", "runs_from", "simulator"}
+"""arguments of a rig model that --params does not set (the command's own options, Python objects)."""
 
+
+def _diagnose_params(args: argparse.Namespace) -> dict[str, object]:
+    """--params read and checked (a JSON object of the rig model's settings and 'fixed'), and --uncertainty's names
+    checked against the rig's observables, before anything is read or simulated."""
+    import inspect
+
+    from calibration.rig_models import RINGING_UNCERTAINTY, SOIL_BIN_UNCERTAINTY, RingingRigModel, SoilBinRigModel
+
+    known = RINGING_UNCERTAINTY if args.rig == "ringing" else SOIL_BIN_UNCERTAINTY
+    for k in args.uncertainty or {}:
+        if k not in known:
+            raise InputError(f"--uncertainty {k}={args.uncertainty[k]:g}: {k!r} is no observable of the {args.rig} "
+                             f"rig; known: {', '.join(sorted(known))}")
+    if not args.params:
+        return {}
+    where = f"--params {args.params!r}"
+    try:
+        text = Path(args.params).read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise InputError(f"{where}: no such file (--params names a JSON file holding an object of rig settings, "
+                         'e.g. {"ring_time": 1.5, "fixed": {"dashpot": 300}})') from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise InputError(f"{where} cannot be read: {e}") from None
+    try:
+        params = json.loads(text)
+    except ValueError as e:
+        raise InputError(f"{where} is not valid JSON: {e}") from None
+    if not isinstance(params, dict):
+        raise InputError(f"{where} must hold a JSON object of rig settings (NAME: VALUE), got "
+                         f"{type(params).__name__} {text.strip()[:40]}")
+    model = RingingRigModel if args.rig == "ringing" else SoilBinRigModel
+    allowed = sorted(set(inspect.signature(model.__init__).parameters) - _NOT_PARAMS) + ["fixed"]
+    unknown = sorted(set(params) - set(allowed))
+    if unknown:
+        raise InputError(f"{where}: unknown key {unknown[0]!r}; the {args.rig} rig takes {', '.join(allowed)}")
+    if not isinstance(params.get("fixed", {}), dict):
+        raise InputError(f"{where}: 'fixed' must be an object of baseline parameters (NAME: VALUE), got "
+                         f"{params['fixed']!r}")
+    return params
+
+
+def run_diagnose_cmd(args: argparse.Namespace) -> int:
     from calibration import diagnosis, diagnosis_report, measured
     from calibration.rig_models import make_rig_model
 
     device = _setup(args)
+    params = _diagnose_params(args)
     data = measured.from_paper(args.measured.split(":", 1)[1]) if args.measured.startswith("paper:") \
         else measured.load(args.measured)
-    params: dict[str, object] = json.loads(Path(args.params).read_text()) if args.params else {}
     fixed = params.pop("fixed", {})
     from calibration import rig_description
 
@@ -766,9 +891,11 @@ def main(argv: list[str] | None = None) -> int:
     s.add_argument("--springs", type=_springs, default=None, help="configurations, 0 = rigid (default 0,16,32)")
     s.add_argument("--spring-model", choices=("paper", "linear"), default=None,
                    help="passive tool's springs: linear spring-dashpot (default) or the paper's spring spheres")
-    s.add_argument("--replicas", type=_number(int, ge=1), default=1, metavar="N",
+    s.add_argument("--replicas", type=_replicas, default=1, metavar="N",
                    help="run every configuration on N replica beds (worlds of the same simulations) and report the "
-                   "mean over them with standard errors from their scatter (default 1: one bed)")
+                   "mean over them with standard errors from their scatter (default 1: one bed; at most "
+                   f"{MAX_REPLICAS}: each bed is deposited on its own and adds a world per configuration, while the "
+                   "standard error falls only as 1/sqrt(N))")
     s.add_argument("--tool", default=None, metavar="TOML",
                    help="the passive tool described once (scenes/passive_tool.py: rates, inertia, series compliance, "
                         "preload, pivot height, offsets), e.g. a passive-tool run's tool_fitted.toml; the displacement "
@@ -857,9 +984,9 @@ def main(argv: list[str] | None = None) -> int:
     q.add_argument("measured", help="MEASURED data (a summary CSV or a folder; calibration.measured), or "
                                     "paper:ringing (Table 2) or paper:soil-bin (Table 3)")
     q.add_argument("--rig", choices=("ringing", "soil-bin"), required=True, help="the rig the data come from")
-    q.add_argument("--params", default=None, help="JSON: rig settings (ringing: load_force, ring_time, ...; "
-                                                  "soil-bin: scale, assembly, travel, cache_dir, ...) and 'fixed': "
-                                                  "baseline parameters not to fit (e.g. dashpot)")
+    q.add_argument("--params", default=None, metavar="FILE",
+                   help="a JSON file: rig settings (ringing: load_force, ring_time, ...; soil-bin: scale, assembly, "
+                        "travel, cache_dir, ...) and 'fixed': baseline parameters not to fit (e.g. dashpot)")
     q.add_argument("--rig-file", default=None,
                    help="ringing: the rig's description (TOML/JSON: inertia, lever arms, load, spring rates, what "
                         "is uncertain; calibration.rig_description); default rig.toml or rig.json in MEASURED")
@@ -888,6 +1015,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)
     args.defaults = {a.dest: a.default for a in sub.choices[args.command]._actions if a.dest != "help"}
+    args.given = _given(sub.choices[args.command], args.argv)
     if not args.verbose:
         _quiet_warp()
     _BAR["quiet"] = args.quiet

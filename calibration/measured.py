@@ -1,10 +1,12 @@
 """Measured data for calibration and diagnosis: one documented format, read into SI units.
 
 A MEASURED source is either a CSV file (a summary table) or a directory holding ``summary.csv`` and/or
-``series/*.csv`` (time series, one file per configuration and signal).
+``series/*.csv`` (time series, one file per configuration and signal). Files are UTF-8 text (a byte-order mark, as
+Excel's "CSV UTF-8" writes, is accepted), comma-separated, with a point as the decimal mark.
 
-Summary table (CSV, ``#`` lines are comments): one row per configuration. Every column header is ``name [unit]``
-(a header without a unit means a dimensionless value). Known names and the units they accept:
+Summary table (CSV, ``#`` lines are comments): one row per configuration (springs, speed and stiffness as given;
+a configuration given twice is refused). Every column header is ``name [unit]`` (a header without a unit means a
+dimensionless value). The names and the units they accept:
 
 =====================  ==========================================  =========================================
 name                   meaning                                     units accepted (-> SI)
@@ -12,6 +14,7 @@ name                   meaning                                     units accepte
 springs                spring count of the configuration           - (integer)
 stiffness              spring stiffness                            N/m, N/mm, kN/m
 speed                  carriage speed                              m/s, mm/s, km/h
+speed_std              carriage speed's std over the run           m/s, mm/s, km/h
 frequency              ring-down frequency                         Hz
 damping                damping ratio                               -, %
 draught_mean/_std      passive tool's draught mean / std           N, kN
@@ -20,7 +23,7 @@ displacement_mean/_std tool displacement at the sensor             m, mm
 reduction              draught reduction vs the rigid tool         %, -
 =====================  ==========================================  =========================================
 
-Other columns are kept under their name as covariates (converted when their unit is one of the above).
+Any other column is refused with its name (nothing reads it: a note belongs in a ``#`` comment line).
 
 Time series (CSV): comment lines ``# key: value`` give the configuration (at least ``springs``) and may give
 ``signal`` (``force`` or ``displacement``); two columns ``time [s|ms]`` and the signal (``force [N|kN]`` or
@@ -45,6 +48,7 @@ UNITS: dict[str, dict[str, float]] = {
     "springs": {"-": 1.0},
     "stiffness": {"N/m": 1.0, "N/mm": 1e3, "kN/m": 1e3},
     "speed": {"m/s": 1.0, "mm/s": 1e-3, "km/h": 1 / 3.6},
+    "speed_std": {"m/s": 1.0, "mm/s": 1e-3, "km/h": 1 / 3.6},
     "frequency": {"Hz": 1.0},
     "damping": {"-": 1.0, "%": 1e-2},
     "draught_mean": {"N": 1.0, "kN": 1e3},
@@ -59,10 +63,15 @@ UNITS: dict[str, dict[str, float]] = {
     "displacement": {"m": 1.0, "mm": 1e-3},
 }
 """accepted units per known quantity and their factor to the SI unit (reduction is kept in %)."""
+SERIES_ONLY = ("time", "force", "displacement")
+"""the columns of a time series, not of a summary table."""
+CONFIGURATION = ("springs", "speed", "stiffness")
+"""the summary columns that make a configuration: two rows alike in these are refused."""
 RANGES: dict[str, tuple[float, float, str]] = {
     "springs": (0.0, 1e3, "a spring count"),
     "stiffness": (1e-3, 1e9, "N/m (a stiffer spring would need a time step below a microsecond)"),
     "speed": (1e-4, 20.0, "m/s"),
+    "speed_std": (0.0, 20.0, "m/s"),
     "frequency": (1e-3, 1e3, "Hz"),
     "damping": (1e-6, 1.0, "(a damping ratio: values in percent need the header 'damping [%]')"),
     "draught_mean": (0.0, 1e6, "N"),
@@ -122,9 +131,7 @@ def _parse_header(text: str, where: str) -> tuple[str, str]:
 
 
 def _factor(name: str, unit: str, where: str) -> tuple[float, str]:
-    """Factor to SI and the SI unit; unknown names keep their unit (factor 1)."""
-    if name not in UNITS:
-        return 1.0, unit
+    """Factor to SI and the SI unit."""
     accepted = UNITS[name]
     if unit not in accepted:
         raise InputError(f"{where}: column {name!r} has unit {unit!r}; accepted: {sorted(accepted)}")
@@ -135,7 +142,14 @@ def _factor(name: str, unit: str, where: str) -> tuple[float, str]:
 def _rows(path: Path) -> tuple[list[str], list[list[str]], dict[str, str]]:
     meta: dict[str, str] = {}
     lines = []
-    for ln in path.read_text().splitlines():
+    try:
+        text = path.read_text(encoding="utf-8-sig")  # Excel's "CSV UTF-8" starts with a byte-order mark
+    except UnicodeDecodeError as e:
+        raise InputError(f"{path}: not a text CSV file (byte {e.start} is not UTF-8); save the table as CSV UTF-8") \
+            from None
+    except OSError as e:
+        raise InputError(f"{path} cannot be read: {e.strerror or e}") from None
+    for ln in text.splitlines():
         if not ln.strip():
             continue
         if ln.lstrip().startswith("#"):
@@ -143,10 +157,17 @@ def _rows(path: Path) -> tuple[list[str], list[list[str]], dict[str, str]]:
             if m:
                 meta[m.group(1)] = m.group(2)
             continue
+        if not lines and ("," not in ln and (";" in ln or "\t" in ln)):
+            sep = "';'" if ";" in ln else "tabs"
+            raise InputError(f"{path}: the header {ln.strip()[:60]!r} is separated by {sep}; the separator must be "
+                             "a comma (and the decimal mark a point), as Excel's 'CSV UTF-8 (Comma delimited)' writes")
         lines.append([c.strip() for c in ln.split(",")])
     if not lines:
         raise InputError(f"{path}: no header row")
     header, rows = lines[0], lines[1:]
+    if not rows:
+        raise InputError(f"{path}: a header ({', '.join(header)}) and no rows; give one row per "
+                         f"{'sample' if len(header) == 2 and header[0].startswith('time') else 'configuration'}")
     for k, r in enumerate(rows):
         if len(r) != len(header):
             raise InputError(f"{path}: row {k + 1} has {len(r)} values for {len(header)} columns")
@@ -173,8 +194,11 @@ def load_summary(path: str | Path) -> Measured:
     out = Measured(source=str(path))
     for j, h in enumerate(header):
         name, unit = _parse_header(h, str(path))
+        if name not in UNITS or name in SERIES_ONLY:
+            raise InputError(f"{path}: column {h!r} is not one warpdem reads; accepted: "
+                             f"{', '.join(n for n in UNITS if n not in SERIES_ONLY)} (a note belongs in a '#' line)")
         if name in out.summary:
-            raise ValueError(f"{path}: column {name!r} appears twice")
+            raise InputError(f"{path}: column {name!r} appears twice")
         f, si = _factor(name, unit, str(path))
         out.summary[name] = np.array([_number(r[j], f"{path}: column {name!r}, row {k + 1}")
                                       for k, r in enumerate(rows)]) * f
@@ -189,7 +213,32 @@ def load_summary(path: str | Path) -> Measured:
                                  f"({low:g}, {high:g}) {what}")
     if "springs" in out.summary and not np.all(np.mod(out.summary["springs"], 1) == 0):
         raise InputError(f"{path}: springs must be integers, got {out.summary['springs'].tolist()}")
+    _one_row_per_configuration(path, header, rows, np.column_stack(list(out.summary.values())))
     return out
+
+
+def _one_row_per_configuration(path: Path, header: list[str], rows: list[list[str]], values: np.ndarray) -> None:
+    """Refuse two rows of one configuration (alike in the CONFIGURATION columns given), naming both rows;
+    ``values``: the table in SI, (rows, columns)."""
+    keys = [j for j, h in enumerate(header) if _parse_header(h, str(path))[0] in CONFIGURATION]
+    if not keys:
+        return
+    first: dict[tuple[float, ...], int] = {}
+    for k, row in enumerate(values):
+        key = tuple(np.nan_to_num(row[keys], nan=np.inf).tolist())
+        if key not in first:
+            first[key] = k
+            continue
+        i = first[key]
+        config = ", ".join(f"{header[j]} {rows[k][j]}" for j in keys)
+        same = (values[i] == row) | (np.isnan(values[i]) & np.isnan(row))
+        differ = np.flatnonzero(~same)
+        if len(differ):
+            j = int(differ[0])
+            raise InputError(f"{path}: rows {i + 1} and {k + 1} are one configuration ({config}) with different "
+                             f"values ({header[j]}: {rows[i][j]} and {rows[k][j]}); give one row per configuration "
+                             "(the mean of repeated runs)")
+        raise InputError(f"{path}: row {k + 1} repeats row {i + 1} ({config}); give each configuration once")
 
 
 def load_series(path: str | Path) -> Series:

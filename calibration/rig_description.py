@@ -99,7 +99,12 @@ class RingingRigDescription:
                                    f"{self.load_mass_rides!r}")
         if self.load_mass_rides and self.load_force == 0:
             raise DescriptionError("rig description: load_mass_rides = true needs a load_force > 0")
+        from scenes.paper import SPRING_COUNTS
+
         for n, k in self.spring_rates.items():
+            if n not in SPRING_COUNTS:
+                raise DescriptionError(f"rig description: spring_rates key {n!r} is not a spring count of the rig; "
+                                       f"allowed {', '.join(map(str, SPRING_COUNTS))}")
             if not (isinstance(k, (int, float)) and math.isfinite(k) and k > 0):
                 raise DescriptionError(f"rig description: spring_rates[{n}] must be a positive rate [N/m], got {k!r}")
         if isinstance(self.hit, str):

@@ -27,6 +27,7 @@ import numpy as np
 from scipy import stats
 
 from warpdem import analysis
+from warpdem.errors import InputError
 
 from .genes import Gene
 from .measured import Measured
@@ -197,9 +198,9 @@ def _stated(defaults: dict[str, float], given: dict[str, float] | None) -> dict[
     out = dict(defaults)
     for k, v in (given or {}).items():
         if k not in out:
-            raise ValueError(f"uncertainty: unknown observable {k!r}; known {sorted(out)}")
+            raise InputError(f"uncertainty: unknown observable {k!r}; known {sorted(out)}")
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise ValueError(f"uncertainty {k!r} must be a finite positive number, got {v!r}")
+            raise InputError(f"uncertainty {k!r} must be a finite positive number, got {v!r}")
         out[k] = float(v)
     return out
 
@@ -251,11 +252,11 @@ class RingingRigModel:
         self.fixed = dict(fixed or {})
         unknown = set(self.fixed) - {"dashpot"}
         if unknown:
-            raise ValueError(f"fixed: unknown baseline parameters {sorted(unknown)}; the ringing rig has 'dashpot'")
+            raise InputError(f"fixed: unknown baseline parameters {sorted(unknown)}; the ringing rig has 'dashpot'")
         if description is None:
             description = rd.RingingRigDescription(load_force=float(load_force or paper.LOAD_FORCE))
         elif load_force is not None:
-            raise ValueError("give load_force in the rig description, not beside it")
+            raise InputError("give load_force in the rig description, not beside it")
         self.description = description
         self.reference = rd.paper_rig()
         self.settle_time, self.hit_amplitude = float(settle_time), float(hit_amplitude)
@@ -267,12 +268,12 @@ class RingingRigModel:
         else:
             springs = sorted({int(x.config["springs"]) for x in measured.series})
         if not springs:
-            raise ValueError("measured data name no configuration (no 'springs' column and no series)")
+            raise InputError("measured data name no configuration (no 'springs' column and no series)")
         if len(set(springs)) != len(springs):
-            raise ValueError(f"one row per spring configuration, got springs {springs}")
+            raise InputError(f"{measured.source}: one row per spring configuration, got springs {springs}")
         for n in springs:
             if n not in paper.SPRING_COUNTS:
-                raise ValueError(f"springs must be among {paper.SPRING_COUNTS}, got {n}")
+                raise InputError(f"springs must be among {paper.SPRING_COUNTS}, got {n}")
         rates = description.spring_rates
         default = [rates.get(n, paper.ringing_row(n)["stiffness_n_per_m"]) for n in springs]
         stiffness = s.get("stiffness", np.array(default, dtype=float))
@@ -303,7 +304,7 @@ class RingingRigModel:
         else:
             missing = [k for k in ("frequency", "damping") if k not in s]
             if missing:
-                raise ValueError(f"measured ringing data need series or summary columns {missing}")
+                raise InputError(f"measured ringing data need series or summary columns {missing}")
             self.observables = ("frequency", "damping")
             self.measured = np.column_stack([s["frequency"], s["damping"]])
             self.measured_se = np.zeros_like(self.measured)
@@ -561,15 +562,15 @@ class SoilBinRigModel:
         allowed = set(sb.KNOBS) - {"stiffness"} | {"rigid_speed"}
         unknown = set(self.fixed) - allowed
         if unknown:
-            raise ValueError(f"fixed: unknown knobs {sorted(unknown)}; the soil-bin rig has {sorted(allowed)}")
+            raise InputError(f"fixed: unknown knobs {sorted(unknown)}; the soil-bin rig has {sorted(allowed)}")
         s = measured.summary
         for col in ("springs", "speed"):
             if col not in s:
-                raise ValueError(f"measured soil-bin data need a summary column {col!r} (have {sorted(s)})")
+                raise InputError(f"measured soil-bin data need a summary column {col!r} (have {sorted(s)})")
         springs = [int(n) for n in s["springs"]]
         for n in springs:
             if n not in paper.SPRING_COUNTS:
-                raise ValueError(f"springs must be among {paper.SPRING_COUNTS}, got {n}")
+                raise InputError(f"springs must be among {paper.SPRING_COUNTS}, got {n}")
         stiffness = s.get("stiffness", np.array([paper.ringing_row(n)["stiffness_n_per_m"] for n in springs]))
         self.configs = [{"springs": n, "speed": float(v), "stiffness": float(k)}
                         for n, v, k in zip(springs, s["speed"], stiffness, strict=True)]
@@ -588,7 +589,7 @@ class SoilBinRigModel:
         by_signal = {sig: {int(x.config["springs"]): x for x in measured.series if x.signal == sig}
                      for sig in ("displacement", "force")}
         if (by_signal["displacement"] or by_signal["force"]) and len(set(springs)) != len(springs):
-            raise ValueError(f"series are keyed by spring count: one configuration per count, got {springs}")
+            raise InputError(f"series are keyed by spring count: one configuration per count, got {springs}")
         force = by_signal["force"]
         if force and all(n in force for n in springs) and "draught_mean" not in columns:
             # draught records of the passive tool: their steady means are the draught_mean observable
@@ -608,13 +609,13 @@ class SoilBinRigModel:
         if observables is None:
             observables = tuple(k for k in ("reduction", "displacement_mean", "displacement_trend") if k in columns)
         if not observables:
-            raise ValueError("measured soil-bin data need a 'reduction' or 'displacement_mean' column or "
+            raise InputError("measured soil-bin data need a 'reduction' or 'displacement_mean' column or "
                              "displacement series (or name the observables)")
         for k in observables:
             if k not in self.units:
-                raise ValueError(f"observables: unknown {k!r}; known {sorted(self.units)}")
+                raise InputError(f"observables: unknown {k!r}; known {sorted(self.units)}")
             if k not in columns:
-                raise ValueError(f"observables: the measured data have no {k!r} (summary column or series)")
+                raise InputError(f"observables: the measured data have no {k!r} (summary column or series)")
         self.observables = tuple(observables)
         self.measured = np.column_stack([columns[k] for k in self.observables])
         unc = _stated(SOIL_BIN_UNCERTAINTY, uncertainty)
@@ -626,9 +627,9 @@ class SoilBinRigModel:
         self.soil = {k: float(v) for k, v in (soil or {}).items()}
         for k, v in self.soil.items():
             if k not in fields:
-                raise ValueError(f"soil: unknown parameter {k!r}; known {fields}")
+                raise InputError(f"soil: unknown parameter {k!r}; known {fields}")
             if not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"soil: {k} must be finite and non-negative, got {v!r}")
+                raise InputError(f"soil: {k} must be finite and non-negative, got {v!r}")
         self._bed = bed
         self.cache_dir = cache_dir
         self.max_worlds = int(max_worlds)

@@ -122,24 +122,71 @@ BAD = [
     ("diagnose x --rig ringing --rounds 0", "argument --rounds: must be >= 1"),
     ("diagnose x --rig ringing --uncertainty frequency=inf", "argument --uncertainty: frequency must be a finite"),
     ("diagnose x --rig ringing --uncertainty damping=0", "argument --uncertainty: damping must be a finite"),
+    ("soil-bin --replicas 100000", "argument --replicas: must be at most 32, got '100000': each replica deposits"),
+    ("soil-bin --springs 16,16", "argument --springs: lists 16 more than once (each configuration runs once)"),
+    ("reproduce --budget 10 --replicas-max 2 --target-sem 0.1",
+     "error: --budget 10, --replicas-max 2, --target-sem 0.1: only --workflow full reads them"),
+    ("reproduce --replica-worlds", "error: --replica-worlds: only --workflow full reads it"),
+    ("calibrate ringing --gene young=1e8:1e6", "argument --gene: --gene must be NAME=LOW:HIGH with finite LOW < HIGH, "
+                                               "got 'young=1e8:1e6'"),
+    ("calibrate ringing --gene dashpot=1:10 --out {tmp}/c", "error: --gene dashpot=1:10: unknown gene name 'dashpot'"),
+    ("calibrate ringing --gene young=-1:1 --out {tmp}/c", "error: --gene young=-1:1: gene 'young': a log-scaled gene "
+                                                          "needs low > 0"),
+    ("diagnose x --rig ringing --uncertainty frequncy=0.01",
+     "error: --uncertainty frequncy=0.01: 'frequncy' is no observable of the ringing rig; known: damping,"),
+    ("diagnose x --rig ringing --params [0.6]", "error: --params '[0.6]': no such file (--params names a JSON file"),
+    ("diagnose x --rig ringing --params {tmp}/list.json", "error: --params '{tmp}/list.json' must hold a JSON object "
+                                                         "of rig settings (NAME: VALUE), got list [0.6]"),
+    ("diagnose x --rig ringing --params {tmp}/typo.json", "error: --params '{tmp}/typo.json': unknown key 'ring_tme'; "
+                                                         "the ringing rig takes"),
+    ("demo --out {tmp}/file", "error: --out '{tmp}/file' is a file, not a folder"),
+    ("demo --out {tmp}/read-only/demo", "error: --out '{tmp}/read-only/demo' cannot be written (Permission denied)"),
+    ("diagnose {tmp}/binary.csv --rig ringing --out {tmp}/d", "error: {tmp}/binary.csv: not a text CSV file (byte 4 "
+                                                              "is not UTF-8)"),
+    ("diagnose {tmp}/m.csv --rig ringing --rig-file {tmp}/rig.toml --out {tmp}/d",
+     "error: rig description: spring_rates key -4 is not a spring count of the rig; allowed 4, 8,"),
 ]
 
 
-def test_bad_command_lines_get_one_line_naming_the_value(capsys) -> None:
+def test_bad_command_lines_get_one_line_naming_the_value(capsys, tmp_path, monkeypatch) -> None:
     """Each bad value ends the command with exit code 2 and exactly one line `warpdem <cmd>: error: <what>`
-    naming the option and the value (no usage block, no traceback), before anything runs."""
-    import pytest
+    naming the option and the value (no usage block, no traceback), before anything runs: no results folder is
+    made. {tmp}: a folder with the files the lines name."""
+    import os
+    from pathlib import Path
 
-    from calibration.cli import main
+    from calibration import cli
 
+    (tmp_path / "list.json").write_text("[0.6]\n")
+    (tmp_path / "typo.json").write_text('{"ring_tme": 1.5}\n')
+    (tmp_path / "file").write_text("not a folder\n")
+    (tmp_path / "binary.csv").write_bytes(b"\x7fELF\xd0\x01\x02\x00")
+    (tmp_path / "m.csv").write_text("springs,frequency [Hz],damping [-]\n16,6.09,0.2027\n32,7.5,0.2\n")
+    (tmp_path / "rig.toml").write_text("[spring_rates]\n-4 = 2.1e5\n")
+    read_only = tmp_path / "read-only"
+    read_only.mkdir(mode=0o555)
+    if os.geteuid() == 0:  # root writes anywhere: the folder refuses its writes as it would a user's
+        write = cli.write_text_atomic
+
+        def refused(path: Path, text: str) -> None:
+            if read_only in Path(path).parents:
+                raise PermissionError(13, "Permission denied", str(path))
+            write(path, text)
+        monkeypatch.setattr(cli, "write_text_atomic", refused)
     for line, words in BAD:
+        line, words = line.replace("{tmp}", str(tmp_path)), words.replace("{tmp}", str(tmp_path))
         capsys.readouterr()
-        with pytest.raises(SystemExit) as e:
-            main(line.split())
+        try:  # argparse's refusals exit, the commands' return 2
+            code = cli.main(line.split())
+        except SystemExit as e:
+            code = e.code
         err = capsys.readouterr().err.strip().splitlines()
         cmd = line.split()[0]
-        assert e.value.code == 2, line
+        assert code == 2, line
         assert len(err) == 1 and err[0].startswith(f"warpdem {cmd}: error: ") and words in err[0], (line, err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["binary.csv", "file", "list.json", "m.csv", "read-only",
+                                                         "rig.toml", "typo.json"]
+    assert not any(read_only.iterdir())
 
 
 def test_a_diagnosis_of_one_configuration_is_refused_before_its_folder_is_made(tmp_path, capsys) -> None:

@@ -35,6 +35,7 @@ from calibration import diagnosis
 from calibration.measured import Measured, Series
 from calibration.rig_description import RingingRigDescription, equivalent, load
 from calibration.rig_models import RingingRigModel
+from warpdem.errors import InputError
 
 SPRINGS = (4, 12, 20, 32)
 RATES = {n: 8000.0 * 4 / n for n in (4, 8, 12, 16, 20, 24, 28, 32)}  # N/m: 9 ... 3 Hz on this rig
@@ -137,6 +138,9 @@ def test_rig_file_errors_name_the_entry(tmp_path: pytest.TempPathFactory) -> Non
         load(f)
     f.write_text("uncertain = ['mass']\n")
     with pytest.raises(ValueError, match="uncertain entries \\['mass'\\]"):
+        load(f)
+    f.write_text("[spring_rates]\n-4 = 2.1e5\n")  # a count no configuration has: refused, not kept unused
+    with pytest.raises(InputError, match="spring_rates key -4 is not a spring count of the rig; allowed 4, 8, 12"):
         load(f)
     f.write_text("tool_inertia = 0.3\nspring_lever = 0.35\nload_mass_rides = false\nload_force = 60\n"
                  "uncertain = ['inertia', 'damping']\n[spring_rates]\n4 = 8000\n")

@@ -14,15 +14,15 @@ def test_units_convert_to_si(tmp_path) -> None:
     # Reference: the unit factors (1 N/mm = 1e3 N/m, 1 km/h = 1/3.6 m/s, 1 mm = 1e-3 m, 1 % = 0.01)
     p = tmp_path / "s.csv"
     p.write_text("# a comment\nsprings,stiffness [N/mm],speed [km/h],damping [%],displacement_mean [mm],"
-                 "draught_mean [kN],soil_moisture [%]\n16,187,2.25,20.27,4.751,0.31771,3.96\n"
-                 "32,94,1.872,17.708,12.487,0.35435,3.96\n")
+                 "draught_mean [kN]\n16,187,2.25,20.27,4.751,0.31771\n"
+                 "32,94,1.872,17.708,12.487,0.35435\n")
     m = measured.load(p)
     np.testing.assert_allclose(m.summary["stiffness"], [1.87e5, 0.94e5])
     np.testing.assert_allclose(m.summary["speed"], [0.625, 0.52])
     np.testing.assert_allclose(m.summary["damping"], [0.2027, 0.17708])
     np.testing.assert_allclose(m.summary["displacement_mean"], [4.751e-3, 12.487e-3])
     np.testing.assert_allclose(m.summary["draught_mean"], [317.71, 354.35])
-    assert m.units["stiffness"] == "N/m" and m.units["soil_moisture"] == "%"  # unknown columns keep their unit
+    assert m.units["stiffness"] == "N/m" and m.units["damping"] == "-"
     np.testing.assert_array_equal(m.summary["springs"], [16, 32])
 
 
@@ -90,6 +90,43 @@ def test_bad_measured_files_are_named(tmp_path) -> None:
         measured.load(tmp_path / "d")
     with pytest.raises(InputError, match="neither a file nor a directory"):
         measured.load(tmp_path / "nowhere")
+    # a column nothing reads, a binary file, one configuration twice (with other values, or the same), a header
+    # without rows, a ';'-separated export: the file, the column, row or byte, and what is expected
+    p.write_text("springs,frequency [Hz],temperature [C]\n16,6.1,21\n")
+    with pytest.raises(InputError, match=r"bad.csv: column 'temperature \[C\]' is not one warpdem reads; accepted: "
+                                         r"springs, stiffness, speed"):
+        measured.load(p)
+    p.write_bytes(b"springs,frequency [Hz]\n\xff\xfe16,6.1\n")
+    with pytest.raises(InputError, match=r"bad.csv: not a text CSV file \(byte 23 is not UTF-8\)"):
+        measured.load(p)
+    p.write_text("springs,frequency [Hz],damping [-]\n16,6.09,0.2027\n32,7.5,0.2\n16.0,7.5,0.2\n")
+    with pytest.raises(InputError, match=r"rows 1 and 3 are one configuration \(springs 16.0\) with different "
+                                         r"values \(frequency \[Hz\]: 6.09 and 7.5\)"):
+        measured.load(p)
+    p.write_text("springs,speed [m/s],reduction [%]\n16,0.6,5\n16,0.7,4\n16,0.6,5\n")
+    with pytest.raises(InputError, match=r"row 3 repeats row 1 \(springs 16, speed \[m/s\] 0.6\)"):
+        measured.load(p)
+    p.write_text("# springs: 16\nsprings,frequency [Hz],damping [-]\n")
+    with pytest.raises(InputError, match=r"bad.csv: a header \(springs, frequency \[Hz\], damping \[-\]\) and no "
+                                         "rows; give one row per configuration"):
+        measured.load(p)
+    p.write_text("springs;frequency [Hz];damping [-]\n16;6,09;0,2027\n")
+    with pytest.raises(InputError, match="bad.csv: the header 'springs;frequency .* is separated by ';'; the "
+                                         "separator must be a comma"):
+        measured.load(p)
+
+
+def test_a_csv_with_a_byte_order_mark_reads_like_the_plain_one(tmp_path) -> None:
+    # Excel's "CSV UTF-8" export starts with a byte-order mark (EF BB BF): the table reads as without it
+    table = "springs,frequency [Hz],damping [%]\n16,6.09137,20.27\n32,7.5,17.7\n"
+    (tmp_path / "plain.csv").write_text(table, encoding="utf-8")
+    (tmp_path / "excel.csv").write_text(table, encoding="utf-8-sig")
+    assert (tmp_path / "excel.csv").read_bytes()[:3] == b"\xef\xbb\xbf"
+    plain, excel = measured.load(tmp_path / "plain.csv"), measured.load(tmp_path / "excel.csv")
+    assert excel.units == plain.units and list(excel.summary) == list(plain.summary) == ["springs", "frequency",
+                                                                                        "damping"]
+    for k, v in plain.summary.items():
+        np.testing.assert_array_equal(excel.summary[k], v)
 
 
 @pytest.mark.parametrize("table,words", [
