@@ -7,12 +7,18 @@
 3. Run with observers (the plate's contact force, the spring force), save a checkpoint half way, and continue a
    second simulation from it.
 
-    python examples/engine_quickstart.py [--device cpu|cuda]
+    python examples/engine_quickstart.py [--device cpu|cuda] [--out DIR] [--verbose]
+
+The checkpoint goes to a temporary folder, removed at the end (``--out DIR`` keeps it there); Warp's banner, module
+loads and CUDA-driver warning are off unless ``--verbose``.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -97,8 +103,26 @@ def cutting_scene(device: str, centres: np.ndarray, radii: np.ndarray, angles: l
     return b.finalize(device, n_worlds=len(angles), overrides={"material:soil:friction_angle": angles})
 
 
+def quiet_warp() -> None:
+    """Initialise Warp without its banner and module-load lines, and without the "Could not find or load the NVIDIA
+    CUDA driver" line that Warp's native code writes straight to file descriptor 2 on a machine without a GPU."""
+    wp.config.quiet = True  # Warp < 1.19
+    if hasattr(wp, "LOG_ERROR"):
+        wp.config.log_level = wp.LOG_ERROR
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            wp.init()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
 def main(device: str | None = None, out: str | Path | None = None) -> dict[str, object]:
-    """Run the three steps; returns the series of the run, the continued run's, and the simulations."""
+    """Run the three steps; returns the series of the run, the continued run's, and the simulations. ``out``: the
+    folder of the checkpoint (default: a temporary folder, removed at the end)."""
     device = device or ("cuda" if wp.is_cuda_available() else "cpu")
     centres, radii = deposit(device)
     angles = [20.0, 40.0]
@@ -109,11 +133,12 @@ def main(device: str | None = None, out: str | Path | None = None) -> dict[str, 
     n = int(0.3 / sim.dt)
     x0 = sim.state.body_pos.numpy()[:, 0].copy()
     first = sim.run(n // 2, record_every=50, observers=observers)
-    path = Path(out or ".") / "quickstart_checkpoint.npz"
-    wd.checkpoint.save(sim, path)
-    rest = sim.run(n - n // 2, record_every=50, observers=observers)
-    again = wd.Simulation(*cutting_scene(device, centres, radii, angles), dt=sim.dt)
-    wd.checkpoint.load(again, path)                                    # the same scene, continued from the file
+    with tempfile.TemporaryDirectory(prefix="warpdem_quickstart_") as scratch:
+        path = Path(out or scratch) / "quickstart_checkpoint.npz"
+        wd.checkpoint.save(sim, path)
+        rest = sim.run(n - n // 2, record_every=50, observers=observers)
+        again = wd.Simulation(*cutting_scene(device, centres, radii, angles), dt=sim.dt)
+        wd.checkpoint.load(again, path)                                # the same scene, continued from the file
     rest_again = again.run(n - n // 2, record_every=50, observers=observers)
     moved = sim.state.body_pos.numpy()[:, 0] - x0
     for w, a in enumerate(angles):
@@ -126,4 +151,9 @@ def main(device: str | None = None, out: str | Path | None = None) -> dict[str, 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
-    main(parser.parse_args().device)
+    parser.add_argument("--out", default=None, help="keep the checkpoint in this folder (default: a temporary one)")
+    parser.add_argument("--verbose", action="store_true", help="keep Warp's banner and module-load lines")
+    args = parser.parse_args()
+    if not args.verbose:
+        quiet_warp()
+    main(args.device, args.out)

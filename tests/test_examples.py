@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import importlib.util
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -27,3 +29,16 @@ def test_engine_quickstart_runs_and_its_checkpoint_continues_the_run(tmp_path) -
     if DEVICE == "cpu":
         for k in ("time", "plate", "pull"):
             np.testing.assert_array_equal(r["rest"][k], r["rest_again"][k])
+
+
+def test_engine_quickstart_as_a_script_prints_its_results_only_and_leaves_no_file(tmp_path) -> None:
+    """Run as a newcomer runs it (from their own folder): stdout holds the two result lines, stderr nothing (no Warp
+    banner, module loads or CUDA-driver warning), and the folder stays empty (the checkpoint went to a temporary
+    folder)."""
+    r = subprocess.run([sys.executable, str(EXAMPLES / "engine_quickstart.py"), "--device", DEVICE], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.strip().splitlines()
+    assert len(lines) == 2 and all(x.startswith("friction ") for x in lines), r.stdout
+    assert r.stderr.strip() == ""
+    assert list(tmp_path.iterdir()) == []
