@@ -68,6 +68,7 @@ class LawOptions:
     always_moment: int  # Yade's always_use_moment_law
     cohesion_on_new: int  # Yade's setCohesionOnNewContacts
     unp_max: float  # Yade's unpMax [m]: non-fragile tensile break (< 0: never)
+    bond_gap: float  # distance bonding: Yade's interactionDetectionFactor - 1 at a bonding step (0: touching only)
     track_energy: int
 
 
@@ -136,7 +137,12 @@ def sphere_pair(
     r2 = float(r2d)
     un = float(r1d + r2d - dist)
     active = hist[k].flags & ACTIVE  # the whole history only for a contact (most candidates are none)
-    if not (active == 0 and un < 0.0):  # (a NaN overlap goes on to the law and the fault check)
+    # a new contact needs an overlap, or at a bonding step a gap within bond_gap (r1 + r2) (Yade's
+    # interactionDetectionFactor); the law then sees the gap as tension (a NaN overlap goes on to the fault check)
+    reach = float(0.0)
+    if now != 0:
+        reach = opts.bond_gap * (r1 + r2)
+    if not (active == 0 and un < -reach):
         h = hist[k]
         n = wp.vec3f(d / dist)
         p = phys_of(mats, w, mi, sphere_material[j], r1, r2)

@@ -180,6 +180,13 @@ class Simulation:
         cohesion_on_new_contacts: every new contact gets cohesion (Yade's setCohesionOnNewContacts).
         unp_max: plastic tensile displacement [m] at which a non-fragile bond is deleted (Yade's unpMax, default 0:
             at its first tensile yield); negative: never.
+        bond_detection_factor: distance bonding (Yade's ``interactionDetectionFactor`` and ``aabbEnlargeFactor`` at
+            the bonding step, set back to 1 after it): at a step that gives cohesion (:meth:`set_cohesion_now`),
+            sphere pairs whose centres are within this factor times the sum of their radii get a contact and a bond,
+            touching or not (>= 1; 1: touching pairs only). As in Yade 2023.02a's CohFrictPhys, the bond starts
+            with no plastic displacement, so a gap g is a tension k_n g at once: a fragile bond with k_n g > a_n
+            breaks in that step, a non-fragile one yields (and is deleted unless ``unp_max`` < 0). Sphere-facet
+            contacts are not affected (Yade's facet geometry has no such factor).
         track_energy: accumulate dissipation by damping, sliding, rolling and spring dashpots (costs atomics).
         max_speed: a body faster than this [m/s] stops the run as unstable.
         bounds: (lower (3,), upper (3,)) [m]; a body leaving it stops the run (default: the initial bounding box
@@ -227,6 +234,7 @@ class Simulation:
         always_use_moment_law: bool = False,
         cohesion_on_new_contacts: bool = False,
         unp_max: float = 0.0,
+        bond_detection_factor: float = 1.0,
         track_energy: bool = False,
         max_speed: float = 50.0,
         bounds: tuple[object, object] | None = None,
@@ -316,6 +324,11 @@ class Simulation:
         self.options.cohesion_on_new = int(self.cohesion_on_new_contacts)
         self.options.track_energy = int(self.track_energy)
         self.options.unp_max = float(unp_max)
+        if not (math.isfinite(bond_detection_factor) and 1.0 <= bond_detection_factor <= 3.0):
+            raise InputError(f"bond_detection_factor must be in [1, 3] (a centre distance over the radii's sum), "
+                             f"got {bond_detection_factor!r}")
+        self.bond_detection_factor = float(bond_detection_factor)
+        self.options.bond_gap = self.bond_detection_factor - 1.0
 
         self._update_spheres()
         self._set_bounds(bounds)
@@ -710,8 +723,17 @@ class Simulation:
         target.assign(table)
 
     def set_cohesion_now(self) -> None:
-        """Give cohesion to every existing contact of cohesive materials at the next step (Yade's setCohesionNow)."""
+        """Give cohesion to every existing contact of cohesive materials at the next step (Yade's setCohesionNow);
+        with ``bond_detection_factor`` > 1 also to the sphere pairs within its reach, whose candidates the lists
+        then hold (rebuilt here with a skin that covers the reach)."""
         self.data.cohesion_now.fill_(1)
+        reach = self.options.bond_gap * 2.0 * self.model.max_radius
+        if reach > self.skin:
+            skin, self.skin = self.skin, reach * (1.0 + 1e-6)
+            try:
+                self._rebuild_checked()
+            finally:
+                self.skin = skin
 
     def advance(self, n_steps: int) -> None:
         """Advance ``n_steps`` steps; every ``graph_steps`` steps, and after the last, check for faults (a fault
