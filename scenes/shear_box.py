@@ -187,6 +187,10 @@ class ShearBoxConfig:
     cohesion_on_new_contacts: bool = paper.COHESION_ON_NEW_CONTACTS
     """contacts made during the test also get cohesion (Yade's setCohesionOnNewContacts; module docstring); default
     the soil bin's rule, bonds on the contacts at the start of shear only."""
+    bond_detection_factor: float = 1.0
+    """distance bonding when the bonds are set at the start of shear (``warpdem.Simulation``'s
+    ``bond_detection_factor``, Yade's interactionDetectionFactor): pairs within this factor times their radii's sum
+    are bonded, touching or not (1: touching pairs only)."""
     young: float = paper.SOIL_YOUNG
     poisson: float = paper.SOIL_POISSON
     density: float = paper.SOIL_DENSITY
@@ -219,6 +223,8 @@ class ShearBoxConfig:
             raise ValueError(f"need at least three distinct normal stresses, got {self.normal_stresses}")
         if min(self.normal_stresses) <= 0:
             raise ValueError(f"normal stresses must be positive, got {self.normal_stresses}")
+        if not (math.isfinite(self.bond_detection_factor) and 1.0 <= self.bond_detection_factor <= 3.0):
+            raise ValueError(f"bond_detection_factor must be in [1, 3], got {self.bond_detection_factor!r}")
         for name in ("box_side", "sample_height", "shear_rate", "shear_displacement", "record_every", "smoothing",
                      "consolidation_speed", "dt_factor"):
             if not getattr(self, name) > 0:
@@ -344,7 +350,8 @@ class ShearBoxResult:
             "ga_set": cfg.ga_set, "friction_angle_contact_deg": cfg.friction_angle,
             "normal_cohesion_pa": cfg.normal_cohesion, "shear_cohesion_pa": cfg.shear_cohesion,
             "eta_roll": cfg.eta_roll, "eta_twist": cfg.eta_twist, "fragile": cfg.fragile,
-            "cohesion_on_new_contacts": cfg.cohesion_on_new_contacts, "box_side_m": cfg.box_side,
+            "cohesion_on_new_contacts": cfg.cohesion_on_new_contacts,
+            "bond_detection_factor": cfg.bond_detection_factor, "box_side_m": cfg.box_side,
             "sample_height_m": cfg.sample_height, "shear_rate_m_s": cfg.shear_rate,
             "shear_displacement_m": cfg.shear_displacement * cfg.box_side, "n_particles": self.n_particles,
             "porosity": self.porosity, "dt_s": self.dt, "consolidation_time_s": self.consolidation_time,
@@ -462,8 +469,8 @@ def build(configs: Sequence[ShearBoxConfig], bed: Bed) -> tuple[wd.ModelBuilder,
 
 # --------------------------------------------------------------------------------------------------- running
 _BATCH_SHARED = ("assembly", "box_side", "sample_height", "shear_rate", "shear_displacement", "record_every",
-                 "moment_law", "fragile", "cohesion_on_new_contacts", "young", "poisson", "density",
-                 "deposit_friction_angle", "consolidation_damping", "shear_damping", "consolidation_time",
+                 "moment_law", "fragile", "cohesion_on_new_contacts", "bond_detection_factor", "young", "poisson",
+                 "density", "deposit_friction_angle", "consolidation_damping", "shear_damping", "consolidation_time",
                  "consolidation_speed", "dt_factor", "seed")
 
 
@@ -613,7 +620,8 @@ def run_shear_boxes(configs: Sequence[ShearBoxConfig], device: str | None = None
     wd.check_step_count("shear box", cfg.consolidation_time[1] + cfg.shear_displacement * cfg.box_side / cfg.shear_rate,
                         dt, f"dt_factor {cfg.dt_factor:g} x the P-wave step (Young's moduli, particle size)")
     sim = wd.Simulation(model, state, dt=dt, always_use_moment_law=True,
-                        cohesion_on_new_contacts=cfg.cohesion_on_new_contacts)
+                        cohesion_on_new_contacts=cfg.cohesion_on_new_contacts,
+                        bond_detection_factor=cfg.bond_detection_factor)
     probe = _Probe(sim)
     t_cons = _consolidate(sim, probe, cfg, rig, progress)
     sigma_plane = (rig.plate_mass * GRAVITY + _soil_weight_above(sim, rig.z_shear)) / cfg.area

@@ -118,6 +118,11 @@ class SoilBinConfig:
     """False (default, both soil rigs' rule: ``scenes.paper.COHESION_ON_NEW_CONTACTS``): cohesion on the contacts of
     the first step only (the bed's, Yade's setCohesionNow); True: also on every contact made during the run (Yade's
     setCohesionOnNewContacts)."""
+    bond_detection_factor: float = 1.0
+    """distance bonding at the bonding step (``warpdem.Simulation``'s ``bond_detection_factor``, Yade's
+    interactionDetectionFactor): sphere pairs within this factor times their radii's sum are bonded, touching or not
+    (1: touching pairs only). With Yade's law a gap g is a tension kn g at once, so only gaps below Cn r / E keep
+    their bond (benchmarks/yade/bond_protocols_report.md)."""
 
     def __post_init__(self) -> None:
         if self.scale not in SCALES:
@@ -131,6 +136,8 @@ class SoilBinConfig:
             raise ValueError(f"speed needs one value per spring configuration ({len(self.springs)}), got {self.speed}")
         if not (math.isfinite(self.settle_time) and self.settle_time >= 0):
             raise ValueError(f"settle_time must be finite and >= 0 s, got {self.settle_time!r}")
+        if not (math.isfinite(self.bond_detection_factor) and 1.0 <= self.bond_detection_factor <= 3.0):
+            raise ValueError(f"bond_detection_factor must be in [1, 3], got {self.bond_detection_factor!r}")
         if self.member_radius is not None and not 0 < self.member_radius < 0.05:
             raise ValueError(f"member_radius must be in (0, 0.05) m, got {self.member_radius!r}")
         if not 0 < self.working_depth < SCALES[self.scale]["bed_depth"]:
@@ -703,7 +710,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
     lo = np.array([-bin_size[0], -0.5, min(-0.5, info.get("garage_bottom", 0.0) - 0.1)])
     hi = np.array([bin_size[0], bin_size[1] + travel + 1.0, 2.0])
     sim = wd.Simulation(model, state, dt=dt, always_use_moment_law=True, bounds=(lo, hi),
-                        cohesion_on_new_contacts=config.cohesion_on_new_contacts)
+                        cohesion_on_new_contacts=config.cohesion_on_new_contacts,
+                        bond_detection_factor=config.bond_detection_factor)
     speeds_a = np.asarray(speeds)
     carriage_vel = np.stack([np.zeros_like(speeds_a), speeds_a, np.zeros_like(speeds_a)], axis=1)
     # the sensor's material point in each world (pitched where a pitch is given). With a described tool or a pitch
