@@ -13,7 +13,8 @@ Protocols (simulation-wide; one simulation each, one world per cohesion factor):
 - ``settled_distance`` / ``distance``: the same with distance bonding, detection factor 1.5 at the bonding step
   (``bond_detection_factor``; benchmarks/yade/bond_protocols_report.md checks it against Yade);
 - ``settled_new`` / ``new``: and cohesion on every new contact (Yade's setCohesionOnNewContacts);
-- ``ductile`` (shear box): bonds that yield instead of breaking (``fragile=False``, Yade's unpMax = 0).
+- ``ductile`` / ``settled_ductile``: bonds that yield instead of breaking (``fragile=False``, Yade's unpMax = 0: a
+  bond is deleted at its first tensile yield, and keeps its shear strength while it slides).
 Cohesion factors (``--factors``): normal and shear cohesion = factor x set 11's (22.5 kPa, 11.2 kPa), per world.
 
 Per world. Soil bin: bonds after the bonding step, at 0.1 s (the tool has moved 7 cm: a loss beyond its path is the
@@ -47,6 +48,8 @@ SOIL_BIN = {
     "settled": {"settle_time": None},
     "settled_distance": {"settle_time": None, "bond_detection_factor": 1.5},
     "settled_new": {"settle_time": None, "cohesion_on_new_contacts": True},
+    "ductile": {"fragile": False},
+    "settled_ductile": {"settle_time": None, "fragile": False},
 }
 SHEAR_BOX = {
     "touch": {},

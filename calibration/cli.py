@@ -512,7 +512,7 @@ def run_passive_tool_cmd(args: argparse.Namespace) -> int:
     variants = args.variants or VARIANTS
     out = _claim(args, args.out)
     study = PassiveStudy(out, scale=args.scale, device=device, seed=args.seed, travel=args.travel,
-                         steady_travel=args.steady_travel, shank_length=args.shank_length,
+                         steady_travel=args.steady_travel, shank_length=args.shank_length, soil=args.soil,
                          pitches=PITCHES if args.pitches is None else args.pitches,
                          log=lambda m: print(m, flush=True))
     t0 = time.perf_counter()
@@ -921,6 +921,9 @@ def main(argv: list[str] | None = None) -> int:
                         "-4,-2,2,4,6,8,9)")
     t.add_argument("--variants", type=_variants, default=None,
                    help="tool variants of the passive runs, comma-separated (default fitted,din_preload)")
+    t.add_argument("--soil", choices=("workflow", "bonded"), default="workflow",
+                   help="workflow: the paper-scale workflow's calibrated soil (default); bonded: GA set 11 with 4x its "
+                        "cohesions, yielding bonds on a settled bed (its draught and shear box match the lab's)")
     t.add_argument("--budget", type=_number(float, gt=0, unit="s"), default=None,
                    help="wall time [s] of this call; a soil-bin stage stops into its checkpoint (exit code 3) and "
                         "the same command continues")

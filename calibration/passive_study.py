@@ -37,14 +37,30 @@ PITCHES = (-4.0, -2.0, 2.0, 4.0, 6.0, 8.0, 9.0)
 the 0.1 m sensor lever, are 0.1-7.2 deg)."""
 PITCH_SPEED = 0.62
 """carriage speed of the pitch sweep [m/s] (Table 3's median speed)."""
-SOIL = {"friction_angle": 29.51974323486036, "normal_cohesion": 430.4031570736236, "eta_roll": 0.0015063318135471741}
-"""the workflow's calibrated soil (docs/runs/table3-paper-h100/summary.json, screening rank 1)."""
+SOILS = {
+    "workflow": {"friction_angle": 29.51974323486036, "normal_cohesion": 430.4031570736236,
+                 "eta_roll": 0.0015063318135471741, "fragile": True, "settle_time": 0.5},
+    "bonded": {"friction_angle": 6.3017, "normal_cohesion": 4 * 22464.06, "eta_roll": 0.0632, "fragile": False,
+               "settle_time": 1.0},
+}
+"""the soils of the study (shear cohesion = half the normal cohesion; eta_twist = eta_roll):
+
+- "workflow": the paper-scale workflow's calibrated soil (docs/runs/table3-paper-h100/summary.json, screening
+  rank 1): its bonds break under the bed's own weight, its shear box gives 0.3-0.6 kPa; the bed settles 0.5 s;
+- "bonded": GA set 11 with 4x its cohesions (89.9 / 44.9 kPa, 1.8x the paper's gene range), bonds that yield instead
+  of breaking (fragile False), set on a bed settled 1.0 s: at paper scale its rigid draught is 337 N at 0.68 m/s and
+  330 N at 0.52 m/s, its shear box c 6.7-7.6 kPa and phi 32-34 deg (docs/runs/bond_protocols_h100)."""
 PRELOAD_TABLE3 = 1.44e-3
 """the stack preload [m] that Table 3's own displacements imply (d = 1.18 kN / k_DIN - 1.44 mm, r = 0.98): a
 variant with it is not an independent prediction of the displacements."""
 VARIANTS = ("fitted", "din_preload")
 """the tool variants of the passive stages: "fitted" (Table 2 fitted within bounds, one rate factor; no preload,
 no offsets) and "din_preload" (DIN 2093 rates, CAD inertia, no series compliance, PRELOAD_TABLE3)."""
+
+
+def _genes(soil: dict) -> dict:
+    """The workflow soil's record as the study's settings have always held it (its genes only)."""
+    return {k: soil[k] for k in ("friction_angle", "normal_cohesion", "eta_roll")}
 
 
 def _json(path: Path, data: object) -> None:
@@ -60,9 +76,13 @@ class PassiveStudy:
     """The study's folder and its stages (module docstring)."""
 
     def __init__(self, out: str | Path, *, scale: str = "paper", device: str | None = None, seed: int = 0,
-                 travel: float | None = None, steady_travel: float | None = None, settle_time: float = 0.5,
+                 travel: float | None = None, steady_travel: float | None = None, soil: str = "workflow",
                  shank_length: float = SweepParams.shank_length, pitches: tuple[float, ...] = PITCHES,
                  log: object = print) -> None:
+        if soil not in SOILS:
+            raise ValueError(f"soil must be one of {sorted(SOILS)}, got {soil!r}")
+        self.soil = SOILS[soil]
+        settle_time = self.soil["settle_time"]
         self.out = Path(out)
         self.out.mkdir(parents=True, exist_ok=True)
         self.device, self.log = device, log
@@ -70,9 +90,13 @@ class PassiveStudy:
         self.pitches = tuple(float(p) for p in pitches if p != 0.0)
         self.sweep = PassiveTool(shank_length=self.shank_length).sweep()
         self.config = sb.SoilBinConfig(scale=scale, assembly="C", springs=(0,), seed=seed, travel=travel,
-                                       steady_travel=steady_travel, settle_time=settle_time, support_offset=False)
+                                       steady_travel=steady_travel, settle_time=settle_time, support_offset=False,
+                                       fragile=self.soil["fragile"])
         meta = {"scale": scale, "seed": seed, "travel": travel, "steady_travel": steady_travel,
-                "settle_time": settle_time, "soil": SOIL, "pitches": self.pitches, "pitch_speed": PITCH_SPEED}
+                "settle_time": settle_time, "soil": _genes(self.soil) if soil == "workflow" else self.soil,
+                "pitches": self.pitches, "pitch_speed": PITCH_SPEED}
+        if soil != "workflow":
+            meta["soil_name"] = soil
         if self.shank_length != SweepParams.shank_length:
             meta["shank_length"] = self.shank_length
         p = self.out / "study.json"
@@ -111,9 +135,10 @@ class PassiveStudy:
         cfg = self.config
         bed = sb.bed_for(cfg, device=self.device, cache_dir=self.out / "beds")
         n = len(springs)
-        overrides = {"friction_angle": [SOIL["friction_angle"]] * n, "normal_cohesion": [SOIL["normal_cohesion"]] * n,
-                     "shear_cohesion": [0.5 * SOIL["normal_cohesion"]] * n, "eta_roll": [SOIL["eta_roll"]] * n,
-                     "eta_twist": [SOIL["eta_roll"]] * n}
+        soil = self.soil
+        overrides = {"friction_angle": [soil["friction_angle"]] * n, "normal_cohesion": [soil["normal_cohesion"]] * n,
+                     "shear_cohesion": [0.5 * soil["normal_cohesion"]] * n, "eta_roll": [soil["eta_roll"]] * n,
+                     "eta_twist": [soil["eta_roll"]] * n}
         self.log(f"{stage}: {n} worlds, springs {springs}, speeds {speeds} m/s" + (f", pitch {pitch}" if pitch else ""))
         t0 = time.perf_counter()
         run = sb.run_soil_bin(cfg, springs, bed=bed, device=self.device, speeds=speeds, soil_overrides=overrides,
@@ -261,7 +286,8 @@ def write_report(out: str | Path) -> Path:
     meta = load.get("study", {})
     lines += [f"Settings: scale {meta.get('scale')}, bed seed {meta.get('seed')}, travel {meta.get('travel')} m "
               f"(None: the scale's), steady state from {meta.get('steady_travel')} m, settle {meta.get('settle_time')} "
-              f"s; soil: the workflow's calibrated set ({SOIL}).", ""]
+              f"s; soil: {meta.get('soil_name', 'workflow')} ({meta.get('soil')}; calibration.passive_study.SOILS).",
+              ""]
     if "ringing" in load:
         ring = load["ringing"]
         lines += ["## Table 2 fitted within physical bounds", ""]

@@ -123,6 +123,9 @@ class SoilBinConfig:
     interactionDetectionFactor): sphere pairs within this factor times their radii's sum are bonded, touching or not
     (1: touching pairs only). With Yade's law a gap g is a tension kn g at once, so only gaps below Cn r / E keep
     their bond (benchmarks/yade/bond_protocols_report.md)."""
+    fragile: bool = True
+    """the soil's bonds break for good at their strength (Yade's CohFrictMat default), or, False, yield in tension
+    (deleted at their first tensile yield: Yade's unpMax = 0) and keep their shear strength while sliding."""
 
     def __post_init__(self) -> None:
         if self.scale not in SCALES:
@@ -184,7 +187,7 @@ class SoilBinConfig:
                            friction_angle=float(sets["friction_angle_deg"][k]),
                            normal_cohesion=float(sets["normal_cohesion_pa"][k]),
                            shear_cohesion=float(sets["shear_cohesion_pa"][k]), eta_roll=eta, eta_twist=eta,
-                           moment_law=True)
+                           moment_law=True, fragile=self.fragile)
 
 
 def speed_key(speed: float) -> float:
