@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -52,6 +53,8 @@ def run(protocol: str, spec: dict[str, np.ndarray], yade: dict[str, np.ndarray],
     import warpdem as wd
 
     soil, wall = materials(spec)
+    if protocol == "ductile":
+        soil = replace(soil, fragile=False)
     pos = spec["sphere_pos"].copy()
     if perturb > 0:
         pos += np.random.default_rng(seed).uniform(-perturb, perturb, pos.shape)

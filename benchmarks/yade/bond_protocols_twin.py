@@ -22,7 +22,8 @@ Two parts:
    - ``new``: bonds on the first step's contacts and on every new one (setCohesionOnNewContacts);
    - ``settled``: SETTLE_STEPS steps under gravity without bonds, NewtonIntegrator damping SETTLE_DAMPING (warpdem's
      ``SoilBinConfig.settle_time``), then bonds on that moment's contacts and damping 0;
-   - ``settled_distance``: settled, then bonded with the detection factors DETECTION for one step.
+   - ``settled_distance``: settled, then bonded with the detection factors DETECTION for one step;
+   - ``ductile``: ``touch`` with bonds that yield instead of breaking (CohFrictMat fragile=False; unpMax 0).
 
    Each protocol on REALIZATIONS realizations of the bed (below). Recorded every RECORD steps from the bonding step (the first record is after the bonding step): real
    sphere-sphere interactions ``<protocol>_c_ss``, those still cohesive ``<protocol>_coh_ss``, the kinetic energy
@@ -50,7 +51,7 @@ SETTLE_STEPS = 12000
 SETTLE_DAMPING = 0.4
 PAIR_RADIUS = 0.007
 PAIR_RATIOS = np.array([0.98, 0.999, 1.0005, 1.001, 1.002, 1.01, 1.1, 1.3])
-PROTOCOLS = ("touch", "distance", "new", "settled", "settled_distance")
+PROTOCOLS = ("touch", "distance", "new", "settled", "settled_distance", "ductile")
 REALIZATIONS = 8
 PERTURB = 1e-9
 """realization 0 is the bed as exported; realization s > 0 displaces every sphere by a uniform random vector in
@@ -117,12 +118,12 @@ def pairs():
 SPEC = {k: v for k, v in np.load(os.path.join(HERE, "soil_bin_twin_spec_A.npz")).items()}
 
 
-def soil_material():
+def soil_material(fragile=True):
     g = lambda k: float(SPEC["soil_" + k + "_f32"])  # noqa: E731 - the float32 values warpdem's kernels read
     return CohFrictMat(young=g("young"), poisson=g("poisson"), density=float(SPEC["soil_density"]),
                        frictionAngle=g("friction_angle_rad"), normalCohesion=g("normal_cohesion"),
                        shearCohesion=g("shear_cohesion"), etaRoll=g("eta_roll"), etaTwist=g("eta_twist"),
-                       alphaKr=g("alpha_kr"), alphaKtw=g("alpha_ktw"), momentRotationLaw=True, fragile=True,
+                       alphaKr=g("alpha_kr"), alphaKtw=g("alpha_ktw"), momentRotationLaw=True, fragile=fragile,
                        isCohesive=True)
 
 
@@ -146,7 +147,7 @@ def counts(n_spheres, first):
 def bed(protocol, seed):
     O.reset()
     wm = O.materials.append(wall_material())
-    sm = O.materials.append(soil_material())
+    sm = O.materials.append(soil_material(fragile=protocol != "ductile"))
     for tri in SPEC["bin_tri"]:
         O.bodies.append(utils.facet([tuple(map(float, v)) for v in tri], fixed=True, material=wm))
     first = len(O.bodies)
