@@ -621,7 +621,7 @@ def _genes(args: argparse.Namespace) -> dict[str, tuple[float, float]] | None:
     """--gene ranges checked against the calibration's genes (names, once each, a log gene's LOW > 0) before
     anything runs."""
     from calibration.genes import with_ranges
-    from calibration.problems import DRAUGHT_GENES, RINGING_GENES
+    from calibration.problems import DRAUGHT_GENES, RINGING_GENES, SOIL_GENES
 
     if not args.gene:
         return None
@@ -629,7 +629,7 @@ def _genes(args: argparse.Namespace) -> dict[str, tuple[float, float]] | None:
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
         raise InputError(f"--gene {twice[0]} given more than once; give each gene's range once")
-    defaults = RINGING_GENES[args.spring_model] if args.kind == "ringing" else DRAUGHT_GENES
+    defaults = {"ringing": RINGING_GENES[args.spring_model], "draught": DRAUGHT_GENES, "soil": SOIL_GENES}[args.kind]
     for name, (lo, hi) in args.gene:
         try:
             with_ranges(defaults, {name: (lo, hi)})
@@ -650,6 +650,8 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
         kw: dict[str, object] = {"springs": args.springs, "spring_model": args.spring_model, "fitness": args.fitness}
     else:
         kw = {"assembly": args.assembly, "scale": args.scale, "speed": args.speed, "seed": args.seed}
+        if args.kind == "soil":
+            kw["box_scale"] = args.screen_scale or args.scale
         if args.beds:
             kw["cache_dir"] = str(args.beds)
     out = _claim(args, args.out or f"results/calibrate/{args.kind}_" + (str(args.springs) if args.kind == "ringing"
@@ -657,7 +659,8 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
     _write_config(out, f"calibrate {args.kind}", device, settings=settings.to_dict(), problem=kw, genes=genes)
 
     def show(h: dict[str, object]) -> None:
-        errs = ", ".join(f"{k} {100 * abs(v):.2f} %" for k, v in h["best_errors"].items())
+        errs = ", ".join(f"{k} {abs(v):.2f} deg" if k.startswith("d_") else f"{k} {100 * abs(v):.2f} %"
+                         for k, v in h["best_errors"].items())
         total = args.generations if h["stage"] == "ga" else args.generations + 1 + args.refine
         print(f"{h['stage']:6s} {h['generation']:3d}/{total}: best fitness {h['best_fitness']:.4g} ({errs}); "
               f"{h['simulated']} simulated in {h['simulation_s']:.1f} s, {h['wall_s']:.0f} s so far", flush=True)
@@ -953,8 +956,9 @@ def main(argv: list[str] | None = None) -> int:
     d.add_argument("--out", default="results/demo", help="results folder")
     d.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
                    help="write ParaView (VTK) frames of the cut into OUT/vtk/ at every EVERY-th record (200 in all)")
-    c = sub.add_parser("calibrate", help="GA calibration (ringing rig or draught), populations as batched worlds")
-    c.add_argument("kind", choices=("ringing", "draught"))
+    c = sub.add_parser("calibrate", help="GA calibration (ringing rig, draught, or soil: draught and shear box "
+                       "together), populations as batched worlds")
+    c.add_argument("kind", choices=("ringing", "draught", "soil"))
     c.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
     c.add_argument("--out", default=None, help="results folder (default results/calibrate/<kind>_<springs|assembly>)")
     c.add_argument("--seed", type=_number(int, ge=0), default=0, help="GA seed (and the bed's deposition seed)")
@@ -974,7 +978,7 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--assembly", default="C", choices=("A", "B", "C"), help="draught: assembly")
     c.add_argument("--speed", type=_number(float, gt=0, unit="m/s"), default=0.62, help="draught: carriage speed [m/s]")
     c.add_argument("--screen-scale", default=None, choices=("ci", "cpu", "paper"),
-                   help="draught: shear-box scale of the screening (default: --scale)")
+                   help="draught: shear-box scale of the screening; soil: of the shear box (default: --scale)")
     c.add_argument("--no-screen", action="store_true", help="draught: calibrate only, no shear-box screening")
     c.add_argument("--beds", default=None,
                    help="draught: folder of deposited beds to read and add to (default OUT/beds)")

@@ -24,11 +24,13 @@ def record_row(problem, r: Record) -> dict[str, object]:  # noqa: ANN001
     """One table row: genes, observables, targets, relative errors [%] and fitness."""
     row: dict[str, object] = {"index": r.index, "stage": r.stage, "generation": r.generation}
     row.update(r.genes)
-    if problem.name == "draught":
+    if problem.name in ("draught", "soil"):
         row["shear_cohesion"] = 0.5 * r.genes["normal_cohesion"]
     row.update(r.observables)
     row.update({f"target_{k}": v for k, v in problem.targets.items()})
-    row.update({f"{k}_pct": 100.0 * v for k, v in r.errors.items()})
+    # relative errors in %, differences (d_...) in their own unit
+    row.update({k if k.startswith("d_") else f"{k}_pct": v if k.startswith("d_") else 100.0 * v
+                for k, v in r.errors.items()})
     row["fitness"] = r.fitness
     return row
 
@@ -89,7 +91,8 @@ def write_report(result: CalibrationResult, problem, out: str | Path, *,  # noqa
         (out / "table.csv").write_text("\n".join(lines) + "\n")
     convergence_plot(result, out / "convergence.png")
     best = record_row(problem, result.best)
-    title = {"ringing": "Ringing calibration (like Table 2)", "draught": "Draught calibration (like Tables 4-6)"}
+    title = {"ringing": "Ringing calibration (like Table 2)", "draught": "Draught calibration (like Tables 4-6)",
+             "soil": "Soil calibration: the rigid draught and the shear box together"}
     md = [f"# {title.get(problem.name, 'Calibration')}\n", f"Problem: `{json.dumps(problem.spec())}`\n",
           f"GA settings: `{json.dumps(result.settings)}`\n",
           f"{result.n_simulated} individuals simulated in {result.archive.n_batches} batched simulations, "
@@ -102,6 +105,17 @@ def write_report(result: CalibrationResult, problem, out: str | Path, *,  # noqa
         if screening is not None:
             md += ["## Shear-box screening (rank 1 = closest to the laboratory's 6.4 kPa and 32.3 deg)\n",
                    markdown_table(screening)]
+    if problem.name == "soil":
+        accepted = [record_row(problem, r) for r in recs if problem.accepted(r.errors)]
+        tol = problem.spec()["tolerances"]
+        md += [f"## Accepted sets (draught within {100 * tol['re_draught']:.0f} %, shear-box cohesion within "
+               f"{100 * tol['re_cohesion']:.0f} %, friction angle within {tol['d_friction_deg']:g} deg): "
+               f"{len(accepted)}\n"]
+        top_cn = 5e4  # the paper's normal-cohesion range ends here (section 2.2.2)
+        if result.best.genes["normal_cohesion"] > top_cn:
+            md += [f"The best set's normal cohesion, {result.best.genes['normal_cohesion'] / 1e3:.1f} kPa, is "
+                   f"{result.best.genes['normal_cohesion'] / top_cn:.1f}x the top of the paper's range (50 kPa): a "
+                   "fitted number outside the paper's range, which may stand for a mechanism the model lacks.\n"]
     md += ["## Convergence\n", "![convergence](convergence.png)\n"]
     (out / "report.md").write_text("\n".join(md))
     summary = {"problem": problem.spec(), "settings": result.settings, "best": best, "history": result.history,

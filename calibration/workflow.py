@@ -34,13 +34,13 @@ def run_calibration(kind: str, out: str | Path, *, settings: GASettings | None =
     ``problem_kwargs``: the problem's fields (:mod:`calibration.problems`). Returns the result and a summary dict.
     """
     out = Path(out)
-    if kind == "draught":
+    if kind in ("draught", "soil"):
         problem_kwargs.setdefault("cache_dir", str(out / "beds"))
     problem = make_problem(kind, device=device, **problem_kwargs)
     use_ray = ray_workers is not None or ray_address is not None
     extra: dict[str, object] = {"device": device, "evaluator": "ray" if use_ray else "local"}
-    if use_ray and kind == "draught":
-        problem.bed()  # deposited (or read) once here, into cache_dir, which the workers then read
+    if use_ray and kind in ("draught", "soil"):  # deposited (or read) once here, into cache_dir, which the workers read
+        (problem.draught if kind == "soil" else problem).bed()
     evaluator = (RayEvaluator(problem, ray_workers, address=ray_address, gpus_per_worker=gpus_per_worker)
                  if use_ray else LocalEvaluator(problem))
     try:
