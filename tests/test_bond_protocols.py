@@ -76,3 +76,19 @@ def test_bed_bonds_as_yade(protocol: str) -> None:
     n = len(share)
     bound = 3.0 * share.std(ddof=1) * np.sqrt(1.0 + 1.0 / n)
     assert abs(mine - share.mean()) < bound, (protocol, mine, share.mean(), bound)
+
+
+def test_a_detection_factor_outside_its_range_is_refused() -> None:
+    from scenes.shear_box import preset
+    from scenes.soil_bin import SoilBinConfig
+
+    b = wd.ModelBuilder(gravity=(0.0, 0.0, 0.0))
+    b.add_material("m", wd.Material(young=1e7, poisson=0.3, density=2600.0, friction_angle=30.0))
+    b.add_sphere((0.0, 0.0, 0.0), 0.01, "m")
+    model, state = b.finalize(DEVICE)
+    with pytest.raises(wd.InputError, match="bond_detection_factor must be in \\[1, 3\\].*0.5"):
+        wd.Simulation(model, state, dt=1e-5, bond_detection_factor=0.5)
+    with pytest.raises(ValueError, match="bond_detection_factor must be in \\[1, 3\\].*nan"):
+        SoilBinConfig(bond_detection_factor=float("nan"))
+    with pytest.raises(ValueError, match="bond_detection_factor must be in \\[1, 3\\].*4"):
+        preset("ci", "A", bond_detection_factor=4.0)
