@@ -2,7 +2,9 @@
 
 Writes into one folder: config.json (every parameter, versions, device, seed), ringing_<model>.npz, soil_bin.npz,
 summary.json, PNG plots (like the paper's Figs. 6, 16, 17, 18, 19) and report.md setting the results beside
-Tables 2, 3 and 7.
+Tables 2, 3 and 7. A call on a folder of an interrupted one keeps what that one finished: each spring model's ringing
+result (``ringing_<model>.npz``, read back when its configuration is the same), the deposited bed (``beds/``) and
+the soil-bin runs' checkpoints (``checkpoints/``).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from warpdem import analysis
-from warpdem.files import write_text_atomic
+from warpdem.files import write_atomic, write_text_atomic
 
 from . import paper, ringing, speed_sweep
 from . import soil_bin as sb
@@ -342,6 +344,36 @@ def write_soil_bin_report(out: Path, config: dict, study: dict, device: str) -> 
     return path
 
 
+_RINGING_ARRAYS = ("time", "displacement", "frequency_hz", "damping_ratio", "static_deflection", "spring_deflection")
+
+
+def save_ringing(result: ringing.RingingResult, path: Path) -> None:
+    """A ringing result as ``path`` (npz, written atomically): its arrays, its analytic arrays (``analytic/<name>``)
+    and ``meta`` (JSON: springs, spring model, dt [s], wall time [s], configuration)."""
+    meta = {"springs": list(result.springs), "spring_model": result.spring_model, "dt": result.dt,
+            "wall_s": result.wall_s, "config": result.config}
+    arrays = {k: np.asarray(getattr(result, k)) for k in _RINGING_ARRAYS}
+    arrays.update({f"analytic/{k}": np.asarray(v) for k, v in result.analytic.items()})
+    write_atomic(path, lambda tmp: np.savez_compressed(tmp, meta=np.array(json.dumps(meta, default=str)), **arrays))
+
+
+def load_ringing(path: Path, config: ringing.RingingConfig) -> ringing.RingingResult | None:
+    """The ringing result saved at ``path`` if it was run with ``config``; None if there is none, or another's."""
+    if not path.exists():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            meta = json.loads(str(z["meta"]))
+            arrays = {k: z[k] for k in _RINGING_ARRAYS}
+            analytic = {k.split("/", 1)[1]: z[k] for k in z.files if k.startswith("analytic/")}
+    except (OSError, ValueError, KeyError):  # an older folder's file, without meta
+        return None
+    if meta["config"] != json.loads(json.dumps(asdict(config), default=str)):
+        return None
+    return ringing.RingingResult(springs=tuple(meta["springs"]), spring_model=meta["spring_model"], dt=meta["dt"],
+                                 wall_s=meta["wall_s"], config=meta["config"], analytic=analytic, **arrays)
+
+
 def reproduce(out: str | Path, *, scale: str = "cpu", device: str | None = None, assembly: str = "C",
               springs: tuple[int, ...] = (0, 16, 32), seed: int = 0, progress: object | None = None,
               soil: bool = True, vtk_every: int | None = None) -> dict:
@@ -358,10 +390,13 @@ def reproduce(out: str | Path, *, scale: str = "cpu", device: str | None = None,
     (out / "config.json").write_text(json.dumps(config, indent=2, default=str))
     ring = {}
     for m, c in ring_cfgs.items():
+        path = out / f"ringing_{m}.npz"
+        if (done := load_ringing(path, c)) is not None:  # an interrupted call finished it
+            ring[m] = done
+            continue
         ring[m] = ringing.run_ringing(c, device=device, progress=progress and (lambda d, n, ph, m=m:
                                                                                progress(f"ringing {m} {ph}", d, n)))
-        np.savez_compressed(out / f"ringing_{m}.npz", time=ring[m].time, displacement=ring[m].displacement,
-                            frequency_hz=ring[m].frequency_hz, damping_ratio=ring[m].damping_ratio)
+        save_ringing(ring[m], path)
     plot_ringing(ring, out / "fig06_ringing.png")
     study, plots = None, []
     if soil:

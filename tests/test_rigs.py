@@ -286,3 +286,25 @@ def test_a_soil_bin_world_gives_what_it_gives_alone_whatever_its_batch_mates(ci_
         np.testing.assert_array_equal(batch.series[name][:k, 0], alone.series[name][:, 0])
     assert np.ptp(alone.series["draught"][:, 0]) > 1.0  # the tool did cut
     assert not np.array_equal(batch.series["draught"][:k, 1], alone.series["draught"][:, 0])
+
+
+def test_a_repeated_reproduce_keeps_the_finished_ringing_and_bed(tmp_path, monkeypatch) -> None:
+    # Reference: the first call's own results. A second call on its folder (as after an interrupt) must neither ring
+    # nor deposit again, and give the same tables; the soil-bin runs, whose checkpoints a finished run removes, run
+    # again and, on the CPU, to the bit (tests/test_determinism.py).
+    from scenes import reproduce as rp
+
+    first = rp.reproduce(tmp_path, scale="ci", springs=(0,), device=DEVICE)
+
+    def refuse(*_a: object, **_k: object) -> None:
+        raise AssertionError("ran again")
+
+    monkeypatch.setattr(ringing, "run_ringing", refuse)
+    monkeypatch.setattr(sb, "deposit", refuse)
+    second = rp.reproduce(tmp_path, scale="ci", springs=(0,), device=DEVICE)
+    assert second["ringing"] == first["ringing"]
+    if DEVICE == "cpu":
+        assert second["soil_bin"] == first["soil_bin"]
+    # another configuration's file is not taken for this one
+    c = ringing.RingingConfig(spring_model="linear", springs=(16,))
+    assert rp.load_ringing(tmp_path / "ringing_linear.npz", c) is None
