@@ -307,7 +307,8 @@ def _setup(args: argparse.Namespace) -> str:
 
 
 FULL_ONLY = ("budget", "replicas_min", "replicas_max", "target_sem", "worlds_per_job", "replica_worlds", "settle_time",
-             "no_diagnosis", "diagnosis_rounds", "diagnosis_grid", "generations", "population", "parents")
+             "soil_protocol", "no_diagnosis", "diagnosis_rounds", "diagnosis_grid", "generations", "population",
+             "parents")
 """options of ``reproduce`` that only the full workflow reads (the quick one refuses them)."""
 
 
@@ -383,7 +384,8 @@ def run_workflow(args: argparse.Namespace) -> int:
                             replicas_min=args.replicas_min, replicas_max=args.replicas_max,
                             target_sem=args.target_sem, worlds_per_job=args.worlds_per_job,
                             replica_worlds=args.replica_worlds,
-                            settle_time=args.settle_time, seed=args.seed, diagnose=not args.no_diagnosis,
+                            settle_time=args.settle_time, soil_protocol=args.soil_protocol, seed=args.seed,
+                            diagnose=not args.no_diagnosis,
                             diagnosis_rounds=_folder_rounds(args), diagnosis_grid=args.diagnosis_grid)
     if args.tool is not None:
         from dataclasses import replace
@@ -865,6 +867,9 @@ def main(argv: list[str] | None = None) -> int:
                         "each simulation's worlds spread over a group of replicas)")
     r.add_argument("--settle-time", type=_number(float, ge=0, unit="s"), default=0.5,
                    help="full: [s] a bed settles under the soil set before the tool moves (default 0.5)")
+    r.add_argument("--soil-protocol", choices=("paper", "bonded"), default="paper",
+                   help="full: paper (default): the draught GA, then shear-box screening, bonds that break; bonded: "
+                        "the draught and the shear box calibrated together, yielding bonds on a bed settled >= 1 s")
     r.add_argument("--tool", default=None, metavar="TOML",
                    help="full: Table 3's passive jobs use this passive tool, described once (scenes/passive_tool.py; "
                         "a passive-tool run's tool_fitted.toml), instead of the ringing calibration's springs")

@@ -60,7 +60,7 @@ from . import diagnosis as diagnosis_mod
 from . import diagnosis_report, measured
 from .archive import same_or_extended, write_json_atomic
 from .ga import accepted_records, calibrate
-from .problems import DraughtProblem, RingingProblem
+from .problems import DraughtProblem, RingingProblem, SoilProblem
 from .report import write_report
 from .rig_models import SoilBinRigModel
 from .screening import screen
@@ -385,8 +385,15 @@ class Workflow:
         return out
 
     # ---- stage 2: draught calibration ----------------------------------------------------------------------------
-    def draught_problem(self) -> DraughtProblem:
+    def draught_problem(self) -> DraughtProblem | SoilProblem:
+        """The draught GA's problem: the paper's (draught alone) or, with the "bonded" soil protocol, the draught and
+        the shear box together."""
         c = self.config
+        if c.soil_protocol == "bonded":
+            return SoilProblem(assembly=c.assembly, scale=CALIBRATION_SCALE[c.scale], box_scale=SCREEN_SCALE[c.scale],
+                               travel=c.calibration_travel, settle_time=c.soil_settle_time, fragile=False,
+                               box_changes=dict(c.screen_changes) or None, seed=c.seed,
+                               cache_dir=str(self.out / "beds"), device=self.device)
         return DraughtProblem(assembly=c.assembly, scale=CALIBRATION_SCALE[c.scale], travel=c.calibration_travel,
                               settle_time=c.settle_time, seed=c.seed, cache_dir=str(self.out / "beds"),
                               device=self.device)
@@ -434,7 +441,8 @@ class Workflow:
         self.log(f"shear-box screening of {len(draught['candidates'])} sets ({SCREEN_SCALE[self.config.scale]})")
         t0 = time.perf_counter()
         rows = screen([c["genes"] for c in draught["candidates"]], self.config.assembly,
-                      SCREEN_SCALE[self.config.scale], device=self.device, **self.config.screen_changes)
+                      SCREEN_SCALE[self.config.scale], device=self.device,
+                      **{**self.config.screen_changes, **({} if self.config.fragile else {"fragile": False})})
         for r in rows:
             r["draught_mean_n"] = draught["candidates"][r["set"] - 1]["draught_mean_n"]
         chosen = {g: rows[0][g] for g in ("friction_angle", "normal_cohesion", "eta_roll")}
@@ -520,7 +528,7 @@ class Workflow:
                                speed=tuple(job["speeds"]), support_offset=job["kind"] == "offset",
                                travel=c.travel, steady_travel=c.steady_travel,
                                seed=c.seed if "replicas" in job else c.seed + job["replica"],
-                               settle_time=c.settle_time)
+                               settle_time=c.soil_settle_time, fragile=c.fragile)
         n = len(job["springs"])
         overrides = {"friction_angle": [soil["friction_angle"]] * n, "normal_cohesion": [soil["normal_cohesion"]] * n,
                      "shear_cohesion": [0.5 * soil["normal_cohesion"]] * n, "eta_roll": [soil["eta_roll"]] * n,
@@ -731,7 +739,8 @@ class Workflow:
 
         rig = SoilBinRigModel(data, device=self.device, scale=CALIBRATION_SCALE[c.scale], assembly=c.assembly,
                               seed=c.seed, travel=c.calibration_travel, steady_travel=c.steady_travel,
-                              settle_time=c.settle_time, soil=contact, max_worlds=len(c.springs),
+                              settle_time=c.soil_settle_time, fragile=c.fragile, soil=contact,
+                              max_worlds=len(c.springs),
                               cache_dir=str(self.out / "beds"), simulator=simulator)
         return rig
 

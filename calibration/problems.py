@@ -336,6 +336,15 @@ class SoilProblem:
     def __getstate__(self) -> dict[str, object]:  # beds are re-read or re-deposited by a remote worker
         return {**self.__dict__, "_box_bed": None}
 
+    @property
+    def config(self) -> SoilBinConfig:
+        """The soil bin's configuration (its bed's key)."""
+        return self.draught.config
+
+    def bed(self):  # noqa: ANN201 (scenes.assemblies.Bed)
+        """The soil bin's deposited bed (read from ``cache_dir`` or deposited)."""
+        return self.draught.bed()
+
     def simulation_key(self) -> dict[str, object]:
         return {**self.draught.simulation_key(), "rig": "soil_bin_rigid+shear_box", "box_scale": self.box_scale,
                 "box_changes": self.box_changes or {}, "fragile": self.fragile}

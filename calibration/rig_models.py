@@ -529,13 +529,13 @@ class SoilBinRigModel:
     time, and a trend by drift).
 
     ``scale``, ``assembly``, ``parameter_set``, ``seed``, ``working_depth``, ``travel``, ``steady_travel``,
-    ``support_offset``, ``settle_time`` [s]: the ``scenes.soil_bin.SoilBinConfig`` of the simulations; ``soil``: soil
-    contact parameters replacing the GA set's in every run (``friction_angle`` [deg], ``normal_cohesion``,
-    ``shear_cohesion`` [Pa], ``eta_roll``, ``eta_twist`` [-]; e.g. a set calibrated at the simulation's scale); ``bed``:
-    a deposited bed to use (else made or read from ``cache_dir``); ``max_worlds``: passive worlds per simulation;
-    ``simulator``: what runs the soil bin instead of the DEM, ``simulator(config, springs, speeds, knobs,
-    soil_overrides) -> scenes.soil_bin.SoilBinRun`` (``run_soil_bin``'s arguments and result; for tests with an
-    independent model).
+    ``support_offset``, ``settle_time`` [s], ``fragile``: the ``scenes.soil_bin.SoilBinConfig`` of the simulations;
+    ``soil``: soil contact parameters replacing the GA set's in every run (``friction_angle`` [deg],
+    ``normal_cohesion``, ``shear_cohesion`` [Pa], ``eta_roll``, ``eta_twist`` [-]; e.g. a set calibrated at the
+    simulation's scale); ``bed``: a deposited bed to use (else made or read from ``cache_dir``); ``max_worlds``:
+    passive worlds per simulation; ``simulator``: what runs the soil bin instead of the DEM,
+    ``simulator(config, springs, speeds, knobs, soil_overrides) -> scenes.soil_bin.SoilBinRun``
+    (``run_soil_bin``'s arguments and result; for tests with an independent model).
     """
 
     rig = "soil-bin"
@@ -549,7 +549,7 @@ class SoilBinRigModel:
                  scale: str = "ci", assembly: str = "C", parameter_set: int | None = None, seed: int = 0,
                  working_depth: float | None = None, travel: float | None = None,
                  steady_travel: float | None = None, support_offset: bool = False, settle_time: float = 0.0,
-                 soil: dict[str, float] | None = None,
+                 fragile: bool = True, soil: dict[str, float] | None = None,
                  observables: tuple[str, ...] | None = None,
                  uncertainty: dict[str, float] | None = None, max_worlds: int = 64, bed: object | None = None,
                  cache_dir: str | None = None, measured_steady_travel: float | None = None,
@@ -577,7 +577,7 @@ class SoilBinRigModel:
         self.config = sb.SoilBinConfig(scale=scale, assembly=assembly, springs=tuple(sorted(set(springs))),
                                        spring_model="linear", parameter_set=parameter_set, seed=seed,
                                        travel=travel, steady_travel=steady_travel, support_offset=support_offset,
-                                       settle_time=settle_time,
+                                       settle_time=settle_time, fragile=fragile,
                                        **({"working_depth": working_depth} if working_depth else {}))
         columns = dict(s)
         start = float(measured_steady_travel or self.config.steady_travel or self.config.preset["steady_travel"])

@@ -29,6 +29,12 @@ REFIT_FIELDS = ("diagnosis_rounds",)
 more continue from the last round simulated). A finished diagnosis of the old value is set aside."""
 
 
+SOIL_PROTOCOLS = ("paper", "bonded")
+"""the soil protocols of the workflow (``WorkflowConfig.soil_protocol``)."""
+BONDED_SETTLE = 1.0
+"""[s] the least settling of a "bonded" bed before its bonds are set (0.5 s left the ci bed moving, 0.39 J;
+docs/fidelity.md, section 3)."""
+
 @dataclass
 class WorkflowConfig:
     """What a workflow run does. Every field is recorded in ``workflow.json``; a folder holding another
@@ -60,6 +66,14 @@ class WorkflowConfig:
     """[percentage points]: replicas are added until every reduction's standard error is below this."""
     settle_time: float = 0.5
     """[s] each soil-bin bed settles under the run's soil set before the tool moves (``SoilBinConfig``)."""
+    soil_protocol: str = "paper"
+    """how the soil is calibrated and its bonds made. "paper": the paper's way, the draught GA over the paper's gene
+    ranges, then its fittest accepted sets screened in the shear box; bonds that break (Yade's default), set on the
+    bed after ``settle_time``. "bonded": the draught and the shear box calibrated together
+    (:class:`calibration.problems.SoilProblem`), bonds that yield instead of breaking, set on a bed settled for
+    ``max(settle_time, BONDED_SETTLE)``, the normal cohesion's range up to 500 kPa (10x the paper's top); the
+    screening runs the fittest sets in the shear box with the same bonds. docs/runs/bond_protocols_h100 says why:
+    with GA set 11 only the second reaches the laboratory's draught and shear box together."""
     worlds_per_job: int = 4
     """soil-bin worlds per simulation (at most): smaller jobs fit a shorter budget."""
     travel: float | None = None
@@ -94,7 +108,20 @@ class WorkflowConfig:
     and passive jobs take its geometry (pivot height). None: the ringing GA's stiffness and dashpot (the paper's
     way). The diagnosis stage keeps its own rig model either way."""
 
+    @property
+    def fragile(self) -> bool:
+        """the soil's bonds break at their strength (the "paper" protocol) or yield ("bonded")."""
+        return self.soil_protocol != "bonded"
+
+    @property
+    def soil_settle_time(self) -> float:
+        """[s] the soil-bin beds settle before their bonds are set (``settle_time``; "bonded": at least
+        BONDED_SETTLE)."""
+        return max(self.settle_time, BONDED_SETTLE) if self.soil_protocol == "bonded" else self.settle_time
+
     def __post_init__(self) -> None:
+        if self.soil_protocol not in SOIL_PROTOCOLS:
+            raise InputError(f"soil_protocol must be one of {SOIL_PROTOCOLS}, got {self.soil_protocol!r}")
         if self.passive_tool is not None:
             from scenes.passive_tool import from_dict
 

@@ -589,3 +589,33 @@ def test_limits_of_the_match_are_read_from_the_runs_numbers() -> None:
     assert "keeps the reductions from the laboratory's" not in text  # the second variant spreads 0.6 x: not narrow
     only_narrow = "\n".join(limits_section({"variants": {"offset": rows(1.0, 0.2)}}, None))
     assert "keeps the reductions from the laboratory's" in only_narrow and "The soil" not in only_narrow
+
+
+def test_the_bonded_soil_protocol_calibrates_draught_and_shear_box_and_keeps_its_bonds(tmp_path, monkeypatch):
+    """soil_protocol "bonded" (docs/runs/bond_protocols_h100): the draught stage's problem is the joint one (draught
+    and shear box, yielding bonds, the bed settled at least BONDED_SETTLE), and Table 3's soil-bin runs take the same
+    bonds and settling; the paper's protocol keeps the draught alone and fragile bonds."""
+    from calibration.problems import DraughtProblem, SoilProblem
+    from calibration.workflow_config import BONDED_SETTLE
+    from scenes import soil_bin as sb
+
+    with pytest.raises(InputError, match="soil_protocol must be one of"):
+        _config(soil_protocol="glued")
+    paper_wf = Workflow(tmp_path / "paper", _config())
+    assert type(paper_wf.draught_problem()) is DraughtProblem and paper_wf.config.fragile
+    wf = Workflow(tmp_path / "bonded", _config(soil_protocol="bonded", settle_time=0.2))
+    p = wf.draught_problem()
+    assert isinstance(p, SoilProblem) and not p.fragile and p.settle_time == BONDED_SETTLE
+    assert not p.config.fragile and not p.box.fragile
+    assert p.box.shear_displacement == 0.03  # the workflow's screen_changes reach the joint problem's box
+    seen = []
+
+    def capture(config: object, *a: object, **k: object) -> None:
+        seen.append(config)
+        raise RuntimeError("captured")
+
+    monkeypatch.setattr(sb, "run_soil_bin", capture)
+    with pytest.raises(RuntimeError, match="captured"):
+        wf.run_job(wf.jobs(0)[0], {"friction_angle": 30.0, "normal_cohesion": 1e4, "eta_roll": 0.05}, None,
+                   Budget(None))
+    assert not seen[0].fragile and seen[0].settle_time == BONDED_SETTLE
