@@ -35,6 +35,7 @@ BONDED_SETTLE = 1.0
 """[s] the least settling of a "bonded" bed before its bonds are set (0.5 s left the ci bed moving, 0.39 J;
 docs/fidelity.md, section 3)."""
 
+
 @dataclass
 class WorkflowConfig:
     """What a workflow run does. Every field is recorded in ``workflow.json``; a folder holding another
