@@ -464,8 +464,9 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
 
     _write_config(out, "soil-bin", device, config=asdict(cfg), preset=sb.SCALES[args.scale], replicas=args.replicas,
                   tool=None if tool is None else tool.to_dict())
-    study = sb.run_study(cfg, device=device, cache_dir=out / "beds", progress=lambda d, n: _bar("soil bin", d, n),
-                         viewer=viewer, checkpoint_dir=out / "checkpoints",
+    study = sb.run_study(cfg, device=device, cache_dir=out / "beds",
+                         progress=lambda run, d, n: _bar(f"soil bin: {run} tool", d, n), viewer=viewer,
+                         checkpoint_dir=out / "checkpoints",
                          deposit_progress=_deposit_bar("deposition"), vtk_every=args.vtk, vtk_dir=out / "vtk",
                          replicas=args.replicas, passive_tool=tool)
     (out / "summary.json").write_text(json.dumps(sb.json_safe(study["table"]), indent=2))

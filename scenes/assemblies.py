@@ -248,7 +248,8 @@ def deposit(spec: AssemblySpec, bin_size: tuple[float, float, float], depth: flo
     energy per particle is below ``ke_per_particle`` [J] (or ``max_time`` [s]), then particles whose centre is above
     ``depth`` are removed and the rest settles again. Porosity is measured in the central half of the bed (x, y)
     below depth - 2 r_max, with each particle counted whole where its centre lies; the coordination number over all
-    particles.
+    particles. ``progress(phase, simulated time [s], kinetic energy per particle [J])`` after every 0.02 s of each
+    phase ("fill", "cut"); a phase that comes to rest early reports ``max_time`` last (it is done).
     """
     t0 = time.perf_counter()
     w, length, h = bin_size
@@ -287,6 +288,8 @@ def deposit(spec: AssemblySpec, bin_size: tuple[float, float, float], depth: flo
             if progress is not None:
                 progress(phase, steps * dt, ke / n_particles)
             if steps * dt > 0.1 and ke / n_particles < ke_per_particle:
+                if progress is not None:  # at rest early: the phase is done, as a bar over max_time shows it
+                    progress(phase, max_time, ke / n_particles)
                 break
         centres = np.empty_like(bed.centres)
         centres[order] = sim.data.sphere_pos.numpy()

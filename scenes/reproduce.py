@@ -401,8 +401,8 @@ def reproduce(out: str | Path, *, scale: str = "cpu", device: str | None = None,
     study, plots = None, []
     if soil:
         study = sb.run_study(sb_cfg, device=device, cache_dir=out / "beds", checkpoint_dir=out / "checkpoints",
-                             progress=progress and (lambda d, n: progress("soil bin", d, n)), vtk_every=vtk_every,
-                             vtk_dir=out / "vtk")
+                             progress=progress and (lambda run, d, n: progress(f"soil bin: {run} tool", d, n)),
+                             vtk_every=vtk_every, vtk_dir=out / "vtk")
         arrays = {}
         for name, run in study["runs"].items():
             arrays[f"{name}/time"] = run.time

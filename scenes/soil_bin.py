@@ -856,8 +856,9 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
     ``vtk_every``: ParaView frames of every run at every ``vtk_every``-th record, into ``vtk_dir``/<run name>.
     ``checkpoint_dir``: each run checkpoints into a subfolder (``rigid``, ``passive``) and resumes from it after a
     kill (a run that had finished is read back, not run again); the subfolders are removed when the study is
-    done. ``deposit_progress``: the deposition's progress callback
-    (:func:`scenes.assemblies.deposit`) when the bed is made. ``bed``: use this bed instead (e.g. one already made).
+    done. ``progress(run, done, total)``: each run's progress, ``run`` "rigid" or "passive" (simulated times [s]).
+    ``deposit_progress``: the deposition's progress callback (:func:`scenes.assemblies.deposit`) when the bed is
+    made. ``bed``: use this bed instead (e.g. one already made).
 
     ``replicas`` >= 2: every run on that many replica beds (``bed_for(config, replica=r)``, one population of
     particles, each bed set down from its own seed) as worlds of the same simulations, the tool at their mean
@@ -895,7 +896,8 @@ def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: st
         if replicas > 1:  # replica after replica, each with every configuration of the group
             world_beds = [b for b in beds for _ in springs]
             springs, speeds = springs * replicas, speeds * replicas
-        runs[name] = run_soil_bin(config, springs, bed=world_beds, device=device, progress=progress, speeds=speeds,
+        run_progress = (lambda d, n, name=name: progress(name, d, n)) if progress else None
+        runs[name] = run_soil_bin(config, springs, bed=world_beds, device=device, progress=run_progress, speeds=speeds,
                                   viewer=viewer if name == streamed else None, checkpoint=folder,
                                   vtk=(VtkWriter(Path(vtk_dir) / name), vtk_every) if vtk_every else None,
                                   tool=tool, place=replicas == 1,

@@ -382,7 +382,7 @@ def test_a_killed_soil_bin_command_resumes_to_the_same_result(tmp_path, monkeypa
 
     def runs() -> list[float]:
         """The fraction at which each soil-bin run of the last call started (a run starts where the fraction drops)."""
-        f = [frac for label, frac in seen if label == "soil bin"]
+        f = [frac for label, frac in seen if label.startswith("soil bin: ")]
         return [x for k, x in enumerate(f) if k == 0 or x < f[k - 1]]
 
     for stage, run in (("deposition", None), ("soil bin", "rigid"), ("soil bin", "passive")):
