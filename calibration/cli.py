@@ -556,6 +556,10 @@ def _speeds(text: str) -> tuple[float, ...]:
         raise argparse.ArgumentTypeError(f"must be comma-separated speeds [m/s], got {text!r}") from None
     if not v or not all(math.isfinite(x) and x > 0 for x in v):
         raise argparse.ArgumentTypeError(f"must be one or more speeds > 0 [m/s], got {text!r}")
+    twice = sorted({x for x in v if v.count(x) > 1})
+    if twice:
+        raise argparse.ArgumentTypeError(f"lists {','.join(f'{x:g}' for x in twice)} more than once (each speed runs "
+                                         f"once), got {text!r}")
     return v
 
 
@@ -856,8 +860,8 @@ def main(argv: list[str] | None = None) -> int:
                         "would not fit, saving its state; the same command continues")
     r.add_argument("--replicas-min", type=_number(int, ge=1), default=3,
                    help="full: independent beds at least (default 3)")
-    r.add_argument("--replicas-max", type=_number(int, ge=1), default=8,
-                   help="full: independent beds at most (default 8)")
+    r.add_argument("--replicas-max", type=_replicas, default=8,
+                   help=f"full: independent beds at most (default 8; at most {MAX_REPLICAS}, as soil-bin --replicas)")
     r.add_argument("--target-sem", type=_number(float, gt=0), default=1.0,
                    help="full: replicas are added until every reduction's standard error is below this "
                         "[percentage points] (default 1)")

@@ -124,6 +124,8 @@ BAD = [
     ("diagnose x --rig ringing --uncertainty damping=0", "argument --uncertainty: damping must be a finite"),
     ("soil-bin --replicas 100000", "argument --replicas: must be at most 32, got '100000': each replica deposits"),
     ("soil-bin --springs 16,16", "argument --springs: lists 16 more than once (each configuration runs once)"),
+    ("speed-sweep --speeds 0.5,0.6,0.5", "argument --speeds: lists 0.5 more than once (each speed runs once)"),
+    ("reproduce --workflow full --replicas-max 100", "argument --replicas-max: must be at most 32, got '100'"),
     ("reproduce --budget 10 --replicas-max 2 --target-sem 0.1",
      "error: --budget 10, --replicas-max 2, --target-sem 0.1: only --workflow full reads them"),
     ("reproduce --replica-worlds", "error: --replica-worlds: only --workflow full reads it"),
