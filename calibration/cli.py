@@ -273,28 +273,6 @@ def _replicas(text: str) -> int:
     return n
 
 
-def _quiet_warp() -> None:
-    """Warp's banner and kernel-load lines off (``--verbose`` keeps them), and its native "Could not find or load the
-    NVIDIA CUDA driver" line, which Warp's C++ writes straight to file descriptor 2 while it initialises (the
-    device choice already says cpu on such a machine)."""
-    import os
-
-    import warp as wp
-
-    wp.config.quiet = True  # Warp < 1.19
-    if hasattr(wp, "LOG_ERROR"):
-        wp.config.log_level = wp.LOG_ERROR
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), 2)
-            wp.init()
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-
-
 def _setup(args: argparse.Namespace) -> str:
     """The device to run on: --device, else CUDA if available; a CUDA device on a machine without one is refused
     here, before Warp's own driver messages."""
@@ -1034,7 +1012,9 @@ def main(argv: list[str] | None = None) -> int:
     args.defaults = {a.dest: a.default for a in sub.choices[args.command]._actions if a.dest != "help"}
     args.given = _given(sub.choices[args.command], args.argv)
     if not args.verbose:
-        _quiet_warp()
+        from warpdem import init_quietly
+
+        init_quietly()
     _BAR["quiet"] = args.quiet
     commands = {"diagnose": run_diagnose_cmd, "demo": run_demo, "reproduce": run_reproduce, "ringing": run_ringing_cmd,
                 "soil-bin": run_soil_bin_cmd, "passive-tool": run_passive_tool_cmd,

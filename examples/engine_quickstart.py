@@ -16,8 +16,6 @@ loads and CUDA-driver warning are off unless ``--verbose``.
 from __future__ import annotations
 
 import argparse
-import os
-import sys
 import tempfile
 from pathlib import Path
 
@@ -103,23 +101,6 @@ def cutting_scene(device: str, centres: np.ndarray, radii: np.ndarray, angles: l
     return b.finalize(device, n_worlds=len(angles), overrides={"material:soil:friction_angle": angles})
 
 
-def quiet_warp() -> None:
-    """Initialise Warp without its banner and module-load lines, and without the "Could not find or load the NVIDIA
-    CUDA driver" line that Warp's native code writes straight to file descriptor 2 on a machine without a GPU."""
-    wp.config.quiet = True  # Warp < 1.19
-    if hasattr(wp, "LOG_ERROR"):
-        wp.config.log_level = wp.LOG_ERROR
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), 2)
-            wp.init()
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-
-
 def main(device: str | None = None, out: str | Path | None = None) -> dict[str, object]:
     """Run the three steps; returns the series of the run, the continued run's, and the simulations. ``out``: the
     folder of the checkpoint (default: a temporary folder, removed at the end)."""
@@ -155,5 +136,5 @@ if __name__ == "__main__":
     parser.add_argument("--verbose", action="store_true", help="keep Warp's banner and module-load lines")
     args = parser.parse_args()
     if not args.verbose:
-        quiet_warp()
+        wd.init_quietly()
     main(args.device, args.out)
