@@ -385,7 +385,7 @@ class Workflow:
         return out
 
     # ---- stage 2: draught calibration ----------------------------------------------------------------------------
-    def draught_problem(self) -> DraughtProblem | SoilProblem:
+    def draught_problem(self) -> DraughtProblem:
         """The draught GA's problem: the paper's (draught alone) or, with the "bonded" soil protocol, the draught and
         the shear box together."""
         c = self.config

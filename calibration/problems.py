@@ -202,6 +202,7 @@ class DraughtProblem:
     device: str | None = None
 
     name = "draught"
+    default_genes = DRAUGHT_GENES
 
     def __post_init__(self) -> None:
         if self.assembly not in ("A", "B", "C"):
@@ -210,7 +211,7 @@ class DraughtProblem:
             raise ValueError(f"scale must be one of {sorted(SCALES)}, got {self.scale!r}")
         if not self.speed > 0:
             raise ValueError(f"speed must be positive, got {self.speed!r}")
-        self.gene_list = with_ranges(DRAUGHT_GENES, self.genes)
+        self.gene_list = with_ranges(self.default_genes, self.genes)
         self.targets = {"draught_mean_n": float(self.target_n or draught_target(self.speed))}
         if not self.targets["draught_mean_n"] > 0:
             raise ValueError(f"target_n must be positive, got {self.target_n!r}")
@@ -283,70 +284,43 @@ cohesion within 25 %, internal friction angle within 3 deg."""
 
 
 @dataclass
-class SoilProblem:
+class SoilProblem(DraughtProblem):
     """Calibrate the soil to the rigid draught and the direct shear box together, the bond protocol fixed.
 
-    Each population runs as one soil-bin simulation (a world per individual, :class:`DraughtProblem`) and one
+    Each population runs as one soil-bin simulation (a world per individual, as :class:`DraughtProblem`) and one
     batched shear box (a world per individual and normal stress, :func:`scenes.shear_box.run_shear_boxes`). Errors:
     the draught's relative error, the shear box cohesion's relative error against the laboratory's 6.4 kPa, the
     internal friction angle's difference [deg] against 32.3 deg; each divided by its tolerance
     (:data:`SOIL_TOLERANCES`), the fitness is 1 / the largest (the error farthest outside its tolerance ranks).
 
-    Args:
-        assembly, scale, speed, target_n, travel, steady_travel, working_depth, seed, cache_dir, device: as
-            :class:`DraughtProblem` (the soil bin).
+    Args: those of :class:`DraughtProblem` (the soil bin; genes: see :data:`SOIL_GENES`), with other defaults:
+        settle_time 1.0 s (the soil bin's bed settles before its bonds are set; the shear box bonds its consolidated
+        sample at rest anyway) and fragile False (the bonds yield instead of breaking, in both rigs); and
         box_scale: the shear box preset (:func:`scenes.shear_box.preset`: "ci", "cpu", "paper").
         box_changes: further ShearBoxConfig fields (e.g. ``shear_displacement``).
-        genes: gene ranges to replace, name -> (low, high) (see :data:`SOIL_GENES`).
-        settle_time: [s] the soil bin's bed settles before its bonds are set (the shear box bonds its consolidated
-            sample at rest anyway). fragile: the bonds break at their strength (True) or yield (False).
     """
 
-    assembly: str = "C"
-    scale: str = "ci"
-    box_scale: str = "ci"
-    speed: float = 0.62
-    target_n: float | None = None
-    genes: dict[str, tuple[float, float]] | None = None
-    travel: float | None = None
-    steady_travel: float | None = None
-    working_depth: float = paper.WORKING_DEPTH
     settle_time: float = 1.0
     fragile: bool = False
+    box_scale: str = "ci"
     box_changes: dict[str, object] | None = None
-    seed: int = 0
-    cache_dir: str | None = None
-    device: str | None = None
 
     name = "soil"
+    default_genes = SOIL_GENES
 
     def __post_init__(self) -> None:
-        self.draught = DraughtProblem(
-            assembly=self.assembly, scale=self.scale, speed=self.speed, target_n=self.target_n,
-            genes={g.name: (g.low, g.high) for g in with_ranges(SOIL_GENES, self.genes)}, travel=self.travel,
-            steady_travel=self.steady_travel, working_depth=self.working_depth, settle_time=self.settle_time,
-            fragile=self.fragile, seed=self.seed, cache_dir=self.cache_dir, device=self.device)
-        self.gene_list = self.draught.gene_list
+        super().__post_init__()
         c_lab, phi_lab = shear_box.lab_strength()
-        self.targets = {**self.draught.targets, "cohesion_kpa": c_lab, "friction_angle_deg": phi_lab}
+        self.targets = {**self.targets, "cohesion_kpa": c_lab, "friction_angle_deg": phi_lab}
         self.box = shear_box.preset(self.box_scale, self.assembly, fragile=self.fragile,
                                     **(self.box_changes or {}))
         self._box_bed = None
 
     def __getstate__(self) -> dict[str, object]:  # beds are re-read or re-deposited by a remote worker
-        return {**self.__dict__, "_box_bed": None}
-
-    @property
-    def config(self) -> SoilBinConfig:
-        """The soil bin's configuration (its bed's key)."""
-        return self.draught.config
-
-    def bed(self):  # noqa: ANN201 (scenes.assemblies.Bed)
-        """The soil bin's deposited bed (read from ``cache_dir`` or deposited)."""
-        return self.draught.bed()
+        return {**super().__getstate__(), "_box_bed": None}
 
     def simulation_key(self) -> dict[str, object]:
-        return {**self.draught.simulation_key(), "rig": "soil_bin_rigid+shear_box", "box_scale": self.box_scale,
+        return {**super().simulation_key(), "rig": "soil_bin_rigid+shear_box", "box_scale": self.box_scale,
                 "box_changes": self.box_changes or {}, "fragile": self.fragile}
 
     def spec(self) -> dict[str, object]:
@@ -357,8 +331,8 @@ class SoilProblem:
         """Observables per individual (n, 3) -> [{draught_mean_n, draught_std_n, draught_sem_n, cohesion_kpa,
         friction_angle_deg, r2}]: one soil-bin simulation and one batched shear box."""
         values = np.atleast_2d(np.asarray(values, dtype=np.float64))
-        rows = self.draught.evaluate(values)
-        soil = self.draught.soil_overrides(values)
+        rows = super().evaluate(values)
+        soil = self.soil_overrides(values)
         configs = [self.box.replace(**{k: float(soil[k][i]) for k in soil}, label=f"individual {i}")
                    for i in range(len(values))]
         if self._box_bed is None:
@@ -372,7 +346,7 @@ class SoilProblem:
     def errors(self, obs: dict[str, float]) -> dict[str, float]:
         """re_draught (signed, [-]), re_cohesion (signed, [-]) and d_friction_deg (signed [deg])."""
         t = self.targets
-        return {**self.draught.errors(obs),
+        return {**super().errors(obs),
                 "re_cohesion": (obs["cohesion_kpa"] - t["cohesion_kpa"]) / t["cohesion_kpa"],
                 "d_friction_deg": obs["friction_angle_deg"] - t["friction_angle_deg"]}
 

@@ -40,7 +40,7 @@ def run_calibration(kind: str, out: str | Path, *, settings: GASettings | None =
     use_ray = ray_workers is not None or ray_address is not None
     extra: dict[str, object] = {"device": device, "evaluator": "ray" if use_ray else "local"}
     if use_ray and kind in ("draught", "soil"):  # deposited (or read) once here, into cache_dir, which the workers read
-        (problem.draught if kind == "soil" else problem).bed()
+        problem.bed()
     evaluator = (RayEvaluator(problem, ray_workers, address=ray_address, gpus_per_worker=gpus_per_worker)
                  if use_ray else LocalEvaluator(problem))
     try:
