@@ -73,3 +73,19 @@ def ringing_row(springs: int) -> dict[str, float]:
     if len(idx) == 0:
         raise ValueError(f"springs must be one of {SPRING_COUNTS}, got {springs!r}")
     return {k: float(v[idx[0]]) for k, v in t.items()}
+
+
+# --- values the paper's text gives for its figures (no table holds them); the figures draw them as references
+FFT_DRAUGHT_SPLIT_HZ = 10.0
+"""[Hz] Section 3.5.2 (Fig. 17, the paper's DEM) and 3.2.2 (Fig. 8, the laboratory): with the passive tool the
+draught's spectrum loses amplitude above this frequency (the text gives no peak frequency of the draught)."""
+FFT_LAB_TOOL_MAX_HZ = 30.0
+"""[Hz] Section 3.2.2 (Fig. 8): the laboratory's tool frequencies were below this for every spring setting."""
+FFT_DEM_DISPLACEMENT_PEAK_HZ = {16: 8.34}
+"""[Hz] per spring count: the peak of the paper's DEM displacement spectrum that its text quotes (section 3.5.2,
+Fig. 18d); the text gives no other configuration's peak, nor the laboratory's (Fig. 9)."""
+FIG19_TOOL_KE_TREND = {4: (0.0148, 1.8979), 8: (0.0298, 1.7718), 12: (0.0347, 1.4608), 16: (0.0562, 1.7386),
+                       20: (0.0448, 1.2183), 24: (0.0742, 1.2593), 28: (0.0807, 1.4043), 32: (0.0528, 0.994)}
+"""(slope, intercept) per spring count of the trend lines y = slope x + intercept of the tool's total kinetic energy
+y [J] in the paper's DEM (Fig. 19's caption). The text does not state the unit of x; the figures read it as the
+tool's travel [m] (the paper's Figs. 12 and 20 plot energies against the travel)."""

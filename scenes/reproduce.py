@@ -21,7 +21,7 @@ import numpy as np
 from warpdem import analysis
 from warpdem.files import write_atomic, write_text_atomic
 
-from . import paper, ringing, speed_sweep
+from . import figures, paper, ringing, speed_sweep
 from . import soil_bin as sb
 
 
@@ -35,35 +35,76 @@ def versions() -> dict[str, str]:
 
 
 def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    return figures.plt()
 
 
 def plot_ringing(results: dict[str, ringing.RingingResult], path: Path) -> None:
-    """Fig. 6-like: sensor displacement after the hit, one panel per configuration, every spring model."""
+    """Fig. 6-like: sensor displacement [mm] after the hit, one panel per configuration, every spring model; each
+    panel's title gives the laboratory's and the paper's DEM frequency and damping ratio (Table 2)."""
     plt = _plt()
     springs = next(iter(results.values())).springs
-    fig, axes = plt.subplots(2, 4, figsize=(14, 6), sharex=True)
+    fig, axes = plt.subplots(2, 4, figsize=(14, 6.4), sharex=True)
     for k, (n, ax) in enumerate(zip(springs, axes.flat, strict=False)):
         for name, res in results.items():
             ax.plot(res.time, 1e3 * res.displacement[:, k], lw=0.8,
-                    label=f"{name}: {res.frequency_hz[k]:.2f} Hz, zeta {res.damping_ratio[k]:.3f}")
+                    label=f"warpdem {MODEL_LABELS.get(name, name)}: {res.frequency_hz[k]:.2f} Hz, "
+                          f"zeta {res.damping_ratio[k]:.3f}")
         row = paper.ringing_row(n)
-        ax.set_title(f"{n} springs (lab {row['measured_freq_hz']:.2f} Hz, {row['measured_damping']:.3f})", fontsize=9)
-        ax.legend(fontsize=7)
+        ax.set_title(f"{n} springs: laboratory {row['measured_freq_hz']:.2f} Hz, zeta {row['measured_damping']:.3f}\n"
+                     f"paper's DEM {row['calibrated_freq_hz']:.2f} Hz, zeta {row['calibrated_damping']:.3f}",
+                     fontsize=8)
+        ax.legend(fontsize=6)
+    for ax in axes[-1, :]:
         ax.set_xlabel("time after the hit [s]")
-    axes[0, 0].set_ylabel("sensor displacement [mm]")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("sensor displacement [mm]")
+    for ax in list(axes.flat)[len(springs):]:
+        ax.set_visible(False)
+    fig.suptitle("Ringing test (like the paper's Fig. 6): warpdem's spring models, uncalibrated, against Table 2",
+                 fontsize=11)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def plot_soil_bin(study: dict, out: Path) -> list[str]:
-    """Figs. 16-19-like plots of the soil-bin runs; returns the file names."""
+def _world_name(n: int, run: object, w: int) -> str:
+    """A world's label: its configuration, and its replica bed where it has one."""
+    rep = run.steady[w].get("replica_seed") if len(run.steady) > w else None
+    return (f"rigid at {run.speeds[w]:.2f} m/s" if n == 0 else f"{n} springs at {run.speeds[w]:.2f} m/s") + \
+        ("" if rep is None else f", replica {rep}")
+
+
+FIGURE_CAPTIONS = {
+    "fig16_draught_displacement.png":
+        "Fig. 16-like: draught [N] (left axis) and, for the passive tool, the sensor's displacement [mm] (right axis, "
+        "green) against the carriage's travel, one panel per simulated world. Thick lines over the shaded steady "
+        "window: warpdem's steady means, their bands +-1 standard error (the report's table); dashed: the "
+        "laboratory's means (Table 3: draught black, displacement green); dotted red: the paper's final DEM "
+        "(Table 7). Each trace ends where its carriage stops at the end of travel (the steady window's end): a "
+        "faster world's tool then stands still at the end of the bin while the slowest world finishes, and those "
+        "records (no cutting; the soil relaxing against a stopped tool, its draught falling to zero or below) are "
+        "left out of the plot, as they are of the statistics. The displacement "
+        "is zeroed on the tool at rest before the cut; a negative value means the tool moved forward of its rest "
+        "pose.",
+    "fig17_fft_draught.png":
+        "Fig. 17-like: amplitude spectrum [N] of the steady draught (100 Hz Butterworth low-pass first, as the "
+        "paper), every world; its resolution (in the title) is 1 / the steady window's duration.",
+    "fig18_fft_disp.png":
+        "Fig. 18-like: amplitude spectrum [mm] of the passive tool's steady displacement (100 Hz low-pass first); "
+        "its resolution (in the title) is 1 / the steady window's duration.",
+    "fig19_tool_kinetic_energy.png":
+        "Fig. 19-like: the passive tool's kinetic energy [J] against travel, total (solid) and rotational (dotted); "
+        "thick line over the steady window: its steady mean, band +-1 standard deviation of the record.",
+    "fig_reductions.png":
+        "Draught reduction [%] of each passive configuration against warpdem's rigid run at its own speed, +-1 "
+        "standard error, beside the laboratory's (Table 3) and the paper's DEM (Table 7).",
+}
+
+
+def plot_soil_bin(study: dict, out: Path, assembly: str = "C") -> list[str]:
+    """Figs. 16-19-like plots of the soil-bin runs and the reductions against the laboratory's; returns the file
+    names (their captions: :data:`FIGURE_CAPTIONS`, with the references of Figs. 17-19 added by
+    :func:`figure_captions`)."""
     plt = _plt()
     runs = study["runs"]
     names = []
@@ -71,71 +112,127 @@ def plot_soil_bin(study: dict, out: Path) -> list[str]:
     for run in runs.values():
         for w, n in enumerate(run.springs):
             series.append((n, run, w))
-
-    def name(n: int, run: object, w: int) -> str:
-        """A world's label: its configuration, and its replica bed where it has one."""
-        rep = run.steady[w].get("replica_seed") if len(run.steady) > w else None
-        return (f"rigid at {run.speeds[w]:.2f} m/s" if n == 0 else f"{n} springs") + \
-            ("" if rep is None else f", replica {rep}")
+    colors = {(id(run), w): f"C{k % 10}" for k, (n, run, w) in enumerate(series)}
     t3, t7 = paper.table("soil_bin_measured"), paper.table("soil_bin_dem")
-    # Fig. 16: draught and displacement vs travel, the laboratory's and the paper's final DEM's means as references
-    fig, ax = plt.subplots(len(series), 1, figsize=(10, 2.6 * len(series)), sharex=True, squeeze=False)
+    start = study["steady_travel"]
+    # Fig. 16: draught and displacement vs travel up to each carriage's stop, the steady means with their standard
+    # errors, the laboratory's and the paper's final DEM's means as references
+    fig, ax = plt.subplots(len(series), 1, figsize=(11, 2.7 * len(series)), sharex=True, squeeze=False)
+    legend: dict[str, object] = {}
     for a, (n, run, w) in zip(ax[:, 0], series, strict=True):
-        a.plot(run.travel[:, w], run.series["draught"][:, w], lw=0.7, label=f"draught, {name(n, run, w)}")
-        a.axvspan(study["steady_travel"], float(run.travel[:, w].max()), color="0.93", zorder=0, label="steady")
+        m = figures.moving_records(run.travel[:, w])
+        x = run.travel[:m, w]
+        end = float(x[-1])
+        st = run.steady[w] if len(run.steady) > w else {}
+        a.plot(x, run.series["draught"][:m, w], lw=0.6, color="C0", label="draught, warpdem")
+        a.axvspan(start, end, color="0.93", zorder=0, label="steady window")
+        figures.steady_band(a, start, end, st.get("draught_mean"), st.get("draught_sem"), "C1",
+                            "draught, warpdem steady mean ± SE")
         i = int(np.argmin(np.abs(t3["speed_mean_m_s"] - run.speeds[w]))) if n == 0 else \
             int(np.nonzero(t3["springs"] == n)[0][0])
-        a.axhline(t3["passive_draught_mean_n" if n else "rigid_draught_mean_n"][i], color="k", ls="--", lw=0.8,
-                  label="laboratory (Table 3)")
-        a.axhline(t7["c_final_mean_n"][t7["springs"] == n][0], color="C3", ls=":", lw=0.8,
-                  label="paper's final DEM (Table 7)")
+        a.axhline(t3["passive_draught_mean_n" if n else "rigid_draught_mean_n"][i], color="k", ls="--", lw=0.9,
+                  label="draught, laboratory (Table 3)")
+        a.axhline(t7["c_final_mean_n"][t7["springs"] == n][0], color="C3", ls=":", lw=0.9,
+                  label="draught, paper's final DEM (Table 7)")
         a.set_ylabel("draught [N]")
+        a.set_title(_world_name(n, run, w), fontsize=9, loc="left")
         if n:
             b = a.twinx()
-            b.plot(run.travel[:, w], 1e3 * run.series["displacement"][:, w], color="C2", lw=0.7)
-            b.axhline(t3["displacement_mean_mm"][i], color="C2", ls="--", lw=0.8)
+            disp = 1e3 * run.series["displacement"][:m, w]
+            lab = float(t3["displacement_mean_mm"][i])
+            b.plot(x, disp, color="C2", lw=0.8, label="displacement, warpdem")
+            dm, ds = st.get("displacement_mean"), st.get("displacement_sem")
+            figures.steady_band(b, start, end, None if dm is None else 1e3 * dm, None if ds is None else 1e3 * ds,
+                                "C2", "displacement, warpdem steady mean ± SE")
+            b.axhline(lab, color="C2", ls="--", lw=0.9, label="displacement, laboratory (Table 3)")
+            lo, hi = min(float(disp.min()), lab, 0.0), max(float(disp.max()), lab, 0.0)
+            b.set_ylim(lo - 0.1 * (hi - lo), hi + 0.15 * (hi - lo))
             b.set_ylabel("displacement [mm]", color="C2")
-        a.legend(loc="upper left", fontsize=7, ncol=4)
-    ax[-1, 0].set_xlabel("travel [m] (shaded: the steady window averaged; dashed: laboratory means)")
+            for h, label in zip(*b.get_legend_handles_labels(), strict=True):
+                legend.setdefault(label, h)
+        for h, label in zip(*a.get_legend_handles_labels(), strict=True):
+            legend.setdefault(label, h)
+    ax[-1, 0].set_xlabel("carriage travel [m]")
+    order = sorted(legend, key=lambda label: not label.startswith("draught"))  # draught entries first
+    fig.legend([legend[k] for k in order], order, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=3,
+               fontsize=8)
+    fig.suptitle("Draught and tool displacement against travel (like the paper's Fig. 16); each trace ends at its "
+                 "carriage's stop", fontsize=10)
     fig.tight_layout()
-    fig.savefig(out / "fig16_draught_displacement.png", dpi=110)
+    fig.savefig(out / "fig16_draught_displacement.png", dpi=110, bbox_inches="tight")
     plt.close(fig)
     names.append("fig16_draught_displacement.png")
     # Figs. 17 and 18: FFT of the steady draught and displacement (100 Hz Butterworth low-pass first)
-    start = study["steady_travel"]
-    for key, fname, unit in (("draught", "fig17_fft_draught.png", "N"), ("displacement", "fig18_fft_disp.png", "mm")):
-        fig, a = plt.subplots(figsize=(8, 4))
+    for key, fname, unit, what in (("draught", "fig17_fft_draught.png", "N", "draught (like the paper's Fig. 17)"),
+                                   ("displacement", "fig18_fft_disp.png", "mm",
+                                    "passive tool's displacement (like the paper's Fig. 18)")):
+        fig, a = plt.subplots(figsize=(10, 4.2))
+        shown, resolution = [], 0.0
         for n, run, w in series:
             if key == "displacement" and n == 0:
                 continue
-            sel = run.travel[:, w] >= start
+            m = figures.moving_records(run.travel[:, w])
+            sel = np.zeros(len(run.time), bool)
+            sel[:m] = run.travel[:m, w] >= start
             scale = 1e3 if key == "displacement" else 1.0
             f, amp = analysis.spectrum(run.time[sel], scale * run.series[key][sel, w], cutoff_hz=100.0)
-            a.plot(f, amp, lw=0.8, label=name(n, run, w))
+            a.plot(f, amp, lw=0.9, color=colors[(id(run), w)], label=f"warpdem, {_world_name(n, run, w)}")
+            shown.append(n)
+            resolution = max(resolution, 1.0 / float(np.ptp(run.time[sel])))
+        figures.fft_references(a, key, shown, {n: colors[(id(run), w)] for n, run, w in series})
         a.set_xlim(0, 60)
         a.set_xlabel("frequency [Hz]")
         a.set_ylabel(f"amplitude [{unit}]")
-        a.legend()
-        fig.tight_layout()
-        fig.savefig(out / fname, dpi=110)
+        a.set_title(f"Spectrum of the steady {what}; resolution {resolution:.2g} Hz", fontsize=10)
+        a.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+        fig.savefig(out / fname, dpi=110, bbox_inches="tight")
         plt.close(fig)
         names.append(fname)
-    # Fig. 19: kinetic energy of the tool (translational, rotational)
-    fig, a = plt.subplots(figsize=(8, 4))
+    # Fig. 19: kinetic energy of the tool (total, rotational), its steady mean +- std, the paper's trend lines
+    fig, a = plt.subplots(figsize=(10, 4.2))
     for n, run, w in series:
         if n == 0:
             continue
-        ke = run.series["ke_tool"][:, w]
-        a.plot(run.travel[:, w], ke.sum(axis=-1), lw=0.7, label=f"{name(n, run, w)}, total")
-        a.plot(run.travel[:, w], ke[:, 1], lw=0.7, ls=":", label=f"{name(n, run, w)}, rotational")
-    a.set_xlabel("travel [m]")
+        m = figures.moving_records(run.travel[:, w])
+        x = run.travel[:m, w]
+        c = colors[(id(run), w)]
+        ke = run.series["ke_tool"][:m, w]
+        a.plot(x, ke.sum(axis=-1), lw=0.7, color=c, label=f"warpdem, {_world_name(n, run, w)}, total")
+        a.plot(x, ke[:, 1], lw=0.7, ls=":", color=c, label=f"warpdem, {_world_name(n, run, w)}, rotational")
+        st = run.steady[w] if len(run.steady) > w else {}
+        figures.steady_band(a, start, float(x[-1]), st.get("ke_tool_mean"), st.get("ke_tool_std"), c,
+                            f"warpdem, {n} springs, steady mean ± std")
+        figures.fig19_reference(a, n, float(x[-1]), c)
+    a.set_xlabel("carriage travel [m]")
     a.set_ylabel("kinetic energy of the tool [J]")
-    a.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(out / "fig19_tool_kinetic_energy.png", dpi=110)
+    a.set_title("The passive tool's kinetic energy (like the paper's Fig. 19)", fontsize=10)
+    a.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    fig.savefig(out / "fig19_tool_kinetic_energy.png", dpi=110, bbox_inches="tight")
     plt.close(fig)
     names.append("fig19_tool_kinetic_energy.png")
+    # the reductions against the laboratory's and the paper's DEM
+    n_beds = len(study.get("beds", [study.get("bed")]))
+    rows = [{"springs": r["springs"], "mean": r["reduction_pct"], "sem": r["reduction_sem"],
+             "label": "warpdem" + (f", mean of {n_beds} beds" if n_beds > 1 else "")}
+            for r in study["table"] if r["springs"] and r.get("reduction_pct") is not None
+            and math.isfinite(r["reduction_pct"])]
+    if rows:
+        figures.plot_reductions(rows, out / "fig_reductions.png", assembly=assembly,
+                                title="Draught reduction of the passive tool against the rigid tool at its speed")
+        names.append("fig_reductions.png")
     return names
+
+
+def figure_captions(names: list[str]) -> list[str]:
+    """The report's lines for the figures ``names``: each image with its caption (what it shows, what it is
+    compared with)."""
+    extra = {"fig17_fft_draught.png": " " + figures.fft_caption("draught"),
+             "fig18_fft_disp.png": " " + figures.fft_caption("displacement"),
+             "fig19_tool_kinetic_energy.png": " " + figures.FIG19_CAPTION}
+    lines = []
+    for p in names:
+        lines += [f"![{p}]({p})", "", f"*{FIGURE_CAPTIONS.get(p, p)}{extra.get(p, '')}*", ""]
+    return lines
 
 
 def _fmt(v: float, digits: int = 3) -> str:
@@ -159,27 +256,36 @@ def report(out: Path, config: dict, ring: dict[str, ringing.RingingResult], stud
 MODEL_NAMES = {"paper": "spring spheres (the paper's model, on warpdem's hinged rig)",
                "linear": "linear spring-dashpot (DIN 2093 stiffness, Table 2's damping)",
                "twin": "twin (the paper's rig as its text builds it)"}
+MODEL_LABELS = {"paper": "spring spheres", "linear": "linear", "twin": "twin"}
+"""short names of warpdem's spring models in figures and table headings ("paper" is warpdem's model of the paper's
+spring spheres, not the paper's own DEM values, which are labelled "paper's DEM")."""
 
 
 def ringing_section(ring: dict[str, ringing.RingingResult]) -> list[str]:
-    """The ringing part of a report: Table 2 beside each spring model's frequency and damping, what they mean."""
+    """The ringing part of a report: per spring model a table grouped as measured (Table 2), the paper's DEM
+    (Table 2) and warpdem (with its relative errors against the measured values [%]), then what they mean."""
     lines = ["## Ringing test (Table 2)", "",
-             "| springs | lab f [Hz] | lab zeta | paper DEM f | paper DEM zeta | "
-             + " | ".join(f"{m} f [Hz] | {m} zeta | {m} RE f | {m} RE zeta" for m in ring) + " |",
-             "|---" * (5 + 4 * len(ring)) + "|"]
+             "One table per warpdem spring model. Columns in three groups: **measured** (the laboratory's ringing "
+             "test, Table 2), **paper's DEM** (the paper's calibrated Yade model, Table 2) and **warpdem** (this "
+             "run); RE: warpdem's relative error against the measured value, eqs. (8)-(9), in %. The rig's geometry "
+             "(parametric sweep, load position) is warpdem's, not the paper's CAD: see scenes/ringing.py.", ""]
     tables = {m: r.table() for m, r in ring.items()}
     springs = next(iter(ring.values())).springs
-    for k, n in enumerate(springs):
-        row = paper.ringing_row(n)
-        cells = [str(n), _fmt(row["measured_freq_hz"], 4), _fmt(row["measured_damping"]),
-                 _fmt(row["calibrated_freq_hz"], 4), _fmt(row["calibrated_damping"])]
-        for m in ring:
+    for m in ring:
+        lines += [f"### warpdem {MODEL_NAMES.get(m, m)}", "",
+                  "| springs | measured f [Hz] | measured zeta [-] | paper's DEM f [Hz] | paper's DEM zeta [-] | "
+                  "warpdem f [Hz] | warpdem zeta [-] | warpdem RE f [%] | warpdem RE zeta [%] |",
+                  "|---" * 9 + "|"]
+        for k, n in enumerate(springs):
+            row = paper.ringing_row(n)
             t = tables[m][k]
-            cells += [_fmt(t["freq_hz"], 4), _fmt(t["damping"]), _fmt(t["re_freq"], 2), _fmt(t["re_damp"], 2)]
-        lines.append("| " + " | ".join(cells) + " |")
-    lines += ["", "RE: relative error against the laboratory value, eqs. (8)-(9), as fractions; \"paper DEM\": the "
-              "paper's own calibrated DEM (Table 2). The rig's geometry (parametric sweep, load position) is "
-              "warpdem's, not the paper's CAD: see scenes/ringing.py.", "", "What this means:", ""]
+            lines.append("| " + " | ".join([
+                str(n), _fmt(row["measured_freq_hz"], 4), _fmt(row["measured_damping"]),
+                _fmt(row["calibrated_freq_hz"], 4), _fmt(row["calibrated_damping"]),
+                _fmt(t["freq_hz"], 4), _fmt(t["damping"]), _fmt(100 * t["re_freq"], 2),
+                _fmt(100 * t["re_damp"], 2)]) + " |")
+        lines.append("")
+    lines += ["What this means:", ""]
     for m, rows in tables.items():
         ref = np.abs([r["re_freq"] for r in rows])
         red = np.abs([r["re_damp"] for r in rows])
@@ -197,7 +303,10 @@ def ringing_section(ring: dict[str, ringing.RingingResult]) -> list[str]:
               "cent mean the rig's stiffness or damping, not the measurement, sets the result: "
               "`warpdem calibrate ringing --springs N --spring-model M` fits them to Table 2 (the linear model to "
               "within 0.05 % in this project's runs, `docs/runs/table3-paper-h100/`).", "",
-              "![ringing](fig06_ringing.png)", ""]
+              "![ringing](fig06_ringing.png)", "",
+              "*Fig. 6-like: the sensor's displacement [mm] after the hit, one panel per configuration, each warpdem "
+              "spring model with its frequency and damping ratio; the panel's title gives the laboratory's and the "
+              "paper's DEM values (Table 2). A ring-down is one deterministic run: no error bar.*", ""]
     return lines
 
 
@@ -236,11 +345,23 @@ def soil_bin_section(assembly: str, study: dict, plots: list[str]) -> list[str]:
             f"{n_beds} replica beds of {min(b.n_particles for b in beds)}-{max(b.n_particles for b in beds)} "
             f"particles, porosity {min(b.porosity for b in beds):.3f}-{max(b.porosity for b in beds):.3f}, "
             f"initial coordination {min(b.coordination for b in beds):.2f}-{max(b.coordination for b in beds):.2f}")
-    lines += [f"## Soil bin, assembly {a} ({what}; paper: {({'A': 4.88, 'B': 9.63, 'C': 9.55}[a])})", "",
-              "| springs | speed [m/s] | draught ± SE [N] | std [N] | rigid reference ± SE [N] | "
-              "reduction ± SE [%] | displacement [mm] | lab draught [N] | lab red. [%] | lab disp. [mm] | "
-              f"paper DEM {a} 1 m bin [N] | red. [%] | "
-              "paper DEM C final 2 m bin [N] | red. [%] |",
+    coord = [b.coordination for b in beds]
+    lines += [f"## Soil bin, assembly {a} ({what}; the paper's initial coordination: "
+              f"{({'A': 4.88, 'B': 9.63, 'C': 9.55}[a])})", "",
+              f"The coordination number (contacts per particle) of warpdem's bed, {min(coord):.2f}"
+              + (f"-{max(coord):.2f}" if n_beds > 1 else "") + f", is below the paper's "
+              f"{({'A': 4.88, 'B': 9.63, 'C': 9.55}[a])}: warpdem's deposited bed is looser than the paper's (Yade "
+              "counts the same bed alike; the paper does not print its counting rule; `docs/fidelity.md`)."
+              if min(coord) < {'A': 4.88, 'B': 9.63, 'C': 9.55}[a] else
+              f"The coordination number (contacts per particle) of warpdem's bed is {min(coord):.2f}"
+              + (f"-{max(coord):.2f}" if n_beds > 1 else "") + " (`docs/fidelity.md` compares the beds).", "",
+              "Columns in three groups: **warpdem** (this run), **measured** (the laboratory, Table 3) and the "
+              "**paper's DEM** (Table 7).", "",
+              "| springs | speed [m/s] | warpdem draught ± SE [N] | warpdem std [N] | "
+              "warpdem rigid reference ± SE [N] | warpdem reduction ± SE [%] | warpdem displacement ± SE [mm] | "
+              "measured draught [N] | measured reduction [%] | measured displacement [mm] | "
+              f"paper's DEM {a} 1 m bin [N] | paper's DEM {a} 1 m reduction [%] | "
+              "paper's DEM C final 2 m bin [N] | paper's DEM C final reduction [%] |",
               "|---" * 14 + "|"]
 
     def pm(v: float | None, e: float | None, digits: int = 4) -> str:
@@ -267,7 +388,8 @@ def soil_bin_section(assembly: str, study: dict, plots: list[str]) -> list[str]:
         lines.append("| " + " | ".join([
             "rigid" if n == 0 else str(n), _fmt(v), pm(r["draught_mean"], r["draught_sem"]),
             _fmt(r["draught_std"]), ref, pm(r["reduction_pct"], r["reduction_sem"], 2) if n else "–",
-            _fmt(1e3 * r["displacement_mean"]) if n else "–", _fmt(lab[0], 4), _fmt(lab[1], 2), _fmt(lab[2]),
+            pm(1e3 * r["displacement_mean"], 1e3 * r["displacement_sem"], 3) if n else "–", _fmt(lab[0], 4),
+            _fmt(lab[1], 2), _fmt(lab[2]),
             paper_dem[0], paper_red[0], paper_dem[1], paper_red[1]]) + " |")
     se = ("SE: standard error of a steady mean from the record's autocorrelation; a reduction's SE propagates "
           "both means' (taken as independent)." if n_beds == 1 else
@@ -277,14 +399,19 @@ def soil_bin_section(assembly: str, study: dict, plots: list[str]) -> list[str]:
           "averaged (`summary.json` has every replica's).")
     lines += ["", f"Steady state after {study['steady_travel']} m of travel; {se} Every reduction is against "
               "warpdem's rigid run at the configuration's own speed, "
-              "as the laboratory paired its runs (Table 3); lab rigid draught: Table 3's rigid runs at that "
+              "as the laboratory paired its runs (Table 3); measured rigid draught: Table 3's rigid runs at that "
               "speed. The paper's DEM (Table 7) took every reduction against one rigid run at 0.68 m/s; its "
               f"columns are assembly {a} in the 1 m bin and the paper's final model (assembly C, 2 m bin, "
               "corrected geometry). `warpdem speed-sweep` measures the rigid draught against speed and "
               "re-pairs Table 7 at equal speeds.", ""]
     lines += soil_bin_meaning(study["table"], t3)
-    lines += [f"![{p}]({p})" for p in plots]
+    lines += figure_captions(plots)
     return lines
+
+
+NEGATIVE_DISPLACEMENT = ("A negative displacement: the sensor is zeroed on the tool at rest before the cut, so a "
+                         "negative reading means the tool moved forward of its rest pose (towards the travel), not "
+                         "back against its springs as the laboratory's did.")
 
 
 def soil_bin_meaning(rows: list[dict], t3: dict) -> list[str]:
@@ -319,6 +446,8 @@ def soil_bin_meaning(rows: list[dict], t3: dict) -> list[str]:
         if max(abs(d) for d in disp) < 0.5 * min(lab):
             text += ": a tool that moves much less than the laboratory's cannot change the draught as much"
         out.append(text + ".")
+        if min(disp) < 0:
+            out.append(f"- {NEGATIVE_DISPLACEMENT}")
     return out + [""]
 
 
@@ -326,7 +455,7 @@ def write_soil_bin_report(out: Path, config: dict, study: dict, device: str) -> 
     """``warpdem soil-bin``'s results: report.md (the table with standard errors beside the paper's, the figures),
     series.npz (every run's time series) and Figs. 16-19-like plots, written into ``out``."""
     out = Path(out)
-    plots = plot_soil_bin(study, out)
+    plots = plot_soil_bin(study, out, config["assembly"])
     arrays = {}
     for name, run in study["runs"].items():
         arrays[f"{name}_time"] = run.time
@@ -410,7 +539,7 @@ def reproduce(out: str | Path, *, scale: str = "cpu", device: str | None = None,
             for k, v in run.series.items():
                 arrays[f"{name}/{k}"] = v
         np.savez_compressed(out / "soil_bin.npz", **arrays)
-        plots = plot_soil_bin(study, out)
+        plots = plot_soil_bin(study, out, assembly)
     wall = time.perf_counter() - t0
     summary = {
         "wall_s": wall, "device": device, "scale": scale,
