@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from .accumulate import add_wrench, vec3l
+from .accumulate import add_wrench
 from .broadphase import sphere_in_body_frame
 from .contact_law import (
     ACTIVE,
@@ -31,6 +31,7 @@ from .contact_law import (
     new_hist,
     set_cohesion,
 )
+from .kernel_args import BodyState, Meshes, SphereList, Spheres, SphereState, Sums, TriangleList
 
 wp.set_module_options({"enable_backward": False})
 
@@ -110,29 +111,21 @@ def sphere_pair(
     wi: wp.vec3f,
     arm_i0: wp.vec3f,
     now: int,
-    # Model:
-    sphere_material: wp.array(dtype=int),
-    radius: wp.array(dtype=wp.float64),
+    spheres: Spheres,
     mats: Materials,
     opts: LawOptions,
-    # Data in:
-    sphere_pos: wp.array(dtype=wp.vec3d),
-    sphere_vel: wp.array(dtype=wp.vec3f),
-    sphere_angvel: wp.array(dtype=wp.vec3f),
-    sphere_arm: wp.array(dtype=wp.vec3f),
-    # Data in/out:
-    hist: wp.array(dtype=Hist),
-    # Data out:
-    energy: wp.array(dtype=wp.float64),
+    kin: SphereState,
+    hist: wp.array(dtype=Hist),  # in/out
+    energy: wp.array(dtype=wp.float64),  # out
 ) -> PairWrench:
     """Candidate k of sphere i (world w, material mi, centre xi [m], radius r1d [m], velocity vi [m/s], angular
     velocity wi [rad/s], arm_i0 [m] from its body's centre of mass) against sphere j: the contact law, its history
     hist[k] and dissipated energies; the wrench each body gets."""
     out = PairWrench()
     out.alive = int(0)
-    d = sphere_pos[j] - xi
+    d = kin.pos[j] - xi
     dist = wp.length(d)
-    r2d = radius[j]
+    r2d = spheres.radius[j]
     r1 = float(r1d)
     r2 = float(r2d)
     un = float(r1d + r2d - dist)
@@ -145,21 +138,21 @@ def sphere_pair(
     if not (active == 0 and un < -reach):
         h = hist[k]
         n = wp.vec3f(d / dist)
-        p = phys_of(mats, w, mi, sphere_material[j], r1, r2)
+        p = phys_of(mats, w, mi, spheres.material[j], r1, r2)
         is_new = int(0)
         if active == 0:
             h = new_hist(p, n, wp.max(opts.cohesion_on_new, now))
             is_new = int(1)
         elif now != 0:
             h = set_cohesion(h, p)
-        wj = sphere_angvel[j]
+        wj = kin.angvel[j]
         alpha = (r1 + r2) / (r1 + r2 - un)
-        v12 = alpha * (sphere_vel[j] - vi) - wp.cross(r1 * wi + r2 * wj, n)
+        v12 = alpha * (kin.vel[j] - vi) - wp.cross(r1 * wi + r2 * wj, n)
         law = cohfrict_law(h, p, is_new, n, un, v12, wi + wj, wj - wi, opts.dt, opts.always_moment, opts.unp_max)
         hist[k] = law.hist
         if law.alive != 0:
             arm_i = arm_i0 + (r1 - 0.5 * un) * n
-            arm_j = sphere_arm[j] - (r2 - 0.5 * un) * n
+            arm_j = kin.arm[j] - (r2 - 0.5 * un) * n
             out.alive = int(1)
             out.force = law.force
             out.torque_i = wp.cross(arm_i, law.force) - law.moment
@@ -173,133 +166,81 @@ def sphere_pair(
 @wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def sphere_sphere_one(
     i: int,
-    # Model:
-    sphere_body: wp.array(dtype=int),
-    sphere_world: wp.array(dtype=int),
-    sphere_material: wp.array(dtype=int),
-    radius: wp.array(dtype=wp.float64),
+    spheres: Spheres,
     mats: Materials,
     opts: LawOptions,
-    # Data in:
-    sphere_pos: wp.array(dtype=wp.vec3d),
-    sphere_vel: wp.array(dtype=wp.vec3f),
-    sphere_angvel: wp.array(dtype=wp.vec3f),
-    sphere_arm: wp.array(dtype=wp.vec3f),
-    start: wp.array(dtype=int),
-    count: wp.array(dtype=int),
-    other: wp.array(dtype=int),
+    kin: SphereState,
+    ss: SphereList,  # in/out: the history
     cohesion_now: wp.array(dtype=int),
-    # Data in/out:
-    hist: wp.array(dtype=Hist),
-    # Data out (fixed-point sums, accumulate.py):
-    force_acc: wp.array(dtype=vec3l),
-    torque_acc: wp.array(dtype=vec3l),
-    force_scale: wp.array(dtype=wp.float64),
-    torque_scale: wp.array(dtype=wp.float64),
-    energy: wp.array(dtype=wp.float64),
+    sums: Sums,  # out: the fixed-point wrench sums (a part's) and the energy terms
 ):
     """Sphere i against its sphere candidates (one thread of sphere_sphere_kernel, or a world's loop): its own
     force and torque summed in float32 over its contacts, then added once."""
-    n_i = count[i]
+    n_i = ss.count[i]
     if n_i == 0:
         return
-    bi = sphere_body[i]
-    w = sphere_world[i]
-    xi = sphere_pos[i]
-    r1d = radius[i]
-    vi = sphere_vel[i]
-    wi = sphere_angvel[i]
-    mi = sphere_material[i]
-    arm_i0 = sphere_arm[i]
+    bi = spheres.body[i]
+    w = spheres.world[i]
+    xi = kin.pos[i]
+    r1d = spheres.radius[i]
+    vi = kin.vel[i]
+    wi = kin.angvel[i]
+    mi = spheres.material[i]
+    arm_i0 = kin.arm[i]
     f_i = wp.vec3f(0.0)
     t_i = wp.vec3f(0.0)
     now = cohesion_now[0]
-    for k in range(start[i], start[i] + n_i):
-        j = other[k]
-        c = sphere_pair(k, j, w, mi, xi, r1d, vi, wi, arm_i0, now, sphere_material, radius, mats, opts, sphere_pos,
-                        sphere_vel, sphere_angvel, sphere_arm, hist, energy)
+    for k in range(ss.start[i], ss.start[i] + n_i):
+        j = ss.other[k]
+        c = sphere_pair(k, j, w, mi, xi, r1d, vi, wi, arm_i0, now, spheres, mats, opts, kin, ss.hist, sums.energy)
         if c.alive != 0:
             f_i += c.force
             t_i += c.torque_i
-            add_wrench(force_acc, torque_acc, force_scale, torque_scale, sphere_body[j], -c.force, c.torque_j)
-    add_wrench(force_acc, torque_acc, force_scale, torque_scale, bi, f_i, t_i)
+            add_wrench(sums.force_acc, sums.torque_acc, sums.force_scale, sums.torque_scale, spheres.body[j],
+                       -c.force, c.torque_j)
+    add_wrench(sums.force_acc, sums.torque_acc, sums.force_scale, sums.torque_scale, bi, f_i, t_i)
 
 
 @wp.kernel
 def sphere_sphere_kernel(
     first: int,  # the first sphere of this launch (a CPU thread's share)
-    # Model:
-    sphere_body: wp.array(dtype=int),
-    sphere_world: wp.array(dtype=int),
-    sphere_material: wp.array(dtype=int),
-    radius: wp.array(dtype=wp.float64),
+    spheres: Spheres,
     mats: Materials,
     opts: LawOptions,
-    # Data in:
-    sphere_pos: wp.array(dtype=wp.vec3d),
-    sphere_vel: wp.array(dtype=wp.vec3f),
-    sphere_angvel: wp.array(dtype=wp.vec3f),
-    sphere_arm: wp.array(dtype=wp.vec3f),
-    start: wp.array(dtype=int),
-    count: wp.array(dtype=int),
-    other: wp.array(dtype=int),
+    kin: SphereState,
+    ss: SphereList,
     cohesion_now: wp.array(dtype=int),
-    # Data in/out:
-    hist: wp.array(dtype=Hist),
-    # Data out (fixed-point sums, accumulate.py):
-    force_acc: wp.array(dtype=vec3l),
-    torque_acc: wp.array(dtype=vec3l),
-    force_scale: wp.array(dtype=wp.float64),
-    torque_scale: wp.array(dtype=wp.float64),
-    energy: wp.array(dtype=wp.float64),
+    sums: Sums,
 ):
-    sphere_sphere_one(
-        wp.tid() + first, sphere_body, sphere_world, sphere_material, radius, mats, opts, sphere_pos, sphere_vel,
-        sphere_angvel, sphere_arm, start, count, other, cohesion_now, hist, force_acc, torque_acc, force_scale,
-        torque_scale, energy)
+    sphere_sphere_one(wp.tid() + first, spheres, mats, opts, kin, ss, cohesion_now, sums)
 
 
 @wp.kernel
 def sphere_pair_kernel(
     first: int,  # the first list entry of this launch (a CPU thread's share)
-    # Model:
-    sphere_body: wp.array(dtype=int),
-    sphere_world: wp.array(dtype=int),
-    sphere_material: wp.array(dtype=int),
-    radius: wp.array(dtype=wp.float64),
+    spheres: Spheres,
     mats: Materials,
     opts: LawOptions,
-    # Data in:
-    sphere_pos: wp.array(dtype=wp.vec3d),
-    sphere_vel: wp.array(dtype=wp.vec3f),
-    sphere_angvel: wp.array(dtype=wp.vec3f),
-    sphere_arm: wp.array(dtype=wp.vec3f),
-    owner: wp.array(dtype=int),
-    other: wp.array(dtype=int),
+    kin: SphereState,
+    ss: SphereList,  # with ``owner``
     cohesion_now: wp.array(dtype=int),
-    # Data in/out:
-    hist: wp.array(dtype=Hist),
-    # Data out (fixed-point sums, accumulate.py):
-    force_acc: wp.array(dtype=vec3l),
-    torque_acc: wp.array(dtype=vec3l),
-    force_scale: wp.array(dtype=wp.float64),
-    torque_scale: wp.array(dtype=wp.float64),
-    energy: wp.array(dtype=wp.float64),
+    sums: Sums,
 ):
     """One thread per entry k of the sphere-sphere list (owner[k] = its sphere i, -1 for a free slot): the same
     law as sphere_sphere_kernel, but each contact adds its own wrench to both bodies, so a sphere's contacts are not
     summed in float32 first (the results differ from sphere_sphere_kernel's by that rounding)."""
     k = wp.tid() + first
-    i = owner[k]
+    i = ss.owner[k]
     if i < 0:
         return
-    w = sphere_world[i]
-    c = sphere_pair(k, other[k], w, sphere_material[i], sphere_pos[i], radius[i], sphere_vel[i], sphere_angvel[i],
-                    sphere_arm[i], cohesion_now[0], sphere_material, radius, mats, opts, sphere_pos, sphere_vel,
-                    sphere_angvel, sphere_arm, hist, energy)
+    w = spheres.world[i]
+    c = sphere_pair(k, ss.other[k], w, spheres.material[i], kin.pos[i], spheres.radius[i], kin.vel[i],
+                    kin.angvel[i], kin.arm[i], cohesion_now[0], spheres, mats, opts, kin, ss.hist, sums.energy)
     if c.alive != 0:
-        add_wrench(force_acc, torque_acc, force_scale, torque_scale, sphere_body[i], c.force, c.torque_i)
-        add_wrench(force_acc, torque_acc, force_scale, torque_scale, sphere_body[other[k]], -c.force, c.torque_j)
+        add_wrench(sums.force_acc, sums.torque_acc, sums.force_scale, sums.torque_scale, spheres.body[i], c.force,
+                   c.torque_i)
+        add_wrench(sums.force_acc, sums.torque_acc, sums.force_scale, sums.torque_scale, spheres.body[ss.other[k]],
+                   -c.force, c.torque_j)
 
 
 # ----------------------------------------------------------------------------- sphere-triangle
@@ -402,165 +343,108 @@ def suppressed(
 @wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def sphere_triangle_one(
     i: int,
-    # Model:
-    sphere_body: wp.array(dtype=int),
-    sphere_world: wp.array(dtype=int),
-    sphere_material: wp.array(dtype=int),
-    radius: wp.array(dtype=wp.float64),
-    mesh_body: wp.array(dtype=int),
-    mesh_material: wp.array(dtype=int),
-    mesh_tri_offset: wp.array(dtype=int),
-    tri_vertices: wp.array(dtype=wp.vec3d),
+    spheres: Spheres,
+    meshes: Meshes,
     mats: Materials,
     opts: LawOptions,
-    # Data in:
-    sphere_pos: wp.array(dtype=wp.vec3d),
-    sphere_vel: wp.array(dtype=wp.vec3f),
-    sphere_angvel: wp.array(dtype=wp.vec3f),
-    sphere_arm: wp.array(dtype=wp.vec3f),
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-    body_vel: wp.array(dtype=wp.vec3d),
-    body_angvel: wp.array(dtype=wp.vec3d),
-    start: wp.array(dtype=int),
-    count: wp.array(dtype=int),
-    mesh: wp.array(dtype=int),
-    face: wp.array(dtype=int),
+    kin: SphereState,
+    bodies: BodyState,
+    st: TriangleList,  # in/out: the history
     cohesion_now: wp.array(dtype=int),
-    # Data in/out:
-    hist: wp.array(dtype=Hist),
-    # Data out (fixed-point sums, accumulate.py):
-    force_acc: wp.array(dtype=vec3l),
-    torque_acc: wp.array(dtype=vec3l),
-    force_scale: wp.array(dtype=wp.float64),
-    torque_scale: wp.array(dtype=wp.float64),
-    mesh_force_acc: wp.array(dtype=vec3l),
-    mesh_torque_acc: wp.array(dtype=vec3l),
-    mesh_force_scale: wp.array(dtype=wp.float64),
-    mesh_torque_scale: wp.array(dtype=wp.float64),
-    energy: wp.array(dtype=wp.float64),
+    sums: Sums,  # out: the fixed-point wrench sums of bodies and meshes (a part's) and the energy terms
 ):
     """Sphere i against its triangle candidates (one thread of sphere_triangle_kernel, or a world's loop)."""
-    n_i = count[i]
+    n_i = st.count[i]
     if n_i == 0:
         return
-    k0 = start[i]
+    k0 = st.start[i]
     k1 = k0 + n_i
-    x = sphere_pos[i]
-    rd = radius[i]
+    x = kin.pos[i]
+    rd = spheres.radius[i]
     r = float(rd)
-    w = sphere_world[i]
-    vs = sphere_vel[i]
-    ws = sphere_angvel[i]
+    w = spheres.world[i]
+    vs = kin.vel[i]
+    ws = kin.angvel[i]
     now = cohesion_now[0]
     f_s = wp.vec3f(0.0)
     t_s = wp.vec3f(0.0)
     # pass 1: contacts that exist now (inheriting history where the owning face changed) get the law
     for k in range(k0, k1):
-        g = entry_geom(k, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos, body_quat)
-        active = hist[k].flags & ACTIVE
+        g = entry_geom(k, x, rd, st.mesh, st.face, meshes.body, meshes.tri_offset, meshes.tri_vertices, bodies.pos,
+                       bodies.quat)
+        active = st.hist[k].flags & ACTIVE
         if active == 0 and g.un < 0.0:
             continue
-        h = hist[k]
-        if suppressed(k, g, k0, k1, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
-                      body_quat) == 1:
+        h = st.hist[k]
+        if suppressed(k, g, k0, k1, x, rd, st.mesh, st.face, meshes.body, meshes.tri_offset, meshes.tri_vertices,
+                      bodies.pos, bodies.quat) == 1:
             continue
-        m = mesh[k]
-        b = mesh_body[m]
-        q = body_quat[b]
+        m = st.mesh[k]
+        b = meshes.body[m]
+        q = bodies.quat[b]
         n = wp.vec3f(wp.quat_rotate(q, wp.vec3d(g.normal)))
         # facet = body 1 with contact radius 2R (Yade)
-        p = phys_of(mats, w, mesh_material[m], sphere_material[i], 2.0 * r, r)
+        p = phys_of(mats, w, meshes.material[m], spheres.material[i], 2.0 * r, r)
         is_new = int(0)
         if active == 0:
             is_new = int(1)
             h = new_hist(p, n, wp.max(opts.cohesion_on_new, now))
             # inherit from a contact of the same mesh that existed last step and no longer does
             for k2 in range(k0, k1):
-                h2 = hist[k2]
-                if k2 != k and mesh[k2] == m and (h2.flags & ACTIVE) != 0 and wp.dot(h2.normal, n) > 0.99:
-                    g2 = entry_geom(k2, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
-                                    body_quat)
-                    if suppressed(k2, g2, k0, k1, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices,
-                                  body_pos, body_quat) == 1:
+                h2 = st.hist[k2]
+                if k2 != k and st.mesh[k2] == m and (h2.flags & ACTIVE) != 0 and wp.dot(h2.normal, n) > 0.99:
+                    g2 = entry_geom(k2, x, rd, st.mesh, st.face, meshes.body, meshes.tri_offset,
+                                    meshes.tri_vertices, bodies.pos, bodies.quat)
+                    if suppressed(k2, g2, k0, k1, x, rd, st.mesh, st.face, meshes.body, meshes.tri_offset,
+                                  meshes.tri_vertices, bodies.pos, bodies.quat) == 1:
                         h = h2
                         is_new = int(0)
         elif now != 0:
             h = set_cohesion(h, p)
         arm_s = -(r - 0.5 * g.un) * n  # C - x_sphere
-        arm_m = wp.vec3f(x - body_pos[b]) + arm_s  # C - X_mesh_body
-        vm = wp.vec3f(body_vel[b])
-        wm = wp.vec3f(body_angvel[b])
+        arm_m = wp.vec3f(x - bodies.pos[b]) + arm_s  # C - X_mesh_body
+        vm = wp.vec3f(bodies.vel[b])
+        wm = wp.vec3f(bodies.angvel[b])
         v12 = (vs + wp.cross(ws, arm_s)) - (vm + wp.cross(wm, arm_m))
         out = cohfrict_law(h, p, is_new, n, g.un, v12, wm + ws, ws - wm, opts.dt, opts.always_moment, opts.unp_max)
-        hist[k] = out.hist
+        st.hist[k] = out.hist
         if out.alive == 0:
             continue
         tm = wp.cross(arm_m, out.force) - out.moment
-        add_wrench(force_acc, torque_acc, force_scale, torque_scale, b, out.force, tm)
-        add_wrench(mesh_force_acc, mesh_torque_acc, mesh_force_scale, mesh_torque_scale, m, out.force, tm)
+        add_wrench(sums.force_acc, sums.torque_acc, sums.force_scale, sums.torque_scale, b, out.force, tm)
+        add_wrench(sums.mesh_force_acc, sums.mesh_torque_acc, sums.mesh_force_scale, sums.mesh_torque_scale, m,
+                   out.force, tm)
         f_s -= out.force
-        t_s += wp.cross(sphere_arm[i] + arm_s, -out.force) + out.moment
+        t_s += wp.cross(kin.arm[i] + arm_s, -out.force) + out.moment
         if opts.track_energy != 0:
-            wp.atomic_add(energy, w * N_ENERGY + E_SLIDING, wp.float64(out.dissip_slide))
-            wp.atomic_add(energy, w * N_ENERGY + E_ROLLING, wp.float64(out.dissip_roll))
+            wp.atomic_add(sums.energy, w * N_ENERGY + E_SLIDING, wp.float64(out.dissip_slide))
+            wp.atomic_add(sums.energy, w * N_ENERGY + E_ROLLING, wp.float64(out.dissip_roll))
     # pass 2: clear the history of entries that are not contacts any more
     for k in range(k0, k1):
-        if (hist[k].flags & ACTIVE) == 0:
+        if (st.hist[k].flags & ACTIVE) == 0:
             continue
-        g = entry_geom(k, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos, body_quat)
-        if suppressed(k, g, k0, k1, x, rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
-                      body_quat) == 1:
-            hist[k] = empty_hist()
-    add_wrench(force_acc, torque_acc, force_scale, torque_scale, sphere_body[i], f_s, t_s)
+        g = entry_geom(k, x, rd, st.mesh, st.face, meshes.body, meshes.tri_offset, meshes.tri_vertices, bodies.pos,
+                       bodies.quat)
+        if suppressed(k, g, k0, k1, x, rd, st.mesh, st.face, meshes.body, meshes.tri_offset, meshes.tri_vertices,
+                      bodies.pos, bodies.quat) == 1:
+            st.hist[k] = empty_hist()
+    add_wrench(sums.force_acc, sums.torque_acc, sums.force_scale, sums.torque_scale, spheres.body[i], f_s, t_s)
 
 
 @wp.kernel
 def sphere_triangle_kernel(
     first: int,  # the first sphere of this launch (a CPU thread's share)
-    # Model:
-    sphere_body: wp.array(dtype=int),
-    sphere_world: wp.array(dtype=int),
-    sphere_material: wp.array(dtype=int),
-    radius: wp.array(dtype=wp.float64),
-    mesh_body: wp.array(dtype=int),
-    mesh_material: wp.array(dtype=int),
-    mesh_tri_offset: wp.array(dtype=int),
-    tri_vertices: wp.array(dtype=wp.vec3d),
+    spheres: Spheres,
+    meshes: Meshes,
     mats: Materials,
     opts: LawOptions,
-    # Data in:
-    sphere_pos: wp.array(dtype=wp.vec3d),
-    sphere_vel: wp.array(dtype=wp.vec3f),
-    sphere_angvel: wp.array(dtype=wp.vec3f),
-    sphere_arm: wp.array(dtype=wp.vec3f),
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-    body_vel: wp.array(dtype=wp.vec3d),
-    body_angvel: wp.array(dtype=wp.vec3d),
-    start: wp.array(dtype=int),
-    count: wp.array(dtype=int),
-    mesh: wp.array(dtype=int),
-    face: wp.array(dtype=int),
+    kin: SphereState,
+    bodies: BodyState,
+    st: TriangleList,
     cohesion_now: wp.array(dtype=int),
-    # Data in/out:
-    hist: wp.array(dtype=Hist),
-    # Data out (fixed-point sums, accumulate.py):
-    force_acc: wp.array(dtype=vec3l),
-    torque_acc: wp.array(dtype=vec3l),
-    force_scale: wp.array(dtype=wp.float64),
-    torque_scale: wp.array(dtype=wp.float64),
-    mesh_force_acc: wp.array(dtype=vec3l),
-    mesh_torque_acc: wp.array(dtype=vec3l),
-    mesh_force_scale: wp.array(dtype=wp.float64),
-    mesh_torque_scale: wp.array(dtype=wp.float64),
-    energy: wp.array(dtype=wp.float64),
+    sums: Sums,
 ):
-    sphere_triangle_one(
-        wp.tid() + first, sphere_body, sphere_world, sphere_material, radius, mesh_body, mesh_material,
-        mesh_tri_offset, tri_vertices, mats, opts, sphere_pos, sphere_vel, sphere_angvel, sphere_arm, body_pos,
-        body_quat, body_vel, body_angvel, start, count, mesh, face, cohesion_now, hist, force_acc, torque_acc,
-        force_scale, torque_scale, mesh_force_acc, mesh_torque_acc, mesh_force_scale, mesh_torque_scale, energy)
+    sphere_triangle_one(wp.tid() + first, spheres, meshes, mats, opts, kin, bodies, st, cohesion_now, sums)
 
 
 # ----------------------------------------------------------------------------- elastic energy (observer)

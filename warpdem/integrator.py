@@ -20,9 +20,10 @@ from __future__ import annotations
 
 import warp as wp
 
-from .accumulate import add_wrench, clear_slots, read_float, vec3l
+from .accumulate import add_wrench, clear_slots, read_float
 from .broadphase import mesh_displacement
-from .contacts import E_DAMPING, E_DRIVEN, E_SPRING_DAMPER, N_ENERGY
+from .contacts import E_DAMPING, E_DRIVEN, E_SPRING_DAMPER, N_ENERGY, LawOptions
+from .kernel_args import Bodies, BodyState, Meshes, Motion, Spheres, SphereState, Springs, Sums
 from .model import ALL_DOFS, FLAG_ASPHERICAL, FLAG_PIVOT, ROT_DOFS
 
 wp.set_module_options({"enable_backward": False})
@@ -209,64 +210,40 @@ def check_body(
 @wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def integrate_body(
     b: int,
-    # Model:
-    body_world: wp.array(dtype=int),
-    body_group: wp.array(dtype=int),
-    body_flags: wp.array(dtype=int),
-    body_mass: wp.array(dtype=wp.float64),
-    body_inertia: wp.array(dtype=wp.vec3d),
-    body_pivot: wp.array(dtype=wp.vec3d),
-    body_pivot_vel: wp.array(dtype=wp.vec3d),
-    body_pivot_friction: wp.array(dtype=wp.float64),
-    group_damping: wp.array(dtype=float),
-    n_groups: int,
-    gravity: wp.vec3d,
-    dt: wp.float64,
-    track_energy: int,
-    force_scale: wp.array(dtype=wp.float64),
-    torque_scale: wp.array(dtype=wp.float64),
-    parts: int,
-    float_sums: int,
-    max_speed: wp.float64,
-    lower: wp.vec3d,
-    upper: wp.vec3d,
+    bodies: Bodies,
+    motion: Motion,
+    parts: int,  # CPU threads whose accumulators are summed
+    float_sums: int,  # 1: the sums were converted to ``sums.body_force``, ``sums.body_torque`` before
     step: int,
     fault_base: int,
-    # Data in/out:
-    force_acc: wp.array(dtype=vec3l),
-    torque_acc: wp.array(dtype=vec3l),
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-    body_vel: wp.array(dtype=wp.vec3d),
-    body_angvel: wp.array(dtype=wp.vec3d),
-    body_angmom: wp.array(dtype=wp.vec3d),
-    energy: wp.array(dtype=wp.float64),
-    # Data out:
-    body_force: wp.array(dtype=wp.vec3f),
-    body_torque: wp.array(dtype=wp.vec3f),
-    fault: wp.array(dtype=int),
+    state: BodyState,  # in/out
+    sums: Sums,  # in: the whole accumulators (cleared); out: the float sums, the energy terms (a part's)
+    fault: wp.array(dtype=int),  # out
 ):
     """Body b's motion for one step (one thread of integrate_bodies_kernel, or a world's loop); ``step``: the step
     being completed, for a fault record. Each path reads what it needs before it writes anything, and the force
     sums are cleared last (Warp's arrays may alias, so a load after a store waits for it)."""
-    flags = body_flags[b]
-    w = body_world[b]
-    m = body_mass[b]
-    inertia = body_inertia[b]
-    lam = wp.float64(group_damping[w * n_groups + body_group[b]])
-    x = body_pos[b]
-    q = body_quat[b]
-    v = body_vel[b]
-    omega = body_angvel[b]
+    dt = motion.dt
+    gravity = bodies.gravity
+    track_energy = motion.track_energy
+    flags = bodies.flags[b]
+    w = bodies.world[b]
+    m = bodies.mass[b]
+    inertia = bodies.inertia[b]
+    lam = wp.float64(bodies.group_damping[w * bodies.n_groups + bodies.group[b]])
+    x = state.pos[b]
+    q = state.quat[b]
+    v = state.vel[b]
+    omega = state.angvel[b]
     force = wp.vec3f()
     torque = wp.vec3f()
     if float_sums != 0:  # converted by accumulate.wrench_to_float_kernel
-        force = body_force[b]
-        torque = body_torque[b]
+        force = sums.body_force[b]
+        torque = sums.body_torque[b]
     else:
-        n = body_force.shape[0]
-        force = read_float(force_acc, force_scale, b, n, parts)
-        torque = read_float(torque_acc, torque_scale, b, n, parts)
+        n = sums.body_force.shape[0]
+        force = read_float(sums.force_acc, sums.force_scale, b, n, parts)
+        torque = read_float(sums.torque_acc, sums.torque_scale, b, n, parts)
     f = wp.vec3d(force)
     t = wp.vec3d(torque)
     if (flags & ALL_DOFS) == ALL_DOFS:
@@ -276,26 +253,26 @@ def integrate_body(
         if track_energy != 0:
             work = -(wp.dot(f, v) + wp.dot(t, omega)) * dt
             work += rotational_energy(inertia, q_new, omega) - rotational_energy(inertia, q, omega)
-            wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, work)
+            wp.atomic_add(sums.energy, w * N_ENERGY + E_DRIVEN, work)
         x = x + dt * v
-        body_pos[b] = x
-        body_quat[b] = q_new
+        state.pos[b] = x
+        state.quat[b] = q_new
     elif (flags & FLAG_PIVOT) != 0:
-        friction = body_pivot_friction[b]
-        pivot_vel = body_pivot_vel[b]
-        x, v_new, omega, q_new, l_new, work = integrate_hinged(flags, m, inertia, body_pivot[b], pivot_vel, friction,
+        friction = bodies.pivot_friction[b]
+        pivot_vel = bodies.pivot_vel[b]
+        x, v_new, omega, q_new, l_new, work = integrate_hinged(flags, m, inertia, bodies.pivot[b], pivot_vel, friction,
                                                                gravity, dt, lam, f, t, x, q, omega)
-        body_pos[b] = x
-        body_vel[b] = v_new
-        body_angvel[b] = omega
-        body_angmom[b] = l_new
-        body_quat[b] = q_new
+        state.pos[b] = x
+        state.vel[b] = v_new
+        state.angvel[b] = omega
+        state.angmom[b] = l_new
+        state.quat[b] = q_new
         if track_energy != 0:
             if lam > wp.float64(0.0) or friction > wp.float64(0.0):
-                wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, work)
+                wp.atomic_add(sums.energy, w * N_ENERGY + E_DAMPING, work)
             # the carriage's work: the pivot reaction m a - f - m g times the pivot's velocity
             reaction = m * (v_new - v) - (f + m * gravity) * dt
-            wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, wp.dot(reaction, pivot_vel))
+            wp.atomic_add(sums.energy, w * N_ENERGY + E_DRIVEN, wp.dot(reaction, pivot_vel))
         v = v_new
     else:
         a = f / m + gravity
@@ -309,7 +286,7 @@ def integrate_body(
             e = wp.float64(0.0)
             for k in range(3):
                 e += m * wp.abs(a_d[k] - a[k]) * wp.abs(v[k] + wp.float64(0.5) * dt * a[k]) * dt
-            wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, e)
+            wp.atomic_add(sums.energy, w * N_ENERGY + E_DAMPING, e)
         v = v + dt * a_d
         x = x + dt * v
 
@@ -319,11 +296,11 @@ def integrate_body(
             if track_energy != 0:
                 driven += -wp.dot(t, omega) * dt + rotational_energy(inertia, q_new, omega) - rotational_energy(
                     inertia, q, omega)
-                wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, driven)
-            body_quat[b] = q_new
+                wp.atomic_add(sums.energy, w * N_ENERGY + E_DRIVEN, driven)
+            state.quat[b] = q_new
         else:
             if track_energy != 0 and (flags & 7) != 0:  # a blocked translation
-                wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, driven)
+                wp.atomic_add(sums.energy, w * N_ENERGY + E_DRIVEN, driven)
             if rot_blocked != 0:
                 # constrained rotation about the free world axes
                 iw = inertia[0] * wp.identity(n=3, dtype=wp.float64)  # isotropic: the same in every frame
@@ -339,26 +316,26 @@ def integrate_body(
                     for k in range(3):
                         if (flags & (1 << (k + 3))) != 0:
                             e += c[k] * omega[k] * dt
-                    wp.atomic_add(energy, w * N_ENERGY + E_DRIVEN, e)
+                    wp.atomic_add(sums.energy, w * N_ENERGY + E_DRIVEN, e)
                 alpha_d = damp(alpha, omega, dt, lam)
                 if track_energy != 0 and lam > wp.float64(0.0):
                     e = wp.abs(wp.dot(iw * (alpha - alpha_d), omega)) * dt
-                    wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, e)
+                    wp.atomic_add(sums.energy, w * N_ENERGY + E_DAMPING, e)
                 omega = omega + dt * alpha_d
-                body_angvel[b] = omega
-                body_angmom[b] = iw * omega
-                body_quat[b] = quat_integrate(q, omega, dt)
+                state.angvel[b] = omega
+                state.angmom[b] = iw * omega
+                state.quat[b] = quat_integrate(q, omega, dt)
             elif (flags & FLAG_ASPHERICAL) == 0:
                 alpha = damp(t / inertia[0], omega, dt, lam)
                 if track_energy != 0 and lam > wp.float64(0.0):
                     e = wp.float64(0.0)
                     for k in range(3):
                         e += inertia[0] * wp.abs(alpha[k] - t[k] / inertia[0]) * wp.abs(omega[k]) * dt
-                    wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, e)
+                    wp.atomic_add(sums.energy, w * N_ENERGY + E_DAMPING, e)
                 omega = omega + dt * alpha
-                body_angvel[b] = omega
-                body_angmom[b] = inertia[0] * omega
-                body_quat[b] = quat_integrate(q, omega, dt)
+                state.angvel[b] = omega
+                state.angmom[b] = inertia[0] * omega
+                state.quat[b] = quat_integrate(q, omega, dt)
             else:
                 # aspherical, free: Yade's leapfrogAsphericalRotate with the torque damped first (cundallDamp1st)
                 t_d = t
@@ -369,8 +346,8 @@ def integrate_body(
                     elif s < wp.float64(0.0):
                         t_d[k] = t[k] * (wp.float64(1.0) + lam)
                 if track_energy != 0 and lam > wp.float64(0.0):
-                    wp.atomic_add(energy, w * N_ENERGY + E_DAMPING, wp.abs(wp.dot(t - t_d, omega)) * dt)
-                l_mom = body_angmom[b]
+                    wp.atomic_add(sums.energy, w * N_ENERGY + E_DAMPING, wp.abs(wp.dot(t - t_d, omega)) * dt)
+                l_mom = state.angmom[b]
                 l_n = l_mom + wp.float64(0.5) * dt * t_d
                 w_b_n = cw_div(wp.quat_rotate_inv(q, l_n), inertia)
                 q_half = q + wp.float64(0.5) * dt * dot_q(w_b_n, q)
@@ -378,256 +355,149 @@ def integrate_body(
                 w_b_half = cw_div(wp.quat_rotate_inv(q, l_mom), inertia)
                 q_new = wp.normalize(q + dt * dot_q(w_b_half, q_half))
                 omega = wp.quat_rotate(q_new, w_b_half)
-                body_angmom[b] = l_mom
-                body_angvel[b] = omega
-                body_quat[b] = q_new
-        body_vel[b] = v
-        body_pos[b] = x
+                state.angmom[b] = l_mom
+                state.angvel[b] = omega
+                state.quat[b] = q_new
+        state.vel[b] = v
+        state.pos[b] = x
     if float_sums == 0:
-        n = body_force.shape[0]
-        clear_slots(force_acc, b, n, parts)
-        clear_slots(torque_acc, b, n, parts)
-        body_force[b] = force
-        body_torque[b] = torque
-    check_body(b, x, v, omega, max_speed, lower, upper, step, fault_base, fault)
+        n = sums.body_force.shape[0]
+        clear_slots(sums.force_acc, b, n, parts)
+        clear_slots(sums.torque_acc, b, n, parts)
+        sums.body_force[b] = force
+        sums.body_torque[b] = torque
+    check_body(b, x, v, omega, motion.max_speed, motion.lower, motion.upper, step, fault_base, fault)
 
 
 @wp.kernel
 def integrate_bodies_kernel(
     first: int,  # the first body of this launch (a CPU thread's share)
-    # Model:
-    body_world: wp.array(dtype=int),
-    body_group: wp.array(dtype=int),
-    body_flags: wp.array(dtype=int),
-    body_mass: wp.array(dtype=wp.float64),
-    body_inertia: wp.array(dtype=wp.vec3d),
-    body_pivot: wp.array(dtype=wp.vec3d),
-    body_pivot_vel: wp.array(dtype=wp.vec3d),
-    body_pivot_friction: wp.array(dtype=wp.float64),
-    group_damping: wp.array(dtype=float),
-    n_groups: int,
-    gravity: wp.vec3d,
-    dt: wp.float64,
-    track_energy: int,
-    force_scale: wp.array(dtype=wp.float64),
-    torque_scale: wp.array(dtype=wp.float64),
+    bodies: Bodies,
+    motion: Motion,
     parts: int,
     float_sums: int,
-    max_speed: wp.float64,
-    lower: wp.vec3d,
-    upper: wp.vec3d,
     counters: wp.array(dtype=int),
     fault_base: int,
-    # Data in/out:
-    force_acc: wp.array(dtype=vec3l),
-    torque_acc: wp.array(dtype=vec3l),
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-    body_vel: wp.array(dtype=wp.vec3d),
-    body_angvel: wp.array(dtype=wp.vec3d),
-    body_angmom: wp.array(dtype=wp.vec3d),
-    energy: wp.array(dtype=wp.float64),
-    # Data out:
-    body_force: wp.array(dtype=wp.vec3f),
-    body_torque: wp.array(dtype=wp.vec3f),
+    state: BodyState,
+    sums: Sums,
     fault: wp.array(dtype=int),
 ):
     """The motion of each body in one launch: its force and torque sums to float32 (accumulate.take_float, also
-    written to ``body_force``, ``body_torque`` for the observers; the accumulators are cleared; with
+    written to ``sums.body_force``, ``sums.body_torque`` for the observers; the accumulators are cleared; with
     ``float_sums`` != 0 they were converted before, by accumulate.wrench_to_float_kernel, and are read), one leapfrog
     step (see the module docstring), then the fault check (:func:`check_body`, into fault[fault_base:+3], the step
     being completed as counted at its end)."""
-    integrate_body(
-        wp.tid() + first, body_world, body_group, body_flags, body_mass, body_inertia, body_pivot, body_pivot_vel,
-        body_pivot_friction, group_damping, n_groups, gravity, dt, track_energy, force_scale, torque_scale, parts,
-        float_sums, max_speed, lower, upper, counters[0] + 1, fault_base, force_acc, torque_acc, body_pos, body_quat,
-        body_vel, body_angvel, body_angmom, energy, body_force, body_torque, fault)
+    integrate_body(wp.tid() + first, bodies, motion, parts, float_sums, counters[0] + 1, fault_base, state, sums, fault)
 
 
 @wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def update_sphere(
     i: int,
-    # Model:
-    sphere_body: wp.array(dtype=int),
-    sphere_offset: wp.array(dtype=wp.vec3f),
-    # Data in:
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-    body_vel: wp.array(dtype=wp.vec3d),
-    body_angvel: wp.array(dtype=wp.vec3d),
-    # Data out:
-    sphere_pos: wp.array(dtype=wp.vec3d),
-    sphere_vel: wp.array(dtype=wp.vec3f),
-    sphere_angvel: wp.array(dtype=wp.vec3f),
-    sphere_arm: wp.array(dtype=wp.vec3f),
+    spheres: Spheres,
+    state: BodyState,  # in
+    kin: SphereState,  # out
     # the broad phase's displacement check (disp_slot < 0: none):
     build_pos: wp.array(dtype=wp.vec3d),
     disp_slot: int,
     disp_out: wp.array(dtype=float),
 ):
     """Sphere i from its body (one thread of update_spheres_kernel, or a world's loop)."""
-    b = sphere_body[i]
-    arm = wp.quat_rotate(body_quat[b], wp.vec3d(sphere_offset[i]))
-    x = body_pos[b] + arm
-    sphere_pos[i] = x
+    b = spheres.body[i]
+    arm = wp.quat_rotate(state.quat[b], wp.vec3d(spheres.offset[i]))
+    x = state.pos[b] + arm
+    kin.pos[i] = x
     if disp_slot >= 0:
         wp.atomic_max(disp_out, disp_slot, float(wp.length(x - build_pos[i])))
-    omega = body_angvel[b]
-    sphere_vel[i] = wp.vec3f(body_vel[b] + wp.cross(omega, arm))
-    sphere_angvel[i] = wp.vec3f(omega)
-    sphere_arm[i] = wp.vec3f(arm)
+    omega = state.angvel[b]
+    kin.vel[i] = wp.vec3f(state.vel[b] + wp.cross(omega, arm))
+    kin.angvel[i] = wp.vec3f(omega)
+    kin.arm[i] = wp.vec3f(arm)
 
 
 @wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def mesh_end_one(
     m: int,
     slot: int,
-    mesh_body: wp.array(dtype=int),
-    mesh_rmax: wp.array(dtype=float),
-    force_scale: wp.array(dtype=wp.float64),
-    torque_scale: wp.array(dtype=wp.float64),
+    meshes: Meshes,
     parts: int,
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
+    state: BodyState,  # in
     build_pos: wp.array(dtype=wp.vec3d),
     build_quat: wp.array(dtype=wp.quatd),
-    force_acc: wp.array(dtype=vec3l),
-    torque_acc: wp.array(dtype=vec3l),
-    force: wp.array(dtype=wp.vec3f),
-    torque: wp.array(dtype=wp.vec3f),
-    force_sum: wp.array(dtype=wp.vec3d),
+    sums: Sums,  # in: the whole mesh accumulators (cleared); out: the mesh forces
     disp: wp.array(dtype=float),
 ):
     """Mesh instance m at the end of a step (one thread of _mesh_end_kernel, or a world's loop): its force into
-    force[m] and added to force_sum[m], its torque into torque[m], its displacement into disp[slot]."""
-    n = force.shape[0]
-    f = read_float(force_acc, force_scale, m, n, parts)
-    t = read_float(torque_acc, torque_scale, m, n, parts)
-    f_sum = force_sum[m]
-    d = mesh_displacement(m, mesh_body, mesh_rmax, body_pos, body_quat, build_pos, build_quat)
-    clear_slots(force_acc, m, n, parts)
-    clear_slots(torque_acc, m, n, parts)
-    force[m] = f
-    force_sum[m] = f_sum + wp.vec3d(f)
-    torque[m] = t
+    sums.mesh_force[m] and added to sums.mesh_force_sum[m], its torque into sums.mesh_torque[m], its displacement
+    into disp[slot]."""
+    n = sums.mesh_force.shape[0]
+    f = read_float(sums.mesh_force_acc, sums.mesh_force_scale, m, n, parts)
+    t = read_float(sums.mesh_torque_acc, sums.mesh_torque_scale, m, n, parts)
+    f_sum = sums.mesh_force_sum[m]
+    d = mesh_displacement(m, meshes.body, meshes.rmax, state.pos, state.quat, build_pos, build_quat)
+    clear_slots(sums.mesh_force_acc, m, n, parts)
+    clear_slots(sums.mesh_torque_acc, m, n, parts)
+    sums.mesh_force[m] = f
+    sums.mesh_force_sum[m] = f_sum + wp.vec3d(f)
+    sums.mesh_torque[m] = t
     wp.atomic_max(disp, slot, d)
 
 
 @wp.kernel
 def update_spheres_kernel(
     first: int,  # the first sphere of this launch (a CPU thread's share)
-    # Model:
-    sphere_body: wp.array(dtype=int),
-    sphere_offset: wp.array(dtype=wp.vec3f),
-    # Data in:
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-    body_vel: wp.array(dtype=wp.vec3d),
-    body_angvel: wp.array(dtype=wp.vec3d),
-    # Data out:
-    sphere_pos: wp.array(dtype=wp.vec3d),
-    sphere_vel: wp.array(dtype=wp.vec3f),
-    sphere_angvel: wp.array(dtype=wp.vec3f),
-    sphere_arm: wp.array(dtype=wp.vec3f),
-    # the broad phase's displacement check (disp_slot < 0: none):
+    spheres: Spheres,
+    state: BodyState,
+    kin: SphereState,
     build_pos: wp.array(dtype=wp.vec3d),
     disp_slot: int,
     disp_out: wp.array(dtype=float),
 ):
     """Sphere centres and velocities from their bodies: x = X + R(q) p, v = V + Omega x (x - X); and the largest
     distance of a sphere from its position at the last list build [m] into disp_out[disp_slot] (atomic max)."""
-    update_sphere(
-        wp.tid() + first, sphere_body, sphere_offset, body_pos, body_quat, body_vel, body_angvel, sphere_pos,
-        sphere_vel, sphere_angvel, sphere_arm, build_pos, disp_slot, disp_out)
+    update_sphere(wp.tid() + first, spheres, state, kin, build_pos, disp_slot, disp_out)
 
 
 @wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def spring_one(
     s: int,
-    # Model:
-    spring_body_a: wp.array(dtype=int),
-    spring_body_b: wp.array(dtype=int),
-    spring_point_a: wp.array(dtype=wp.vec3f),
-    spring_point_b: wp.array(dtype=wp.vec3f),
-    stiffness: wp.array(dtype=float),
-    damping: wp.array(dtype=float),
-    rest_length: wp.array(dtype=float),
-    preload: wp.array(dtype=float),
-    progressive: wp.array(dtype=float),
-    stop_stiffness: wp.array(dtype=float),
-    body_world: wp.array(dtype=int),
-    dt: float,
-    track_energy: int,
-    # Data in:
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-    body_vel: wp.array(dtype=wp.vec3d),
-    body_angvel: wp.array(dtype=wp.vec3d),
-    # Data out (fixed-point sums, accumulate.py):
-    force_acc: wp.array(dtype=vec3l),
-    torque_acc: wp.array(dtype=vec3l),
-    force_scale: wp.array(dtype=wp.float64),
-    torque_scale: wp.array(dtype=wp.float64),
-    spring_force: wp.array(dtype=float),
-    energy: wp.array(dtype=wp.float64),
+    springs: Springs,
+    bodies: Bodies,
+    opts: LawOptions,  # dt (float32) and track_energy
+    state: BodyState,  # in
+    sums: Sums,  # out: the fixed-point wrench sums (a part's), the spring forces, the energy terms
 ):
     """Spring s (one thread of spring_kernel, or a world's loop)."""
-    a = spring_body_a[s]
-    b = spring_body_b[s]
-    ra = wp.quat_rotate(body_quat[a], wp.vec3d(spring_point_a[s]))
-    rb = wp.quat_rotate(body_quat[b], wp.vec3d(spring_point_b[s]))
-    d = (body_pos[b] + rb) - (body_pos[a] + ra)
+    a = springs.body_a[s]
+    b = springs.body_b[s]
+    ra = wp.quat_rotate(state.quat[a], wp.vec3d(springs.point_a[s]))
+    rb = wp.quat_rotate(state.quat[b], wp.vec3d(springs.point_b[s]))
+    d = (state.pos[b] + rb) - (state.pos[a] + ra)
     length = wp.length(d)
     u = wp.vec3f(0.0, 0.0, 1.0)
     if length > wp.float64(0.0):
         u = wp.vec3f(d / length)
-    va = body_vel[a] + wp.cross(body_angvel[a], ra)
-    vb = body_vel[b] + wp.cross(body_angvel[b], rb)
+    va = state.vel[a] + wp.cross(state.angvel[a], ra)
+    vb = state.vel[b] + wp.cross(state.angvel[b], rb)
     rate = wp.dot(wp.vec3f(vb - va), u)
-    u_len = float(length) - rest_length[s]
-    f = preload[s] + stiffness[s] * u_len + progressive[s] * u_len * u_len * u_len + damping[s] * rate
-    if preload[s] * u_len < 0.0:
-        f = f + stop_stiffness[s] * u_len
-    spring_force[s] = f
+    u_len = float(length) - springs.rest_length[s]
+    preload = springs.preload[s]
+    damping = springs.damping[s]
+    f = preload + springs.stiffness[s] * u_len + springs.progressive[s] * u_len * u_len * u_len + damping * rate
+    if preload * u_len < 0.0:
+        f = f + springs.stop_stiffness[s] * u_len
+    sums.spring_force[s] = f
     fa = f * u
-    add_wrench(force_acc, torque_acc, force_scale, torque_scale, a, fa, wp.cross(wp.vec3f(ra), fa))
-    add_wrench(force_acc, torque_acc, force_scale, torque_scale, b, -fa, wp.cross(wp.vec3f(rb), -fa))
-    if track_energy != 0:
-        wp.atomic_add(energy, body_world[a] * N_ENERGY + E_SPRING_DAMPER, wp.float64(damping[s] * rate * rate * dt))
+    add_wrench(sums.force_acc, sums.torque_acc, sums.force_scale, sums.torque_scale, a, fa,
+               wp.cross(wp.vec3f(ra), fa))
+    add_wrench(sums.force_acc, sums.torque_acc, sums.force_scale, sums.torque_scale, b, -fa,
+               wp.cross(wp.vec3f(rb), -fa))
+    if opts.track_energy != 0:
+        wp.atomic_add(sums.energy, bodies.world[a] * N_ENERGY + E_SPRING_DAMPER,
+                      wp.float64(damping * rate * rate * opts.dt))
 
 
 @wp.kernel
-def spring_kernel(
-    # Model:
-    spring_body_a: wp.array(dtype=int),
-    spring_body_b: wp.array(dtype=int),
-    spring_point_a: wp.array(dtype=wp.vec3f),
-    spring_point_b: wp.array(dtype=wp.vec3f),
-    stiffness: wp.array(dtype=float),
-    damping: wp.array(dtype=float),
-    rest_length: wp.array(dtype=float),
-    preload: wp.array(dtype=float),
-    progressive: wp.array(dtype=float),
-    stop_stiffness: wp.array(dtype=float),
-    body_world: wp.array(dtype=int),
-    dt: float,
-    track_energy: int,
-    # Data in:
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-    body_vel: wp.array(dtype=wp.vec3d),
-    body_angvel: wp.array(dtype=wp.vec3d),
-    # Data out (fixed-point sums, accumulate.py):
-    force_acc: wp.array(dtype=vec3l),
-    torque_acc: wp.array(dtype=vec3l),
-    force_scale: wp.array(dtype=wp.float64),
-    torque_scale: wp.array(dtype=wp.float64),
-    spring_force: wp.array(dtype=float),
-    energy: wp.array(dtype=wp.float64),
-):
+def spring_kernel(springs: Springs, bodies: Bodies, opts: LawOptions, state: BodyState, sums: Sums):
     """Spring-dashpot: F = preload + k u + k3 u^3 + c dL/dt, u = L - L0, along a->b (tension > 0 pulls a and b
     together); past a stop at u = 0 on the side the preload drives (preload u < 0), F gains k_stop u."""
-    spring_one(
-        wp.tid(), spring_body_a, spring_body_b, spring_point_a, spring_point_b, stiffness, damping, rest_length,
-        preload, progressive, stop_stiffness, body_world, dt, track_energy, body_pos, body_quat, body_vel,
-        body_angvel, force_acc, torque_acc, force_scale, torque_scale, spring_force, energy)
+    spring_one(wp.tid(), springs, bodies, opts, state, sums)

@@ -20,8 +20,8 @@ import warp as wp
 
 from . import accumulate, cpu_threads
 from . import broadphase as bp
+from . import kernel_args as ka
 from . import world_steps as world_steps_mod
-from .accumulate import vec3l
 from .contacts import (
     LawOptions,
     Materials,
@@ -51,8 +51,6 @@ both (a 52-sphere ringing batch on one H100: 81 -> 67 us per step)."""
 WORLD_STEPS_MIN = 32
 """With ``world_steps``, an advance of fewer steps runs stage by stage (the same bits): each advance a thread per
 world costs a hand-over between CPU threads and a few small reads, more than a few steps save."""
-_WORLD_PARAM = {a.label: i for i, a in enumerate(world_steps_mod.world_steps_kernel.adj.args)}
-"""world_steps_kernel's parameters by name: their indices in a recorded launch."""
 RECORD_CHUNK_STEPS = 4096
 """With ``world_steps``, :meth:`Simulation.run` hands pose records to the host at least this many steps at a time
 (whole records): the progress callback and the fault check come as often."""
@@ -97,28 +95,18 @@ def _end_step_kernel(
 
 @wp.kernel
 def _mesh_end_kernel(
-    mesh_body: wp.array(dtype=int),
-    mesh_rmax: wp.array(dtype=float),
-    force_scale: wp.array(dtype=wp.float64),
-    torque_scale: wp.array(dtype=wp.float64),
+    meshes: ka.Meshes,
     parts: int,
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
+    state: ka.BodyState,
     build_pos: wp.array(dtype=wp.vec3d),
     build_quat: wp.array(dtype=wp.quatd),
-    force_acc: wp.array(dtype=vec3l),
-    torque_acc: wp.array(dtype=vec3l),
-    force: wp.array(dtype=wp.vec3f),
-    torque: wp.array(dtype=wp.vec3f),
-    force_sum: wp.array(dtype=wp.vec3d),
+    sums: ka.Sums,
     disp: wp.array(dtype=float),
 ):
     """Per mesh instance at the end of a step: its contact force and torque sums to float32 (``mesh_force``,
     ``mesh_torque``, accumulate.take_float; read by the observers only; the force also added to
     ``mesh_force_sum``) and its displacement since the last list build into disp[0] (atomic max)."""
-    mesh_end_one(
-        wp.tid(), 0, mesh_body, mesh_rmax, force_scale, torque_scale, parts, body_pos, body_quat, build_pos, build_quat,
-        force_acc, torque_acc, force, torque, force_sum, disp)
+    mesh_end_one(wp.tid(), 0, meshes, parts, state, build_pos, build_quat, sums, disp)
 
 
 def _lane_layout(lanes: int | None, stride: int | None, model: Model) -> tuple[int, int]:
@@ -167,6 +155,25 @@ def _cpu_graph(ops: list[Callable[[], object]]) -> Callable[[], object]:
     kernels = [getattr(getattr(op, "__self__", None), "kernel", None) for op in ops]
     replay.__name__ = "graph of " + ", ".join(k.key.split(".")[-1] if k else "op" for k in kernels)
     return replay
+
+
+class _KernelArgs:
+    """The argument structs of a simulation's kernels (kernel_args.py), holding its model's, state's and data's
+    arrays; ``part_sums[p]``: CPU thread p's own accumulator slots (contacts, springs), ``whole_sums[p]``: all
+    slots with thread p's energy terms (integration, the meshes' end of step)."""
+
+    def __init__(self, sim: Simulation) -> None:
+        m, d = sim.model, sim.data
+        self.spheres = ka.spheres_of(m)
+        self.meshes = ka.meshes_of(m, d)
+        self.springs = ka.springs_of(m)
+        self.bodies = ka.bodies_of(m)
+        self.state = ka.body_state_of(sim.state)
+        self.kin = ka.sphere_state_of(d)
+        self.ss = ka.sphere_list_of(d.ss)
+        self.st = ka.triangle_list_of(d.st)
+        self.part_sums = [ka.sums_of(d, p, whole=False) for p in range(sim.parts)]
+        self.whole_sums = [ka.sums_of(d, p) for p in range(sim.parts)]
 
 
 class Simulation:
@@ -330,6 +337,7 @@ class Simulation:
         self.bond_detection_factor = float(bond_detection_factor)
         self.options.bond_gap = self.bond_detection_factor - 1.0
 
+        self._args: _KernelArgs | None = None  # the kernels' argument structs (made when first needed)
         self._update_spheres()
         self._set_bounds(bounds)
         # broad phase structures; the first build sizes the candidate lists
@@ -342,7 +350,6 @@ class Simulation:
         self._large = not dev.is_cpu and ns >= LARGE_STEP_SPHERES  # see LARGE_STEP_SPHERES
         self._graphs: dict[int, object] = {}  # captured graphs (CUDA, or a CPU thread) by steps per graph
         self._world_ops: list[object] | None = None  # the recorded world_steps launches
-        self._world_rec = (0, 0, 0)  # their recording parameters (_launch_worlds)
         self._step_ops: list[Callable[[], object]] | None = None  # a step's recorded launches (CPU threads)
         # CPU threads: a barrier between a step's phases, and each thread's step as one CPU graph (_advance_threads)
         self._barrier = Barrier(self.parts) if dev.is_cpu and self.parts > 1 and BARRIER_OK else None
@@ -414,18 +421,19 @@ class Simulation:
         """Sphere kinematics from the bodies' state, for spheres first .. first + dim (default: all); with
         ``disp_slot`` >= 0, their largest displacement since the last list build into ``data.disp[disp_slot]``."""
         d = self.data
-        m = self.model
-        dim = m.n_spheres - first if dim is None else dim
+        dim = self.model.n_spheres - first if dim is None else dim
         if dim <= 0:
             return None
-        return launch(
-            update_spheres_kernel,
-            dim,
-            inputs=[first, m.sphere_body, m.sphere_offset, self.state.body_pos, self.state.body_quat,
-                    self.state.body_vel, self.state.body_angvel],
-            outputs=[d.sphere_pos, d.sphere_vel, d.sphere_angvel, d.sphere_arm, d.build_pos, disp_slot, d.disp],
-            device=self.device,
-        )
+        a = self._kernel_args()
+        return launch(update_spheres_kernel, dim, inputs=[first, a.spheres, a.state],
+                      outputs=[a.kin, d.build_pos, disp_slot, d.disp], device=self.device)
+
+    def _kernel_args(self) -> _KernelArgs:
+        """The kernels' argument structs (kernel_args.py), made from the model, state and data once and again after
+        :meth:`recapture` (an array replaced)."""
+        if self._args is None:
+            self._args = _KernelArgs(self)
+        return self._args
 
     # ------------------------------------------------------------------ broad phase
     def _rebuild(self) -> None:
@@ -486,7 +494,7 @@ class Simulation:
         cover ranges of spheres and bodies; run directly, the parts run one after the other. ``lanes`` (with
         ``record``): the step as one list of launches per CPU thread, with barriers between (:meth:`_lanes`)."""
         d = self.data
-        m, s, dev = self.model, self.state, self.device
+        m, dev = self.model, self.device
         segments: list[tuple[str, object]] = []  # ("phase", parts) or ("serial", op), in order
         P = self.parts
 
@@ -505,22 +513,14 @@ class Simulation:
         def phase(name: str, parts: list[list[Callable[[], object] | None]]) -> None:
             segments.append(("phase", (name, [[op for op in part if op is not None] for part in parts])))
 
-        def part_sums(p: int) -> tuple[list[wp.array], list[wp.array], wp.array]:
-            """Part p's slots: body accumulators, mesh accumulators, energy terms."""
-            nb, nm, ne = m.n_bodies, max(m.n_meshes, 1), d.energy.shape[0]
-            body = [d.force_acc[p * nb:(p + 1) * nb], d.torque_acc[p * nb:(p + 1) * nb], d.force_scale,
-                    d.torque_scale]
-            mesh = [d.mesh_force_acc[p * nm:(p + 1) * nm], d.mesh_torque_acc[p * nm:(p + 1) * nm],
-                    d.mesh_force_scale, d.mesh_torque_scale]
-            return body, mesh, d.energy if p == 0 else d.energy_extra[(p - 1) * ne:p * ne]
-
+        a = self._kernel_args()
         ns = m.n_spheres
         sc, bc, cc = self._sphere_cut, self._body_cut, self._contact_cut
         # the accumulators are zero here: the sums to float of the previous step cleared them
         contacts: list[list[Callable[[], object] | None]] = []
         for p in range(P):
-            acc, mesh_acc, energy = part_sums(p)
             first, dim = cc[p], cc[p + 1] - cc[p]
+            sums = a.part_sums[p]
             part = []
             if ns and self.contact_threads == "pair":  # a thread per list entry
                 ec = self._entry_cut if self._entry_cut and self._entry_cut[-1] == d.ss.capacity else \
@@ -528,78 +528,45 @@ class Simulation:
                 e0, e1 = ec[p], ec[p + 1]
                 part.append(launch(
                     sphere_pair_kernel, e1 - e0,
-                    inputs=[e0, m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius,
-                            self.materials, self.options, d.sphere_pos, d.sphere_vel, d.sphere_angvel,
-                            d.sphere_arm, d.ss.owner, d.ss.key_a, d.cohesion_now, d.ss.hist],
-                    outputs=[*acc, energy],
-                    device=dev,
-                ))
+                    inputs=[e0, a.spheres, self.materials, self.options, a.kin, a.ss, d.cohesion_now],
+                    outputs=[sums], device=dev))
             elif ns:
                 part.append(launch(
                     sphere_sphere_kernel, dim,
-                    inputs=[first, m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius,
-                            self.materials, self.options, d.sphere_pos, d.sphere_vel, d.sphere_angvel,
-                            d.sphere_arm, d.ss.start, d.ss.count, d.ss.key_a, d.cohesion_now, d.ss.hist],
-                    outputs=[*acc, energy],
-                    device=dev,
-                ))
+                    inputs=[first, a.spheres, self.materials, self.options, a.kin, a.ss, d.cohesion_now],
+                    outputs=[sums], device=dev))
             if ns and m.n_meshes:
                 part.append(launch(
                     sphere_triangle_kernel, dim,
-                    inputs=[first, m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, m.mesh_body,
-                            m.mesh_material, m.mesh_tri_offset, m.tri_vertices, self.materials, self.options,
-                            d.sphere_pos, d.sphere_vel, d.sphere_angvel, d.sphere_arm, s.body_pos,
-                            s.body_quat, s.body_vel, s.body_angvel, d.st.start, d.st.count, d.st.key_a,
-                            d.st.key_b, d.cohesion_now, d.st.hist],
-                    outputs=[*acc, *mesh_acc, energy],
-                    device=dev,
-                ))
+                    inputs=[first, a.spheres, a.meshes, self.materials, self.options, a.kin, a.state, a.st,
+                            d.cohesion_now],
+                    outputs=[sums], device=dev))
             contacts.append(part)
-        acc, _, _ = part_sums(0)
         if m.n_springs:  # part 0's, after its contacts: it adds into part 0's sums only
-            contacts[0].append(launch(
-                spring_kernel, m.n_springs,
-                inputs=[m.spring_body_a, m.spring_body_b, m.spring_point_a, m.spring_point_b, m.spring_stiffness,
-                        m.spring_damping, m.spring_rest_length, m.spring_preload, m.spring_progressive,
-                        m.spring_stop_stiffness, m.body_world, self.dt,
-                        int(self.track_energy), s.body_pos, s.body_quat, s.body_vel, s.body_angvel],
-                outputs=[*acc, d.spring_force, d.energy],
-                device=dev,
-            ))
+            contacts[0].append(launch(spring_kernel, m.n_springs, inputs=[a.springs, a.bodies, self.options, a.state],
+                                      outputs=[a.part_sums[0]], device=dev))
         phase("contacts", contacts)
         # motion: each part sums its bodies' forces, moves and checks them, and updates their spheres
         motion: list[list[Callable[[], object] | None]] = []
-        lower, upper = wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1])
         float_sums = int(self._large)
         if float_sums:
             serial(launch(accumulate.wrench_to_float_kernel, m.n_bodies,
                           inputs=[d.force_acc, d.force_scale, d.torque_acc, d.torque_scale, P],
                           outputs=[d.body_force, d.body_torque], device=dev))
+        moving = ka.motion_of(self.dt, self.track_energy, self.max_speed, self.bounds)
         for p in range(P):
-            _, _, energy = part_sums(p)
             motion.append([
-                launch(
-                    integrate_bodies_kernel, bc[p + 1] - bc[p],
-                    inputs=[bc[p], m.body_world, m.body_group, m.body_flags, m.body_mass, m.body_inertia,
-                            m.body_pivot, m.body_pivot_vel, m.body_pivot_friction, m.group_damping, m.n_groups,
-                            wp.vec3d(*m.gravity), wp.float64(self.dt), int(self.track_energy), d.force_scale,
-                            d.torque_scale, P, float_sums, wp.float64(self.max_speed), lower, upper, d.counters,
-                            p * DISP_STRIDE],
-                    outputs=[d.force_acc, d.torque_acc, s.body_pos, s.body_quat, s.body_vel, s.body_angvel,
-                             s.body_angmom, energy, d.body_force, d.body_torque, d.fault_parts],
-                    device=dev,
-                ),
+                launch(integrate_bodies_kernel, bc[p + 1] - bc[p],
+                       inputs=[bc[p], a.bodies, moving, P, float_sums, d.counters, p * DISP_STRIDE, a.state],
+                       outputs=[a.whole_sums[p], d.fault_parts], device=dev),
                 self._update_spheres(launch, sc[p], sc[p + 1] - sc[p], disp_slot=(1 + p) * DISP_STRIDE),
             ])
         phase("motion", motion)
         # broad phase next step? when the displacements since the last build could hide a contact
         if m.n_meshes:  # the meshes' sums to float (for the observers) and their displacement
             serial(launch(_mesh_end_kernel, m.n_meshes,
-                          inputs=[m.mesh_body, d.mesh_rmax, d.mesh_force_scale, d.mesh_torque_scale, P, s.body_pos,
-                                  s.body_quat, d.mesh_build_pos, d.mesh_build_quat],
-                          outputs=[d.mesh_force_acc, d.mesh_torque_acc, d.mesh_force, d.mesh_torque,
-                                   d.mesh_force_sum, d.disp],
-                          device=dev))
+                          inputs=[a.meshes, P, a.state, d.mesh_build_pos, d.mesh_build_quat],
+                          outputs=[a.whole_sums[0], d.disp], device=dev))
         serial(launch(_end_step_kernel, 1, inputs=[self.skin, d.disp, d.fault_parts],
                       outputs=[d.rebuild_flag, d.counters, d.fault, d.cohesion_now], device=dev))
         if P > 1 and self.track_energy:
@@ -780,6 +747,7 @@ class Simulation:
         self._step_ops = None
         self._world_ops = None
         self._lane_graphs = None
+        self._args = None
 
     def _advance_threads(self, n_steps: int) -> None:
         """:meth:`advance` shared between CPU threads: each thread replays its share of a step (its parts of the
@@ -945,48 +913,37 @@ class Simulation:
         world, shift; world_steps_kernel) change between advances."""
         if self._world_ops is None:
             self._world_ops = self._record_worlds()
-            self._world_rec = (0, 0, 0)  # as recorded
-        at = _WORLD_PARAM
+        adv = world_steps_mod.Advance()
+        adv.target, adv.first_step = target, self.state.step
+        adv.rec_every, adv.rec_nb, adv.rec_shift = record
         for op in self._world_ops:
-            op.set_param_at_index(at["target"], target)
-            op.set_param_at_index(at["first_step"], self.state.step)
-            if record != self._world_rec:  # (a launch's parameters are packed in Python: only what changed)
-                for name, value in zip(("rec_every", "rec_nb", "rec_shift"), record, strict=True):
-                    op.set_param_at_index(at[name], value)
-        self._world_rec = record
+            op.set_param_at_index(0, adv)  # world_steps_kernel's first parameter
         if len(self._world_ops) > 1:
             cpu_threads.Parallel("worlds", [[op.launch] for op in self._world_ops])()
         else:
             self._world_ops[0].launch()
 
     def _record_worlds(self) -> list[object]:
-        """The world_steps_kernel launches of :meth:`_launch_worlds`, recorded (target and step count left 0)."""
-        m, d, s = self.model, self.data, self.state
-        per = [m.spheres_per_world, m.bodies_per_world, m.meshes_per_world, m.springs_per_world]
-        lower, upper = wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1])
+        """The world_steps_kernel launches of :meth:`_launch_worlds`, recorded (their Advance set before each)."""
+        m, d = self.model, self.data
+        ws = world_steps_mod.Worlds()
+        ws.lanes, ws.stride = self.world_lanes, self.world_lane_stride
+        ws.spw, ws.bpw, ws.mpw, ws.kpw = (m.spheres_per_world, m.bodies_per_world, m.meshes_per_world,
+                                          m.springs_per_world)
+        ws.n_worlds, ws.stop_others, ws.skin = m.n_worlds, int(self.world_stop_others), self.skin
+        ws.step, ws.flag, ws.disp, ws.fault = self._world_step, self._world_flag, self._world_disp, self._world_fault
+        ws.stop, ws.stage_cycles = self._world_stop, self.world_stage_cycles
+        ws.rec_bodies, ws.rec_pos, ws.rec_quat = self._rec_bodies, self._rec_pos, self._rec_quat
+        a = self._kernel_args()
+        moving = ka.motion_of(self.dt, self.track_energy, self.max_speed, self.bounds)
         cut = self._world_cut
-        lanes = self.world_lanes
         return [wp.launch(
-            world_steps_mod.world_steps_kernel, (cut[j + 1] - cut[j], lanes), block_dim=lanes, record_cmd=True,
-            inputs=[cut[j], lanes, self.world_lane_stride, 0, 0, self.skin, wp.float64(self.dt), *per, 0, 0, 0,
-                    m.n_worlds, int(self.world_stop_others),
-                    m.sphere_body, m.sphere_world, m.sphere_material, m.sphere_radius, m.sphere_offset,
-                    m.mesh_body, m.mesh_material, m.mesh_tri_offset, d.mesh_rmax, m.tri_vertices,
-                    m.spring_body_a, m.spring_body_b, m.spring_point_a, m.spring_point_b, m.spring_stiffness,
-                    m.spring_damping, m.spring_rest_length, m.spring_preload, m.spring_progressive,
-                    m.spring_stop_stiffness, m.body_world, m.body_group, m.body_flags, m.body_mass, m.body_inertia,
-                    m.body_pivot, m.body_pivot_vel, m.body_pivot_friction, m.group_damping, m.n_groups,
-                    wp.vec3d(*m.gravity), self.materials, self.options, wp.float64(self.max_speed), lower, upper],
-            outputs=[d.sphere_pos, d.sphere_vel, d.sphere_angvel, d.sphere_arm, d.build_pos, d.mesh_build_pos,
-                     d.mesh_build_quat, d.ss.start, d.ss.count, d.ss.key_a, d.ss.hist, d.st.start, d.st.count,
-                     d.st.key_a, d.st.key_b, d.st.hist, self._no_cohesion, s.body_pos, s.body_quat, s.body_vel,
-                     s.body_angvel, s.body_angmom, d.force_acc, d.torque_acc, d.force_scale, d.torque_scale,
-                     d.mesh_force_acc, d.mesh_torque_acc, d.mesh_force_scale, d.mesh_torque_scale, d.energy,
-                     d.body_force, d.body_torque, d.mesh_force, d.mesh_torque, d.mesh_force_sum, d.spring_force,
-                     self._world_step,
-                     self._world_flag, self._world_disp, self._world_fault, self._world_stop,
-                     self.world_stage_cycles,
-                     self._rec_bodies, self._rec_pos, self._rec_quat],
+            world_steps_mod.world_steps_kernel, (cut[j + 1] - cut[j], self.world_lanes), block_dim=self.world_lanes,
+            record_cmd=True,
+            inputs=[world_steps_mod.Advance(), cut[j], ws, a.spheres, a.meshes, a.springs, a.bodies, self.materials,
+                    self.options, moving],
+            outputs=[a.kin, a.state, a.ss, a.st, self._no_cohesion, a.whole_sums[0], d.build_pos, d.mesh_build_pos,
+                     d.mesh_build_quat],
             device=self.device,
         ) for j in range(len(cut) - 1)]
 

@@ -27,11 +27,21 @@ from __future__ import annotations
 
 import warp as wp
 
-from .accumulate import vec3l
-from .contact_law import Hist
 from .contacts import LawOptions, Materials, sphere_sphere_one, sphere_triangle_one
 from .data import NO_FAULT
 from .integrator import integrate_body, mesh_end_one, spring_one, update_sphere
+from .kernel_args import (
+    Bodies,
+    BodyState,
+    Meshes,
+    Motion,
+    SphereList,
+    Spheres,
+    SphereState,
+    Springs,
+    Sums,
+    TriangleList,
+)
 
 wp.set_module_options({"enable_backward": False})
 
@@ -93,133 +103,117 @@ def block_sync():
     ...
 
 
+@wp.struct
+class Advance:
+    """What changes between two advances of :func:`world_steps_kernel` (its first parameter, set again on the
+    recorded launches)."""
+
+    target: int
+    """the step (counted from the advance's start) each world runs up to."""
+    first_step: int
+    """the simulation's step count when the worlds' step counts were 0 (for fault records)."""
+    rec_every: int
+    """recording (Simulation.run's pose observers): every rec_every-th step, 0 for none."""
+    rec_shift: int
+    """steps of the recording that ran before this advance's step 0."""
+    rec_nb: int
+    """bodies recorded per world (local indices in ``Worlds.rec_bodies``)."""
+
+
+@wp.struct
+class Worlds:
+    """The layout of a world's block and the per-world arrays of :func:`world_steps_kernel` (Simulation's)."""
+
+    lanes: int
+    """threads per world (the launch's block size): 1 on the CPU by default."""
+    stride: int
+    """every stride-th thread of a block takes items (``lanes`` a multiple of it)."""
+    spw: int
+    """spheres per world."""
+    bpw: int
+    """bodies per world."""
+    mpw: int
+    """mesh instances per world."""
+    kpw: int
+    """springs per world."""
+    n_worlds: int
+    """worlds of the simulation."""
+    stop_others: int
+    """1: a world that needs a rebuild stops the others (all worlds' blocks resident at once)."""
+    skin: float
+    """neighbour skin of the candidate lists [m]."""
+    step: wp.array(dtype=int)
+    """steps each world has run in this advance, int32 (n_worlds,)."""
+    flag: wp.array(dtype=int)
+    """1: the world's lists need a rebuild, int32 (n_worlds,)."""
+    disp: wp.array(dtype=float)
+    """per world DISP_SLOTS entries: the meshes' and spheres' largest displacements [m], another world's stop,
+    float32 (n_worlds * DISP_SLOTS,)."""
+    fault: wp.array(dtype=int)
+    """per world FAULT_SLOTS entries: the step's fault, the world's first (body, cause, step), int32."""
+    stop: wp.array(dtype=int)
+    """1: a world has stopped for a rebuild (``stop_others``), int32 (1,)."""
+    stage_cycles: wp.array(dtype=wp.int64)
+    """CUDA clock cycles per world and stage of STAGES (zeros on the CPU), int64 (n_worlds * 4,)."""
+    rec_bodies: wp.array(dtype=int)
+    """local indices of the bodies whose poses are recorded, int32 (rec_nb,)."""
+    rec_pos: wp.array(dtype=wp.vec3d)
+    """recorded positions [m], vec3d (records * n_worlds * rec_nb,)."""
+    rec_quat: wp.array(dtype=wp.quatd)
+    """recorded orientations (x, y, z, w), quatd (records * n_worlds * rec_nb,)."""
+
+
 @wp.kernel
 def world_steps_kernel(
+    adv: Advance,
     first_world: int,  # the first world of this launch (a CPU thread's share)
-    lanes: int,  # threads per world (the launch's block size): 1 on the CPU
-    stride: int,  # every stride-th thread of the block takes items (lanes a multiple of it)
-    target: int,
-    first_step: int,  # the simulation's step count when world_step was 0
-    skin: float,
-    dt: wp.float64,
-    spw: int,  # spheres, bodies, meshes and springs per world
-    bpw: int,
-    mpw: int,
-    kpw: int,
-    rec_every: int,  # recording (Simulation.run's pose observers): every rec_every-th step, 0 for none
-    rec_shift: int,  # steps of the recording that ran before this advance's world_step 0
-    rec_nb: int,  # bodies recorded per world (local indices in rec_bodies)
-    n_worlds: int,
-    stop_others: int,  # 1: a world that needs a rebuild stops the others (all worlds' blocks resident at once)
-    # Model:
-    sphere_body: wp.array(dtype=int),
-    sphere_world: wp.array(dtype=int),
-    sphere_material: wp.array(dtype=int),
-    sphere_radius: wp.array(dtype=wp.float64),
-    sphere_offset: wp.array(dtype=wp.vec3f),
-    mesh_body: wp.array(dtype=int),
-    mesh_material: wp.array(dtype=int),
-    mesh_tri_offset: wp.array(dtype=int),
-    mesh_rmax: wp.array(dtype=float),
-    tri_vertices: wp.array(dtype=wp.vec3d),
-    spring_body_a: wp.array(dtype=int),
-    spring_body_b: wp.array(dtype=int),
-    spring_point_a: wp.array(dtype=wp.vec3f),
-    spring_point_b: wp.array(dtype=wp.vec3f),
-    spring_stiffness: wp.array(dtype=float),
-    spring_damping: wp.array(dtype=float),
-    spring_rest_length: wp.array(dtype=float),
-    spring_preload: wp.array(dtype=float),
-    spring_progressive: wp.array(dtype=float),
-    spring_stop_stiffness: wp.array(dtype=float),
-    body_world: wp.array(dtype=int),
-    body_group: wp.array(dtype=int),
-    body_flags: wp.array(dtype=int),
-    body_mass: wp.array(dtype=wp.float64),
-    body_inertia: wp.array(dtype=wp.vec3d),
-    body_pivot: wp.array(dtype=wp.vec3d),
-    body_pivot_vel: wp.array(dtype=wp.vec3d),
-    body_pivot_friction: wp.array(dtype=wp.float64),
-    group_damping: wp.array(dtype=float),
-    n_groups: int,
-    gravity: wp.vec3d,
+    ws: Worlds,
+    spheres: Spheres,
+    meshes: Meshes,
+    springs: Springs,
+    bodies: Bodies,
     mats: Materials,
     opts: LawOptions,
-    max_speed: wp.float64,
-    lower: wp.vec3d,
-    upper: wp.vec3d,
-    # Data in/out:
-    sphere_pos: wp.array(dtype=wp.vec3d),
-    sphere_vel: wp.array(dtype=wp.vec3f),
-    sphere_angvel: wp.array(dtype=wp.vec3f),
-    sphere_arm: wp.array(dtype=wp.vec3f),
+    motion: Motion,
+    kin: SphereState,  # in/out
+    state: BodyState,  # in/out
+    ss: SphereList,  # in/out: the history
+    st: TriangleList,  # in/out: the history
+    no_cohesion: wp.array(dtype=int),
+    sums: Sums,  # the whole accumulators (one part), the float sums, the energy terms
     build_pos: wp.array(dtype=wp.vec3d),
     mesh_build_pos: wp.array(dtype=wp.vec3d),
     mesh_build_quat: wp.array(dtype=wp.quatd),
-    ss_start: wp.array(dtype=int),
-    ss_count: wp.array(dtype=int),
-    ss_other: wp.array(dtype=int),
-    ss_hist: wp.array(dtype=Hist),
-    st_start: wp.array(dtype=int),
-    st_count: wp.array(dtype=int),
-    st_mesh: wp.array(dtype=int),
-    st_face: wp.array(dtype=int),
-    st_hist: wp.array(dtype=Hist),
-    no_cohesion: wp.array(dtype=int),
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-    body_vel: wp.array(dtype=wp.vec3d),
-    body_angvel: wp.array(dtype=wp.vec3d),
-    body_angmom: wp.array(dtype=wp.vec3d),
-    force_acc: wp.array(dtype=vec3l),
-    torque_acc: wp.array(dtype=vec3l),
-    force_scale: wp.array(dtype=wp.float64),
-    torque_scale: wp.array(dtype=wp.float64),
-    mesh_force_acc: wp.array(dtype=vec3l),
-    mesh_torque_acc: wp.array(dtype=vec3l),
-    mesh_force_scale: wp.array(dtype=wp.float64),
-    mesh_torque_scale: wp.array(dtype=wp.float64),
-    energy: wp.array(dtype=wp.float64),
-    # Data out:
-    body_force: wp.array(dtype=wp.vec3f),
-    body_torque: wp.array(dtype=wp.vec3f),
-    mesh_force: wp.array(dtype=wp.vec3f),
-    mesh_torque: wp.array(dtype=wp.vec3f),
-    mesh_force_sum: wp.array(dtype=wp.vec3d),
-    spring_force: wp.array(dtype=float),
-    world_step: wp.array(dtype=int),
-    world_flag: wp.array(dtype=int),
-    world_disp: wp.array(dtype=float),
-    world_fault: wp.array(dtype=int),
-    world_stop: wp.array(dtype=int),
-    stage_cycles: wp.array(dtype=wp.int64),
-    rec_bodies: wp.array(dtype=int),
-    rec_pos: wp.array(dtype=wp.vec3d),
-    rec_quat: wp.array(dtype=wp.quatd),
 ):
-    """World w's steps from world_step[w] up to ``target`` or until its candidate lists need a rebuild
-    (world_flag[w] = 1), by a block of ``lanes`` threads: each stage's items (spheres, bodies, meshes, springs) dealt
-    out between every ``stride``-th of them, a barrier between stages. The one-step request for cohesion
+    """World w's steps from ws.step[w] up to ``adv.target`` or until its candidate lists need a rebuild
+    (ws.flag[w] = 1), by a block of ``ws.lanes`` threads: each stage's items (spheres, bodies, meshes, springs) dealt
+    out between every ``ws.stride``-th of them, a barrier between stages. The one-step request for cohesion
     (``Data.cohesion_now``) is not read: the caller runs such a step the ordinary way; ``no_cohesion`` is a zero
     flag passed in its place.
 
-    ``stage_cycles`` (int64, shape (n_worlds * 4,), CUDA clock cycles; zeros on the CPU) adds up, per world and
+    ``ws.stage_cycles`` (int64, shape (n_worlds * 4,), CUDA clock cycles; zeros on the CPU) adds up, per world and
     stage of ``STAGES``, the stage's time with its barrier as lane 0 sees it. (The other warps' own times did not
     split a stage reliably on an H100: threads without items showed thousands of cycles.)
 
-    Recording (``rec_every`` > 0): after every step j = world_step + 1 + ``rec_shift`` that is a multiple of
-    ``rec_every``, the poses of the world's bodies ``rec_bodies`` (local indices, (rec_nb,)) go to record
-    r = j / rec_every - 1 of ``rec_pos`` [m] and ``rec_quat`` (x, y, z, w), each flattened from
+    Recording (``adv.rec_every`` > 0): after every step j = world_step + 1 + ``adv.rec_shift`` that is a multiple of
+    ``adv.rec_every``, the poses of the world's bodies ``ws.rec_bodies`` (local indices, (rec_nb,)) go to record
+    r = j / rec_every - 1 of ``ws.rec_pos`` [m] and ``ws.rec_quat`` (x, y, z, w), each flattened from
     (records, n_worlds, rec_nb): the state the host would read after that step, without a launch per record.
 
-    ``stop_others`` = 1: a world that needs a rebuild also sets ``world_stop`` (1,), and every world ends its advance
+    ``ws.stop_others`` = 1: a world that needs a rebuild also sets ``ws.stop`` (1,), and every world ends its advance
     after the step in which it sees it, so that the host rebuilds once for all and the next launch runs them side by
     side again (otherwise the worlds that did not stop run to ``target`` and the stopped one finishes alone
     afterwards). Only where all the launch's blocks run at once: a block that starts late would see the flag at its
     first step. A rebuild changes only the order of candidates, so this changes no bits."""
     t, lane = wp.tid()
+    spw = ws.spw
+    bpw = ws.bpw
+    mpw = ws.mpw
+    kpw = ws.kpw
+    target = adv.target
+    rec_every = adv.rec_every
     w = t + first_world
-    k = world_step[w]
+    k = ws.step[w]
     s0 = w * spw
     b0 = w * bpw
     m0 = w * mpw
@@ -229,9 +223,9 @@ def world_steps_kernel(
     contact_items = spw
     if mpw > 0:
         contact_items = 2 * spw
-    slot = lane // stride  # a thread that takes items: slot ``slot`` of ``slots``
-    slots = lanes // stride
-    if lane % stride != 0:
+    slot = lane // ws.stride  # a thread that takes items: slot ``slot`` of ``slots``
+    slots = ws.lanes // ws.stride
+    if lane % ws.stride != 0:
         slot = 1 << 29  # takes none
     wall = vec4l()  # cycles per stage with its barrier (lane 0's are kept)
     while k < target:
@@ -239,81 +233,62 @@ def world_steps_kernel(
         # contacts and springs: they only add to the fixed-point sums, whose order does not matter
         for q in range(slot, contact_items + kpw, slots):
             if q >= contact_items:
-                spring_one(
-                    c0 + q - contact_items, spring_body_a, spring_body_b, spring_point_a, spring_point_b,
-                    spring_stiffness, spring_damping, spring_rest_length, spring_preload, spring_progressive,
-                    spring_stop_stiffness, body_world, opts.dt, opts.track_energy, body_pos, body_quat, body_vel,
-                    body_angvel, force_acc, torque_acc, force_scale, torque_scale, spring_force, energy)
+                spring_one(c0 + q - contact_items, springs, bodies, opts, state, sums)
             elif q < spw:
-                sphere_sphere_one(
-                    s0 + q, sphere_body, sphere_world, sphere_material, sphere_radius, mats, opts, sphere_pos,
-                    sphere_vel, sphere_angvel, sphere_arm, ss_start, ss_count, ss_other, no_cohesion, ss_hist,
-                    force_acc, torque_acc, force_scale, torque_scale, energy)
+                sphere_sphere_one(s0 + q, spheres, mats, opts, kin, ss, no_cohesion, sums)
             else:
-                sphere_triangle_one(
-                    s0 + q - spw, sphere_body, sphere_world, sphere_material, sphere_radius, mesh_body,
-                    mesh_material, mesh_tri_offset, tri_vertices, mats, opts, sphere_pos, sphere_vel, sphere_angvel,
-                    sphere_arm, body_pos, body_quat, body_vel, body_angvel, st_start, st_count, st_mesh, st_face,
-                    no_cohesion, st_hist, force_acc, torque_acc, force_scale, torque_scale, mesh_force_acc,
-                    mesh_torque_acc, mesh_force_scale, mesh_torque_scale, energy)
+                sphere_triangle_one(s0 + q - spw, spheres, meshes, mats, opts, kin, state, st, no_cohesion, sums)
         block_sync()
         c_2 = cycle_count()
-        step = first_step + k + 1
+        step = adv.first_step + k + 1
         for b in range(b0 + slot, b0 + bpw, slots):
-            integrate_body(
-                b, body_world, body_group, body_flags, body_mass, body_inertia, body_pivot, body_pivot_vel,
-                body_pivot_friction, group_damping, n_groups, gravity, dt, opts.track_energy,
-                force_scale, torque_scale, 1, 0, max_speed, lower, upper, step, fb, force_acc, torque_acc, body_pos,
-                body_quat, body_vel, body_angvel, body_angmom, energy, body_force, body_torque, world_fault)
+            integrate_body(b, bodies, motion, 1, 0, step, fb, state, sums, ws.fault)
         block_sync()
         c_4 = cycle_count()
         for q in range(slot, spw + mpw, slots):
             if q < spw:
-                update_sphere(s0 + q, sphere_body, sphere_offset, body_pos, body_quat, body_vel, body_angvel,
-                              sphere_pos, sphere_vel, sphere_angvel, sphere_arm, build_pos, dm + 1, world_disp)
+                update_sphere(s0 + q, spheres, state, kin, build_pos, dm + 1, ws.disp)
             else:
-                mesh_end_one(m0 + q - spw, dm, mesh_body, mesh_rmax, mesh_force_scale, mesh_torque_scale, 1,
-                             body_pos, body_quat, mesh_build_pos, mesh_build_quat, mesh_force_acc, mesh_torque_acc,
-                             mesh_force, mesh_torque, mesh_force_sum, world_disp)
-        if stop_others != 0 and lane == 0:  # another world's stop, read coherently (an atomic) for the whole block
-            world_disp[dm + 2] = float(wp.atomic_add(world_stop, 0, 0))
+                mesh_end_one(m0 + q - spw, dm, meshes, 1, state, mesh_build_pos, mesh_build_quat, sums, ws.disp)
+        if ws.stop_others != 0 and lane == 0:  # another world's stop, read coherently (an atomic) for the block
+            ws.disp[dm + 2] = float(wp.atomic_add(ws.stop, 0, 0))
         if rec_every > 0:  # the poses are final once the body stage's barrier has passed
-            j = k + 1 + rec_shift
+            j = k + 1 + adv.rec_shift
             if j % rec_every == 0:
-                r0 = ((j // rec_every - 1) * n_worlds + w) * rec_nb
-                for q in range(slot, rec_nb, slots):
-                    rec_pos[r0 + q] = body_pos[b0 + rec_bodies[q]]
-                    rec_quat[r0 + q] = body_quat[b0 + rec_bodies[q]]
+                r0 = ((j // rec_every - 1) * ws.n_worlds + w) * adv.rec_nb
+                for q in range(slot, adv.rec_nb, slots):
+                    ws.rec_pos[r0 + q] = state.pos[b0 + ws.rec_bodies[q]]
+                    ws.rec_quat[r0 + q] = state.quat[b0 + ws.rec_bodies[q]]
         k += 1
         block_sync()
         c_6 = cycle_count()
         # the end of the step, for this world (simulation._end_step_kernel): every lane reads the displacements
         # and takes the same decision; then lane 0 resets them and files the step's fault
-        ds = world_disp[dm + 1]
-        rebuild = spw > 0 and ds + wp.max(ds, world_disp[dm]) > skin  # no spheres: no lists to rebuild
-        stopped = world_disp[dm + 2] != 0.0
+        ds = ws.disp[dm + 1]
+        rebuild = spw > 0 and ds + wp.max(ds, ws.disp[dm]) > ws.skin  # no spheres: no lists to rebuild
+        stopped = ws.disp[dm + 2] != 0.0
         block_sync()
         if lane == 0:
-            if world_fault[fb] != NO_FAULT_W:
-                if world_fault[fb + 3] == NO_FAULT_W:
-                    world_fault[fb + 3] = world_fault[fb]
-                    world_fault[fb + 4] = world_fault[fb + 1]
-                    world_fault[fb + 5] = world_fault[fb + 2]
-                world_fault[fb] = NO_FAULT_W
-            world_disp[dm] = 0.0
-            world_disp[dm + 1] = 0.0
+            if ws.fault[fb] != NO_FAULT_W:
+                if ws.fault[fb + 3] == NO_FAULT_W:
+                    ws.fault[fb + 3] = ws.fault[fb]
+                    ws.fault[fb + 4] = ws.fault[fb + 1]
+                    ws.fault[fb + 5] = ws.fault[fb + 2]
+                ws.fault[fb] = NO_FAULT_W
+            ws.disp[dm] = 0.0
+            ws.disp[dm + 1] = 0.0
             if rebuild:
-                world_flag[w] = 1
-                if stop_others != 0:
-                    wp.atomic_max(world_stop, 0, 1)
+                ws.flag[w] = 1
+                if ws.stop_others != 0:
+                    wp.atomic_max(ws.stop, 0, 1)
         c_7 = cycle_count()
         wall += vec4l(c_2 - c_0, c_4 - c_2, c_6 - c_4, c_7 - c_6)
         if rebuild or stopped:
             break
     if lane == 0:
-        world_step[w] = k
+        ws.step[w] = k
         for q in range(4):
-            stage_cycles[w * 4 + q] = stage_cycles[w * 4 + q] + wall[q]
+            ws.stage_cycles[w * 4 + q] = ws.stage_cycles[w * 4 + q] + wall[q]
 
 
 @wp.kernel
