@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scenes import paper
+from scenes import figures, paper
 from scenes.soil_bin import SCALES
 from warpdem.files import write_text_atomic
 
@@ -27,45 +27,73 @@ def _pm(e: dict, digits: int = 4) -> str:
 
 
 def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    return figures.plt()
 
 
-def plot_reductions(table3: dict, path: Path) -> None:
+def plot_reductions(table3: dict, path: Path, assembly: str = "C") -> None:
     """Reduction per configuration: warpdem (both variants, replica-mean ± SE), the laboratory (Table 3) and the
-    paper's final DEM (Table 7, 2 m bin)."""
-    plt = _plt()
-    t3, t7 = paper.table("soil_bin_measured"), paper.table("soil_bin_dem")
-    fig, ax = plt.subplots(figsize=(9, 4.5))
-    for k, variant in enumerate(VARIANTS):
-        rows = table3["variants"][variant]
-        n = np.array([r["springs"] for r in rows])
-        ax.errorbar(n + (k - 0.5) * 0.8, [r["reduction"]["mean"] for r in rows],
-                    yerr=[r["reduction"]["sem"] for r in rows], fmt="o", capsize=3,
-                    label=f"warpdem, {variant.replace('_', ' ')} ({table3['replicas']} beds)")
-    ax.plot(t3["springs"], t3["reduction_pct"], "k*", ms=11, label="laboratory (Table 3)")
-    ax.plot(t7["springs"][1:], t7["c_final_red_pct"][1:], "rx", ms=9, label="paper's DEM (Table 7, 2 m bin)")
-    ax.axhline(0.0, color="0.6", lw=0.8)
-    ax.set_xlabel("springs")
-    ax.set_ylabel("draught reduction [%]")
-    ax.set_xticks(paper.SPRING_COUNTS)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    paper's DEM (Table 7: the final model in the 2 m bin, ``assembly`` in the 1 m bin)."""
+    rows = [{"springs": r["springs"], "mean": r["reduction"]["mean"], "sem": r["reduction"]["sem"],
+             "label": f"warpdem, {VARIANT_LABELS.get(variant, variant)}, mean of {table3['replicas']} beds"}
+            for variant in VARIANTS for r in table3["variants"][variant]]
+    figures.plot_reductions(rows, path, assembly=assembly,
+                            title="Draught reduction of the passive tool against the rigid tool at its speed "
+                                  "(Table 3's pairing)")
+
+
+VARIANT_LABELS = {"offset": "with Table 2's support offsets", "no_offset": "without the support offsets"}
+
+FIGURE_CAPTIONS = {
+    "fig_reductions.png":
+        "Draught reduction [%] per configuration: warpdem's (both variants of the passive tool, the mean over the "
+        "beds +-1 standard error from their scatter) beside the laboratory's (Table 3) and the paper's DEM "
+        "(Table 7: its final model in the 2 m bin, and the assembly in the 1 m calibration bin).",
+    "fig16_draught_displacement.png":
+        "Fig. 16-like, one panel per configuration (the passive tool with Table 2's support offsets): replica 0's "
+        "draught [N] of the passive tool (blue) and of the rigid tool at the same speed (grey), and the passive "
+        "tool's displacement [mm] (green, right axis), against the carriage's travel. Thick lines over the steady "
+        "window: the means over all beds (the report's table), bands +-1 standard error; dashed: the laboratory's "
+        "means (Table 3: passive draught red, rigid black, displacement green); dotted red: the paper's final DEM "
+        "(Table 7). Each trace ends where its carriage stops at the end of travel (the steady window's end); the "
+        "records after it (the tool standing still while slower worlds finish) are left out, as they are of the "
+        "statistics; the displacement's record at the stop itself is left out of the plot too (the carriage has "
+        "overshot the travel there by up to one record interval x its speed, which that one reading takes as "
+        "displacement). The displacement is zeroed on the tool at rest before the cut; a negative value means the "
+        "tool moved forward of its rest pose.",
+    "fig17_fft_draught.png":
+        "Fig. 17-like, one panel per configuration: amplitude spectrum [N] of replica 0's steady draught, passive "
+        "tool and rigid tool at the same speed, 100 Hz Butterworth low-pass first (as the paper); the resolution "
+        "is 1 / the steady window's duration.",
+    "fig18_fft_displacement.png":
+        "Fig. 18-like, one panel per configuration: amplitude spectrum [mm] of replica 0's steady displacement of "
+        "the passive tool (100 Hz low-pass first).",
+    "fig19_tool_kinetic_energy.png":
+        "Fig. 19-like, one panel per configuration: replica 0's kinetic energy [J] of the passive tool against "
+        "travel, total (solid) and rotational (dotted); thick line over the steady window: its steady mean, band "
+        "+-1 standard deviation of the record.",
+}
+
+
+def figure_captions(names: list[str]) -> list[str]:
+    """The report's lines for the figures ``names``: each image with its caption (what it shows, what it is
+    compared with)."""
+    extra = {"fig17_fft_draught.png": " " + figures.fft_caption("draught"),
+             "fig18_fft_displacement.png": " " + figures.fft_caption("displacement"),
+             "fig19_tool_kinetic_energy.png": " " + figures.FIG19_CAPTION}
+    lines = []
+    for p in names:
+        lines += [f"![{p}]({p})", "", f"*{FIGURE_CAPTIONS.get(p, p)}{extra.get(p, '')}*", ""]
+    return lines
 
 
 def plot_series(out: Path, config: WorkflowConfig, table3: dict) -> list[str]:
     """Figs. 16-19-like plots from replica 0's series: draught and displacement against travel with the
-    laboratory's means, FFTs of the steady draught and displacement, the tool's kinetic energy."""
+    means over the beds and the laboratory's, FFTs of the steady draught and displacement, the tool's kinetic
+    energy; each cut at its carriage's stop."""
     from warpdem import analysis
 
     plt = _plt()
-    t3 = paper.table("soil_bin_measured")
+    t3, t7 = paper.table("soil_bin_measured"), paper.table("soil_bin_dem")
     job_of = {}
     for f in sorted((out / "table3").glob("*.npz")):  # replica 0's worlds of each job
         if f.name.startswith("."):  # a write that was killed left its temporary file
@@ -83,54 +111,124 @@ def plot_series(out: Path, config: WorkflowConfig, table3: dict) -> list[str]:
     start = config.steady_travel or SCALES[config.scale]["steady_travel"]
     speeds = config.speeds()
     shown = [("offset", n) for n in config.springs]
-    fig, axes = plt.subplots(len(shown), 1, figsize=(10, 2.2 * len(shown)), sharex=True, squeeze=False)
+    row_of = {r["springs"]: r for r in table3["variants"]["offset"]}
+    rigid_of = {round(r["speed"], 6): r for r in table3["rigid"]}
+    beds = table3["replicas"]
+
+    def cut(s: dict, w: int) -> int:
+        return figures.moving_records(s["travel"][:, w])
+
+    # Fig. 16
+    fig, axes = plt.subplots(len(shown), 1, figsize=(11, 2.4 * len(shown)), sharex=True, squeeze=False)
+    legend: dict[str, object] = {}
     for a, (kind, n) in zip(axes[:, 0], shown, strict=True):
         s, w = job_of[(kind, n, round(speeds[n], 6))]
         r, wr = job_of[("rigid", 0, round(speeds[n], 6))]
-        a.plot(r["travel"][:, wr], r["draught"][:, wr], lw=0.5, color="0.6", label="rigid")
-        a.plot(s["travel"][:, w], s["draught"][:, w], lw=0.6, label=f"{n} springs")
+        m, mr = cut(s, w), cut(r, wr)
+        end = float(s["travel"][m - 1, w])
+        a.axvspan(start, end, color="0.93", zorder=0, label="steady window")
+        a.plot(r["travel"][:mr, wr], r["draught"][:mr, wr], lw=0.5, color="0.6", label="rigid draught, replica 0")
+        a.plot(s["travel"][:m, w], s["draught"][:m, w], lw=0.6, color="C0", label="passive draught, replica 0")
+        row, rig = row_of.get(n), rigid_of.get(round(speeds[n], 6))
+        if rig is not None:
+            figures.steady_band(a, start, end, rig["draught"]["mean"], rig["draught"]["sem"], "0.3",
+                                f"rigid draught, mean of {beds} beds ± SE")
+        if row is not None:
+            figures.steady_band(a, start, end, row["draught"]["mean"], row["draught"]["sem"], "C1",
+                                f"passive draught, mean of {beds} beds ± SE")
         i = np.nonzero(t3["springs"] == n)[0][0]
-        a.axhline(t3["passive_draught_mean_n"][i], color="C3", ls="--", lw=1, label="lab passive")
-        a.axhline(t3["rigid_draught_mean_n"][i], color="k", ls=":", lw=1, label="lab rigid")
-        a.axvline(start, color="0.3", lw=0.6)
+        a.axhline(t3["passive_draught_mean_n"][i], color="C3", ls="--", lw=1, label="passive draught, laboratory")
+        a.axhline(t3["rigid_draught_mean_n"][i], color="k", ls="--", lw=0.8, label="rigid draught, laboratory")
+        a.axhline(t7["c_final_mean_n"][t7["springs"] == n][0], color="C3", ls=":", lw=0.9,
+                  label="passive draught, paper's final DEM (Table 7)")
         a.set_ylabel("draught [N]")
+        a.set_title(f"{n} springs at {speeds[n]:.2f} m/s", fontsize=9, loc="left")
         b = a.twinx()
-        b.plot(s["travel"][:, w], 1e3 * s["displacement"][:, w], color="C2", lw=0.5)
-        b.axhline(t3["displacement_mean_mm"][i], color="C2", ls="--", lw=0.8)
+        md = figures.displacement_records(s["travel"][:, w])
+        disp = 1e3 * s["displacement"][:md, w]
+        lab = float(t3["displacement_mean_mm"][i])
+        b.plot(s["travel"][:md, w], disp, color="C2", lw=0.6, label="displacement, replica 0")
+        if row is not None:
+            figures.steady_band(b, start, end, row["displacement_mm"]["mean"], row["displacement_mm"]["sem"], "C2",
+                                f"displacement, mean of {beds} beds ± SE")
+        b.axhline(lab, color="C2", ls="--", lw=0.8, label="displacement, laboratory")
+        lo, hi = min(float(disp.min()), lab, 0.0), max(float(disp.max()), lab, 0.0)
+        b.set_ylim(lo - 0.1 * (hi - lo), hi + 0.15 * (hi - lo))
         b.set_ylabel("disp. [mm]", color="C2")
-        a.legend(loc="upper left", fontsize=6, ncol=4)
-    axes[-1, 0].set_xlabel("travel [m] (steady state right of the grey line)")
+        for ax_ in (a, b):
+            for h, label in zip(*ax_.get_legend_handles_labels(), strict=True):
+                legend.setdefault(label, h)
+    axes[-1, 0].set_xlabel("carriage travel [m]")
+    fig.suptitle("Draught and tool displacement against travel (like the paper's Fig. 16; with Table 2's support "
+                 "offsets); each trace ends at its carriage's stop", fontsize=10, y=1.0)
+    fig.legend(list(legend.values()), list(legend), loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=3,
+               fontsize=8)
     fig.tight_layout()
-    fig.savefig(out / "fig16_draught_displacement.png", dpi=100)
+    fig.savefig(out / "fig16_draught_displacement.png", dpi=100, bbox_inches="tight")
     plt.close(fig)
     names.append("fig16_draught_displacement.png")
-    for key, fname, unit, scale in (("draught", "fig17_fft_draught.png", "N", 1.0),
-                                    ("displacement", "fig18_fft_displacement.png", "mm", 1e3)):
-        fig, a = plt.subplots(figsize=(8, 4))
-        for kind, n in shown:
+    # Figs. 17-19: one panel per configuration, as the paper's
+    cols = 4
+    rows_n = int(np.ceil(len(shown) / cols))
+    for key, fname, unit, what in (
+            ("draught", "fig17_fft_draught.png", "N", "Spectrum of the steady draught (like the paper's Fig. 17)"),
+            ("displacement", "fig18_fft_displacement.png", "mm",
+             "Spectrum of the passive tool's steady displacement (like the paper's Fig. 18)"),
+            ("ke_tool", "fig19_tool_kinetic_energy.png", "J", "The passive tool's kinetic energy (like the paper's "
+             "Fig. 19)")):
+        fig, axes = plt.subplots(rows_n, cols, figsize=(3.6 * cols, 3.0 * rows_n), squeeze=False)
+        legend = {}
+        resolution = 0.0
+        for a, (kind, n) in zip(axes.flat, shown, strict=False):
             s, w = job_of[(kind, n, round(speeds[n], 6))]
-            sel = s["travel"][:, w] >= start
-            f, amp = analysis.spectrum(s["time"][sel], scale * s[key][sel, w], cutoff_hz=100.0)
-            a.plot(f, amp, lw=0.8, label=f"{n} springs")
-        a.set_xlim(0, 60)
-        a.set_xlabel("frequency [Hz]")
-        a.set_ylabel(f"amplitude [{unit}]")
-        a.legend(fontsize=7, ncol=2)
+            m = cut(s, w)
+            a.set_title(f"{n} springs at {speeds[n]:.2f} m/s", fontsize=9)
+            if key == "ke_tool":
+                x = s["travel"][:m, w]
+                ke = s["ke_tool"][:m, w]
+                a.plot(x, ke.sum(axis=-1), lw=0.6, color="C0", label="warpdem, total (replica 0)")
+                a.plot(x, ke[:, 1], lw=0.6, ls=":", color="C0", label="warpdem, rotational (replica 0)")
+                st = x >= start
+                tot = ke.sum(axis=-1)[st]
+                if st.any():
+                    figures.steady_band(a, start, float(x[-1]), float(tot.mean()), float(tot.std()), "C1",
+                                        "warpdem, steady mean ± std")
+                if figures.fig19_reference(a, n, float(x[-1]), "C3"):
+                    a.lines[-1].set_label("paper's DEM trend (Fig. 19)")
+                a.set_xlabel("carriage travel [m]")
+            else:
+                scale = 1e3 if key == "displacement" else 1.0
+                jobs = [("passive tool", s, w, "C0")]
+                if key == "draught":
+                    r, wr = job_of[("rigid", 0, round(speeds[n], 6))]
+                    jobs.append(("rigid tool", r, wr, "0.5"))
+                for label, js, jw, color in jobs:
+                    mj = cut(js, jw) if key == "draught" else figures.displacement_records(js["travel"][:, jw])
+                    sel = np.zeros(len(js["time"]), bool)
+                    sel[:mj] = js["travel"][:mj, jw] >= start
+                    f, amp = analysis.spectrum(js["time"][sel], scale * js[key][sel, jw], cutoff_hz=100.0)
+                    a.plot(f, amp, lw=0.7, color=color, label=f"warpdem, {label} (replica 0)")
+                    resolution = max(resolution, 1.0 / float(np.ptp(js["time"][sel])))
+                figures.fft_references(a, key, [n], {n: "C3"})
+                if key == "displacement":  # one legend entry per kind of reference, not per configuration
+                    for line in a.lines[1:]:
+                        text = line.get_label()
+                        line.set_label("paper's DEM peak (Fig. 18d)" if "paper" in text else
+                                       "laboratory ringing frequency (Table 2)")
+                a.set_xlim(0, 60)
+                a.set_xlabel("frequency [Hz]")
+            a.set_ylabel(f"{'kinetic energy' if key == 'ke_tool' else 'amplitude'} [{unit}]")
+            for h, label in zip(*a.get_legend_handles_labels(), strict=True):
+                legend.setdefault(label, h)
+        for a in list(axes.flat)[len(shown):]:
+            a.set_visible(False)
+        fig.suptitle(what + (f"; resolution {resolution:.2g} Hz" if resolution else ""), fontsize=10)
+        fig.legend(list(legend.values()), list(legend), loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=3,
+                   fontsize=8)
         fig.tight_layout()
-        fig.savefig(out / fname, dpi=100)
+        fig.savefig(out / fname, dpi=100, bbox_inches="tight")
         plt.close(fig)
         names.append(fname)
-    fig, a = plt.subplots(figsize=(8, 4))
-    for kind, n in shown:
-        s, w = job_of[(kind, n, round(speeds[n], 6))]
-        a.plot(s["travel"][:, w], s["ke_tool"][:, w].sum(axis=-1), lw=0.6, label=f"{n} springs")
-    a.set_xlabel("travel [m]")
-    a.set_ylabel("kinetic energy of the tool [J]")
-    a.legend(fontsize=7, ncol=2)
-    fig.tight_layout()
-    fig.savefig(out / "fig19_tool_kinetic_energy.png", dpi=100)
-    plt.close(fig)
-    names.append("fig19_tool_kinetic_energy.png")
     return names
 
 
@@ -156,14 +254,18 @@ def write_workflow_report(out: Path, config: WorkflowConfig, summary: dict, *, d
         keys = ("stiffness", "damping_ratio") if model == "linear" else ("young", "local_damping")
         lines += [f"## Ringing calibration, {'linear spring-dashpot' if model == 'linear' else 'spring spheres'} "
                   f"(Table 2; dt {ring['dt']:.3g} s, {ring['wall_s']:.0f} s)", "",
-                  f"| springs | lab f [Hz] | lab zeta | {genes[0]} | {genes[1]} | f [Hz] | zeta | RE f [%] | "
-                  "RE zeta [%] | paper DEM f | paper DEM zeta | simulated |", "|---" * 12 + "|"]
+                  "Columns in three groups: **measured** (Table 2), the **paper's DEM** (its calibrated Yade model, "
+                  "Table 2) and **warpdem** (this calibration: its genes, frequency, damping ratio and relative errors "
+                  "against the measured values in %, and the individuals it simulated).", "",
+                  f"| springs | measured f [Hz] | measured zeta [-] | paper's DEM f [Hz] | paper's DEM zeta [-] | "
+                  f"warpdem {genes[0]} | warpdem {genes[1]} | warpdem f [Hz] | warpdem zeta [-] | warpdem RE f [%] | "
+                  "warpdem RE zeta [%] | warpdem individuals |", "|---" * 12 + "|"]
         for r in ring["rows"]:
             row = paper.ringing_row(r["springs"])
             lines.append("| " + " | ".join([
-                str(r["springs"]), _f(r["target_freq_hz"]), _f(r["target_damping"]), _f(r[keys[0]]), _f(r[keys[1]]),
-                _f(r["freq_hz"]), _f(r["damping"]), _f(100 * r["re_freq"], 3), _f(100 * r["re_damp"], 3),
-                _f(row["calibrated_freq_hz"]), _f(row["calibrated_damping"]), str(r["simulated"])]) + " |")
+                str(r["springs"]), _f(r["target_freq_hz"]), _f(r["target_damping"]), _f(row["calibrated_freq_hz"]),
+                _f(row["calibrated_damping"]), _f(r[keys[0]]), _f(r[keys[1]]), _f(r["freq_hz"]), _f(r["damping"]),
+                _f(100 * r["re_freq"], 3), _f(100 * r["re_damp"], 3), str(r["simulated"])]) + " |")
         lines.append("")
     # --- draught calibration and screening
     d, s = summary.get("draught"), summary.get("screening")
@@ -229,7 +331,7 @@ def write_workflow_report(out: Path, config: WorkflowConfig, summary: dict, *, d
         same = np.abs(t3["speed_mean_m_s"] - r["speed"]) < 5e-3
         lines.append(f"| {_f(r['speed'], 3)} | {_pm(r['draught'])} | "
                      f"{_f(float(np.mean(t3['rigid_draught_mean_n'][same])))} |")
-    plot_reductions(tab, out / "fig_reductions.png")
+    plot_reductions(tab, out / "fig_reductions.png", c.assembly)
     plots = ["fig_reductions.png"]
     try:
         plots += plot_series(out, c, tab)
@@ -237,7 +339,7 @@ def write_workflow_report(out: Path, config: WorkflowConfig, summary: dict, *, d
         pass
     lines += ["", f"Calibration bin: `{CALIBRATION_SCALE[c.scale]}`; bed settling {c.settle_time} s; "
               f"worlds per simulation at most {c.worlds_per_job}.", ""]
-    lines += [f"![{p}]({p})" for p in plots]
+    lines += figure_captions(plots)
     lines += limits_section(tab, s)
     lines += diagnosis_section(summary.get("diagnosis"))
     return _write(out, lines)
