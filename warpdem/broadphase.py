@@ -21,7 +21,9 @@ import numpy as np
 import warp as wp
 
 from . import cpu_threads
+from . import kernel_args as ka
 from .contact_law import ACTIVE, Hist, closest_point_triangle, empty_hist
+from .kernel_args import BodyState, Meshes, SphereList, Spheres, TriangleList
 
 wp.set_module_options({"enable_backward": False})
 
@@ -84,80 +86,65 @@ def _ss_is_candidate(
 @wp.kernel
 def _ss_count_kernel(
     first: int,  # the first sphere of this launch (a CPU thread's share)
-    # Model:
     grid: wp.uint64,
-    sphere_body: wp.array(dtype=int),
-    sphere_world: wp.array(dtype=int),
-    radius: wp.array(dtype=wp.float64),
+    spheres: Spheres,
     max_radius: float,
     skin: float,
-    # Data in:
     sphere_pos: wp.array(dtype=wp.vec3d),
-    old_start: wp.array(dtype=int),
-    old_count: wp.array(dtype=int),
-    old_other: wp.array(dtype=int),
-    old_hist: wp.array(dtype=Hist),
-    # Data out:
-    count_out: wp.array(dtype=int),
+    old: SphereList,
+    built: SphereList,  # out: count
 ):
     i = wp.tid() + first
     x = sphere_pos[i]
-    query = wp.hash_grid_query(grid, x, radius[i] + wp.float64(max_radius + skin), sphere_world[i])
+    radius = spheres.radius
+    query = wp.hash_grid_query(grid, x, radius[i] + wp.float64(max_radius + skin), spheres.world[i])
     j = int(0)
     c = int(0)
     while wp.hash_grid_query_next(query, j):
-        if j > i and sphere_body[j] != sphere_body[i]:
+        if j > i and spheres.body[j] != spheres.body[i]:
             c += _ss_is_candidate(i, j, sphere_pos, radius, skin)
     # existing contacts stretched beyond the skin stay listed
-    for k in range(old_start[i], old_start[i] + old_count[i]):
-        if (old_hist[k].flags & ACTIVE) != 0 and _ss_is_candidate(i, old_other[k], sphere_pos, radius, skin) == 0:
+    for k in range(old.start[i], old.start[i] + old.count[i]):
+        if (old.hist[k].flags & ACTIVE) != 0 and _ss_is_candidate(i, old.other[k], sphere_pos, radius, skin) == 0:
             c += 1
-    count_out[i] = c
+    built.count[i] = c
 
 
 @wp.kernel
 def _ss_fill_kernel(
     first: int,  # the first sphere of this launch (a CPU thread's share)
-    # Model:
     grid: wp.uint64,
-    sphere_body: wp.array(dtype=int),
-    sphere_world: wp.array(dtype=int),
-    radius: wp.array(dtype=wp.float64),
+    spheres: Spheres,
     max_radius: float,
     skin: float,
-    capacity: int,
-    # Data in:
     sphere_pos: wp.array(dtype=wp.vec3d),
-    old_start: wp.array(dtype=int),
-    old_count: wp.array(dtype=int),
-    old_other: wp.array(dtype=int),
-    old_hist: wp.array(dtype=Hist),
-    start_in: wp.array(dtype=int),
-    # Data out:
-    count_out: wp.array(dtype=int),
-    other_out: wp.array(dtype=int),
-    hist_out: wp.array(dtype=Hist),
+    old: SphereList,
+    built: SphereList,  # in: start; in/out: count; out: other, hist
     overflow_out: wp.array(dtype=int),
 ):
     i = wp.tid() + first
-    base = start_in[i]
-    n = count_out[i]
+    capacity = built.other.shape[0]
+    radius = spheres.radius
+    other_out = built.other
+    old_other = old.other
+    base = built.start[i]
+    n = built.count[i]
     if base + n > capacity:
         wp.atomic_max(overflow_out, 0, base + n)
         n = wp.max(capacity - base, 0)
-        count_out[i] = n
+        built.count[i] = n
     x = sphere_pos[i]
-    query = wp.hash_grid_query(grid, x, radius[i] + wp.float64(max_radius + skin), sphere_world[i])
+    query = wp.hash_grid_query(grid, x, radius[i] + wp.float64(max_radius + skin), spheres.world[i])
     j = int(0)
     c = int(0)
     while wp.hash_grid_query_next(query, j):
-        if j > i and sphere_body[j] != sphere_body[i] and c < n:
+        if j > i and spheres.body[j] != spheres.body[i] and c < n:
             if _ss_is_candidate(i, j, sphere_pos, radius, skin) == 1:
                 other_out[base + c] = j
                 c += 1
-    for k in range(old_start[i], old_start[i] + old_count[i]):
+    for k in range(old.start[i], old.start[i] + old.count[i]):
         jj = old_other[k]
-        if (old_hist[k].flags & ACTIVE) != 0 and _ss_is_candidate(i, jj, sphere_pos, radius, skin) == 0 and c < n:
+        if (old.hist[k].flags & ACTIVE) != 0 and _ss_is_candidate(i, jj, sphere_pos, radius, skin) == 0 and c < n:
             other_out[base + c] = jj
             c += 1
     # sort by partner index: the order of force sums then does not depend on the hash grid's internals
@@ -169,16 +156,16 @@ def _ss_fill_kernel(
             b -= 1
         other_out[base + b + 1] = v
     # inherit history from the old list (both are sorted by partner)
-    ko = old_start[i]
-    ko_end = ko + old_count[i]
+    ko = old.start[i]
+    ko_end = ko + old.count[i]
     for a in range(n):
         jj = other_out[base + a]
         while ko < ko_end and old_other[ko] < jj:
             ko += 1
         if ko < ko_end and old_other[ko] == jj:
-            hist_out[base + a] = old_hist[ko]
+            built.hist[base + a] = old.hist[ko]
         else:
-            hist_out[base + a] = empty_hist()
+            built.hist[base + a] = empty_hist()
 
 
 # ----------------------------------------------------------------------------- sphere-triangle lists
@@ -219,57 +206,51 @@ def _st_is_candidate(
 @wp.kernel
 def _st_build_kernel(
     first: int,  # the first sphere of this launch (a CPU thread's share)
-    # Model:
-    sphere_body: wp.array(dtype=int),
-    sphere_world: wp.array(dtype=int),
-    radius: wp.array(dtype=wp.float64),
-    mesh_body: wp.array(dtype=int),
-    mesh_ids: wp.array(dtype=wp.uint64),
-    mesh_tri_offset: wp.array(dtype=int),
-    tri_vertices: wp.array(dtype=wp.vec3d),
-    world_mesh_start: wp.array(dtype=int),
-    meshes_per_world: int,
+    spheres: Spheres,
+    meshes: Meshes,
     skin: float,
-    capacity: int,
     fill: int,
-    # Data in:
     sphere_pos: wp.array(dtype=wp.vec3d),
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-    old_start: wp.array(dtype=int),
-    old_count: wp.array(dtype=int),
-    old_mesh: wp.array(dtype=int),
-    old_face: wp.array(dtype=int),
-    old_hist: wp.array(dtype=Hist),
-    start_in: wp.array(dtype=int),
-    # Data out:
-    count_out: wp.array(dtype=int),
-    mesh_out: wp.array(dtype=int),
-    face_out: wp.array(dtype=int),
-    hist_out: wp.array(dtype=Hist),
+    state: BodyState,
+    old: TriangleList,
+    built: TriangleList,  # fill = 0: out: count; fill = 1: in: start; in/out: count; out: mesh, face, hist
     overflow_out: wp.array(dtype=int),
 ):
     """Count (fill = 0) or fill (fill = 1) the sphere-triangle candidates of sphere i."""
+    radius = spheres.radius
+    mesh_body = meshes.body
+    mesh_tri_offset = meshes.tri_offset
+    tri_vertices = meshes.tri_vertices
+    body_pos = state.pos
+    body_quat = state.quat
+    mesh_out = built.mesh
+    face_out = built.face
+    old_mesh = old.mesh
+    old_face = old.face
+    old_start = old.start
+    old_count = old.count
+    old_hist = old.hist
     i = wp.tid() + first
     base = int(0)
     n = int(2147483647)
     if fill == 1:
-        base = start_in[i]
-        n = count_out[i]
+        capacity = built.mesh.shape[0]
+        base = built.start[i]
+        n = built.count[i]
         if base + n > capacity:
             wp.atomic_max(overflow_out, 0, base + n)
             n = wp.max(capacity - base, 0)
-            count_out[i] = n
+            built.count[i] = n
     c = int(0)
     r = float(radius[i]) + skin
-    m0 = world_mesh_start[sphere_world[i]]
-    for m in range(m0, m0 + meshes_per_world):
+    m0 = meshes.world_start[spheres.world[i]]
+    for m in range(m0, m0 + meshes.per_world):
         b = mesh_body[m]
-        if b == sphere_body[i]:
+        if b == spheres.body[i]:
             continue
         p = sphere_in_body_frame(sphere_pos[i], body_pos[b], body_quat[b])
         pf = wp.vec3f(p)
-        query = wp.mesh_query_aabb(mesh_ids[m], pf - wp.vec3f(r), pf + wp.vec3f(r))
+        query = wp.mesh_query_aabb(meshes.ids[m], pf - wp.vec3f(r), pf + wp.vec3f(r))
         f = int(0)
         while wp.mesh_query_aabb_next(query, f):
             if triangle_distance(p, tri_vertices, mesh_tri_offset[m] + f) < r and c < n:
@@ -289,7 +270,7 @@ def _st_build_kernel(
                     face_out[base + c] = old_face[k]
                 c += 1
     if fill == 0:
-        count_out[i] = c
+        built.count[i] = c
         return
     # sort by (mesh, face), then inherit history
     for a in range(1, n):
@@ -303,10 +284,10 @@ def _st_build_kernel(
         mesh_out[base + bb + 1] = vm
         face_out[base + bb + 1] = vf
     for a in range(n):
-        hist_out[base + a] = empty_hist()
+        built.hist[base + a] = empty_hist()
         for k in range(old_start[i], old_start[i] + old_count[i]):
             if old_mesh[k] == mesh_out[base + a] and old_face[k] == face_out[base + a]:
-                hist_out[base + a] = old_hist[k]
+                built.hist[base + a] = old_hist[k]
 
 
 @wp.kernel
@@ -345,29 +326,27 @@ def build(grid: wp.HashGrid, cell: float, skin: float, model: object, state: obj
         ])()
 
     grid.build(d.sphere_pos, cell, groups=m.sphere_world)
-    common = [grid.id, m.sphere_body, m.sphere_world, m.sphere_radius, m.max_radius, skin]
-    old = [d.sphere_pos, d.ss.start, d.ss.count, d.ss.key_a, d.ss.hist]
-    per_sphere(_ss_count_kernel, common + old, [d.ss_new.count])
+    spheres = ka.spheres_of(m)
+    common = [grid.id, spheres, m.max_radius, skin, d.sphere_pos, ka.sphere_list_of(d.ss)]
+    new = ka.sphere_list_of(d.ss_new)
+    per_sphere(_ss_count_kernel, common, [new])
     d.alloc_total.zero_()
     wp.launch(allocate_blocks_kernel, ns, inputs=[d.ss_new.count, d.alloc_total[0:1]], outputs=[d.ss_new.start],
               device=dev)
-    per_sphere(_ss_fill_kernel, common + [d.ss_new.capacity] + old + [d.ss_new.start],
-               [d.ss_new.count, d.ss_new.key_a, d.ss_new.hist, d.list_stats[2:3]])
+    per_sphere(_ss_fill_kernel, common, [new, d.list_stats[2:3]])
     wp.launch(_list_total_kernel, 1, inputs=[d.alloc_total, 0, d.list_stats], device=dev)
     d.ss.copy_from(d.ss_new)
     d.ss.index_owners()
     wp.copy(d.build_pos, d.sphere_pos)
     if m.n_meshes == 0:
         return
-    st_model = [m.sphere_body, m.sphere_world, m.sphere_radius, m.mesh_body, m.mesh_ids, m.mesh_tri_offset,
-                m.tri_vertices, m.world_mesh_start, m.meshes_per_world, skin, d.st_new.capacity]
-    st_in = [d.sphere_pos, state.body_pos, state.body_quat, d.st.start, d.st.count, d.st.key_a, d.st.key_b,
-             d.st.hist]
-    st_out = [d.st_new.count, d.st_new.key_a, d.st_new.key_b, d.st_new.hist, d.list_stats[3:4]]
-    per_sphere(_st_build_kernel, st_model + [0] + st_in + [d.st_new.start], st_out)
+    meshes = ka.meshes_of(m, d)
+    st_in = [d.sphere_pos, ka.body_state_of(state), ka.triangle_list_of(d.st)]
+    st_out = [ka.triangle_list_of(d.st_new), d.list_stats[3:4]]
+    per_sphere(_st_build_kernel, [spheres, meshes, skin, 0, *st_in], st_out)
     wp.launch(allocate_blocks_kernel, ns, inputs=[d.st_new.count, d.alloc_total[1:2]], outputs=[d.st_new.start],
               device=dev)
-    per_sphere(_st_build_kernel, st_model + [1] + st_in + [d.st_new.start], st_out)
+    per_sphere(_st_build_kernel, [spheres, meshes, skin, 1, *st_in], st_out)
     wp.launch(_list_total_kernel, 1, inputs=[d.alloc_total, 1, d.list_stats], device=dev)
     d.st.copy_from(d.st_new)
     wp.launch(_record_mesh_build_pose_kernel, m.n_meshes, inputs=[m.mesh_body, state.body_pos, state.body_quat],

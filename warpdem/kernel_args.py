@@ -80,6 +80,12 @@ class Meshes:
     """triangle vertices in the body frame [m], vec3d (3 * n_triangles,)."""
     rmax: wp.array(dtype=float)
     """largest vertex distance from the body's centre of mass [m], float32 (``Data.mesh_rmax``)."""
+    ids: wp.array(dtype=wp.uint64)
+    """the warp.Mesh id of each instance (its vertices in the body frame), uint64."""
+    world_start: wp.array(dtype=int)
+    """first mesh instance of each world, int32 (n_worlds,)."""
+    per_world: int
+    """mesh instances per world."""
 
 
 @wp.struct
@@ -250,6 +256,7 @@ def meshes_of(model: object, data: object) -> Meshes:
     a = Meshes()
     a.body, a.material, a.tri_offset = model.mesh_body, model.mesh_material, model.mesh_tri_offset
     a.tri_vertices, a.rmax = model.tri_vertices, data.mesh_rmax
+    a.ids, a.world_start, a.per_world = model.mesh_ids, model.world_mesh_start, model.meshes_per_world
     return a
 
 
