@@ -82,6 +82,16 @@ def decay_curve(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return a[:-1][ok], dec / np.sqrt(4 * np.pi**2 + dec**2)
 
 
+COVARIATE_UNITS = {"springs": "-", "stiffness": "N/m", "static_deflection": "m", "speed": "m/s",
+                   "displacement": "m"}
+"""units of the rigs' covariates (``RingingRigModel.covariates``, ``SoilBinRigModel.covariates``)."""
+
+
+def _axis_label(name: str) -> str:
+    """A covariate's axis label with its unit."""
+    return f"{name.replace('_', ' ')} [{COVARIATE_UNITS.get(name, '-')}]"
+
+
 def plots(d: Diagnosis, out: Path) -> list[str]:
     """observables.png (measured vs baseline vs extended, against stiffness), residuals.png (held-out residuals of
     the baseline against each covariate) and, with series, series.png (measured records and re-simulations against
@@ -110,9 +120,11 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
                 ax.plot(x[order], v[key]["heldout_pred"][order, k], style, ms=4, label=f"{key} (held out)")
         ax.set_xscale("log")
         ax.xaxis.set_minor_formatter(NullFormatter())  # minor labels of a short log axis overlap
-        ax.set_xlabel(x_name)
+        ax.set_xlabel(_axis_label(x_name))
         ax.set_title(f"{name} [{d.units.get(name, '-')}]")
     axes[0, 0].legend(fontsize=7)
+    fig.suptitle("Measured (± stated uncertainty) against the held-out predictions of the baseline and of the "
+                 "named extension", fontsize=10)
     fig.tight_layout()
     fig.savefig(out / "observables.png", dpi=120)
     plt.close(fig)
@@ -125,9 +137,10 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
         for k, name in enumerate(d.observables):
             ax.plot(cval, res[:, k], "o", ms=4, label=name)
         ax.axhline(0.0, color="k", lw=0.5)
-        ax.set_xlabel(cname)
+        ax.set_xlabel(_axis_label(cname))
         ax.set_ylabel("baseline held-out residual [sigma]")
     axes[0, 0].legend(fontsize=7)
+    fig.suptitle("The baseline's held-out residuals (in stated uncertainties) against each covariate", fontsize=10)
     fig.tight_layout()
     fig.savefig(out / "residuals.png", dpi=120)
     plt.close(fig)
@@ -146,9 +159,10 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
                 if key in v and isinstance(v[key], dict) and v[key].get("series"):
                     t, s = v[key]["series"][j]
                     ax.plot(t, 1e3 * s, color=color, lw=0.8, label=key)
-            ax.set_ylabel(f"{d.configs[j].get('springs', j)}: mm")
+            ax.set_ylabel(f"{d.configs[j].get('springs', j)} springs:\ndisp. [mm]", fontsize=8)
         axes[0, 0].legend(fontsize=7)
         axes[-1, 0].set_xlabel("time [s]")
+        fig.suptitle("Measured records and their re-simulations (baseline, named extension)", fontsize=10)
         fig.tight_layout()
         fig.savefig(out / "series.png", dpi=120)
         plt.close(fig)
@@ -168,10 +182,11 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
                         ax.plot(1e3 * a, z, style, ms=3, label=key)
                 ax.set_title(f"{d.configs[j].get('springs', j)} springs", fontsize=9)
                 ax.set_xlabel("amplitude [mm]")
-                ax.set_ylabel("damping ratio per cycle")
+                ax.set_ylabel("damping ratio per cycle [-]")
             for j in range(n, rows * cols):
                 axes[j // cols, j % cols].axis("off")
             axes[0, 0].legend(fontsize=7)
+            fig.suptitle("Damping ratio of each cycle against its amplitude: measured and re-simulated", fontsize=10)
             fig.tight_layout()
             fig.savefig(out / "decay.png", dpi=120)
             plt.close(fig)

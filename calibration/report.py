@@ -71,6 +71,7 @@ def convergence_plot(result: CalibrationResult, path: str | Path) -> None:
     ax2.axhline(1.0, color="grey", lw=0.8, ls="--")
     if keys:
         ax2.legend()
+    ax.set_title("Calibration: fitness of every simulated individual and the best so far", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

@@ -316,6 +316,9 @@ def write_workflow_report(out: Path, config: WorkflowConfig, summary: dict, *, d
                 _f(t3["passive_draught_mean_n"][i3]), _f(t3["reduction_pct"][i3], 3),
                 _f(t3["displacement_mean_mm"][i3], 3), _f(t7[f"{col}_red_pct"][i7], 3), _f(t7["c_final_mean_n"][i7]),
                 _f(t7["c_final_red_pct"][i7], 3)]) + " |")
+        if any(r["displacement_mm"]["mean"] < 0 for r in tab["variants"][variant]):
+            lines += ["", "A negative displacement: the sensor is zeroed on the tool at rest before the cut, so a "
+                      "negative reading means the tool moved forward of its rest pose (towards the travel)."]
         met = (cmp_["mae_pp"] < 1.5 and cmp_["signs_right"] == cmp_["n"] and cmp_["max_sem_pp"] < 1.0)
         lines += ["", f"Against Table 3: MAE {cmp_['mae_pp']:.2f} ± {cmp_['mae_sem_pp']:.2f} percentage points, signs "
                   f"right {cmp_['signs_right']} of {cmp_['n']}, largest SE {cmp_['max_sem_pp']:.2f} pp. The paper's "
