@@ -722,7 +722,46 @@ def _diagnose_params(args: argparse.Namespace) -> dict[str, object]:
     if not isinstance(params.get("fixed", {}), dict):
         raise InputError(f"{where}: 'fixed' must be an object of baseline parameters (NAME: VALUE), got "
                          f"{params['fixed']!r}")
+    annotations = {k: str(p.annotation) for k, p in inspect.signature(model.__init__).parameters.items()}
+    for key, value in params.items():
+        _check_param(where, key, value, annotations[key])
     return params
+
+
+def _check_param(where: str, key: str, value: object, annotation: str) -> None:
+    """One --params setting against its type in the rig model's signature (``annotation``, e.g. "float | None",
+    "dict[str, float] | None", "tuple[str, ...] | None"): an InputError naming the setting and its value if it is
+    not of that type (a number must be finite; an object's entries are numbers, named ``key.entry``)."""
+
+    def number(v: object) -> bool:
+        return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+    def refuse(name: str, what: str, v: object) -> InputError:
+        return InputError(f"{where}: {name!r} must be {what}, got {json.dumps(v)}")
+
+    if value is None and "None" in annotation:
+        return
+    kind = annotation.split(" | ")[0]
+    if kind.startswith("dict["):
+        if not isinstance(value, dict):
+            raise refuse(key, "an object of numbers (NAME: VALUE)", value)
+        for name, v in value.items():
+            if not number(v):
+                raise refuse(f"{key}.{name}", "a finite number", v)
+    elif kind.startswith("tuple[str"):
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise refuse(key, "a list of names", value)
+    elif kind == "bool":
+        if not isinstance(value, bool):
+            raise refuse(key, "true or false", value)
+    elif kind == "int":
+        if not isinstance(value, int) or isinstance(value, bool):
+            raise refuse(key, "a whole number", value)
+    elif kind == "float":
+        if not number(value):
+            raise refuse(key, "a finite number", value)
+    elif kind == "str" and not isinstance(value, str):
+        raise refuse(key, "a string", value)
 
 
 def run_diagnose_cmd(args: argparse.Namespace) -> int:

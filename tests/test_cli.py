@@ -141,6 +141,12 @@ BAD = [
                                                          "of rig settings (NAME: VALUE), got list [0.6]"),
     ("diagnose x --rig ringing --params {tmp}/typo.json", "error: --params '{tmp}/typo.json': unknown key 'ring_tme'; "
                                                          "the ringing rig takes"),
+    ("diagnose x --rig ringing --params {tmp}/word.json", "error: --params '{tmp}/word.json': 'ring_time' must be a "
+                                                         'finite number, got "abc"'),
+    ("diagnose x --rig ringing --params {tmp}/in_list.json", "error: --params '{tmp}/in_list.json': 'ring_time' must "
+                                                            "be a finite number, got [1.5]"),
+    ("diagnose x --rig soil-bin --params {tmp}/soil.json", "error: --params '{tmp}/soil.json': 'soil.friction_angle' "
+                                                          'must be a finite number, got "abc"'),
     ("demo --out {tmp}/file", "error: --out '{tmp}/file' is a file, not a folder"),
     ("demo --out {tmp}/read-only/demo", "error: --out '{tmp}/read-only/demo' cannot be written (Permission denied)"),
     ("diagnose {tmp}/binary.csv --rig ringing --out {tmp}/d", "error: {tmp}/binary.csv: not a text CSV file (byte 4 "
@@ -161,6 +167,9 @@ def test_bad_command_lines_get_one_line_naming_the_value(capsys, tmp_path, monke
 
     (tmp_path / "list.json").write_text("[0.6]\n")
     (tmp_path / "typo.json").write_text('{"ring_tme": 1.5}\n')
+    (tmp_path / "word.json").write_text('{"ring_time": "abc"}\n')
+    (tmp_path / "in_list.json").write_text('{"ring_time": [1.5]}\n')
+    (tmp_path / "soil.json").write_text('{"soil": {"friction_angle": "abc"}}\n')
     (tmp_path / "file").write_text("not a folder\n")
     (tmp_path / "binary.csv").write_bytes(b"\x7fELF\xd0\x01\x02\x00")
     (tmp_path / "m.csv").write_text("springs,frequency [Hz],damping [-]\n16,6.09,0.2027\n32,7.5,0.2\n")
@@ -186,8 +195,9 @@ def test_bad_command_lines_get_one_line_naming_the_value(capsys, tmp_path, monke
         cmd = line.split()[0]
         assert code == 2, line
         assert len(err) == 1 and err[0].startswith(f"warpdem {cmd}: error: ") and words in err[0], (line, err)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["binary.csv", "file", "list.json", "m.csv", "read-only",
-                                                         "rig.toml", "typo.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["binary.csv", "file", "in_list.json", "list.json", "m.csv",
+                                                         "read-only", "rig.toml", "soil.json", "typo.json",
+                                                         "word.json"]
     assert not any(read_only.iterdir())
 
 
