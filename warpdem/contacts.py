@@ -450,56 +450,41 @@ def sphere_triangle_kernel(
 # ----------------------------------------------------------------------------- elastic energy (observer)
 @wp.kernel
 def sphere_sphere_elastic_kernel(
-    sphere_world: wp.array(dtype=int),
-    sphere_material: wp.array(dtype=int),
-    radius: wp.array(dtype=wp.float64),
-    mats: Materials,
-    sphere_pos: wp.array(dtype=wp.vec3d),
-    start: wp.array(dtype=int),
-    count: wp.array(dtype=int),
-    other: wp.array(dtype=int),
-    hist: wp.array(dtype=Hist),
-    out: wp.array(dtype=wp.float64),
+    spheres: Spheres, mats: Materials, kin: SphereState, ss: SphereList, out: wp.array(dtype=wp.float64)
 ):
+    """The elastic energy of sphere i's active sphere-sphere contacts [J] added into out[its world]."""
     i = wp.tid()
-    for k in range(start[i], start[i] + count[i]):
-        h = hist[k]
+    radius = spheres.radius
+    for k in range(ss.start[i], ss.start[i] + ss.count[i]):
+        h = ss.hist[k]
         if (h.flags & ACTIVE) == 0:
             continue
-        j = other[k]
-        un = float(radius[i] + radius[j] - wp.length(sphere_pos[j] - sphere_pos[i]))
-        p = phys_of(mats, sphere_world[i], sphere_material[i], sphere_material[j], float(radius[i]), float(radius[j]))
-        wp.atomic_add(out, sphere_world[i], wp.float64(elastic_energy(h, p, un)))
+        j = ss.other[k]
+        un = float(radius[i] + radius[j] - wp.length(kin.pos[j] - kin.pos[i]))
+        p = phys_of(mats, spheres.world[i], spheres.material[i], spheres.material[j], float(radius[i]),
+                    float(radius[j]))
+        wp.atomic_add(out, spheres.world[i], wp.float64(elastic_energy(h, p, un)))
 
 
 @wp.kernel
 def sphere_triangle_elastic_kernel(
-    sphere_world: wp.array(dtype=int),
-    sphere_material: wp.array(dtype=int),
-    radius: wp.array(dtype=wp.float64),
-    mesh_body: wp.array(dtype=int),
-    mesh_material: wp.array(dtype=int),
-    mesh_tri_offset: wp.array(dtype=int),
-    tri_vertices: wp.array(dtype=wp.vec3d),
+    spheres: Spheres,
+    meshes: Meshes,
     mats: Materials,
-    sphere_pos: wp.array(dtype=wp.vec3d),
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-    start: wp.array(dtype=int),
-    count: wp.array(dtype=int),
-    mesh: wp.array(dtype=int),
-    face: wp.array(dtype=int),
-    hist: wp.array(dtype=Hist),
+    kin: SphereState,
+    bodies: BodyState,
+    st: TriangleList,
     out: wp.array(dtype=wp.float64),
 ):
+    """The elastic energy of sphere i's active sphere-triangle contacts [J] added into out[its world]."""
     i = wp.tid()
-    rd = radius[i]
+    rd = spheres.radius[i]
     r = float(rd)
-    for k in range(start[i], start[i] + count[i]):
-        h = hist[k]
+    for k in range(st.start[i], st.start[i] + st.count[i]):
+        h = st.hist[k]
         if (h.flags & ACTIVE) == 0:
             continue
-        g = entry_geom(k, sphere_pos[i], rd, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos,
-                       body_quat)
-        p = phys_of(mats, sphere_world[i], mesh_material[mesh[k]], sphere_material[i], 2.0 * r, r)
-        wp.atomic_add(out, sphere_world[i], wp.float64(elastic_energy(h, p, g.un)))
+        g = entry_geom(k, kin.pos[i], rd, st.mesh, st.face, meshes.body, meshes.tri_offset, meshes.tri_vertices,
+                       bodies.pos, bodies.quat)
+        p = phys_of(mats, spheres.world[i], meshes.material[st.mesh[k]], spheres.material[i], 2.0 * r, r)
+        wp.atomic_add(out, spheres.world[i], wp.float64(elastic_energy(h, p, g.un)))

@@ -11,6 +11,7 @@ from collections.abc import Callable
 import numpy as np
 import warp as wp
 
+from . import kernel_args
 from .contact_law import ACTIVE, COHESIVE, Hist
 from .contacts import (
     E_DAMPING,
@@ -135,23 +136,18 @@ def spring_elastic_energy(sim: object) -> np.ndarray:
 
 def contact_elastic_energy(sim: object) -> np.ndarray:
     """Elastic energy stored in all contacts per world [J], shape (n_worlds,)."""
-    m, s = sim.model, sim.state
+    m, d = sim.model, sim.data
     out = wp.zeros(m.n_worlds, dtype=wp.float64, device=m.device)
     if m.n_spheres:
-        wp.launch(
-            sphere_sphere_elastic_kernel, m.n_spheres,
-            inputs=[m.sphere_world, m.sphere_material, m.sphere_radius, sim.materials, sim.data.sphere_pos,
-                    sim.data.ss.start, sim.data.ss.count, sim.data.ss.key_a, sim.data.ss.hist],
-            outputs=[out], device=m.device,
-        )
+        spheres, kin = kernel_args.spheres_of(m), kernel_args.sphere_state_of(d)
+        wp.launch(sphere_sphere_elastic_kernel, m.n_spheres,
+                  inputs=[spheres, sim.materials, kin, kernel_args.sphere_list_of(d.ss)], outputs=[out],
+                  device=m.device)
     if m.n_spheres and m.n_meshes:
-        wp.launch(
-            sphere_triangle_elastic_kernel, m.n_spheres,
-            inputs=[m.sphere_world, m.sphere_material, m.sphere_radius, m.mesh_body, m.mesh_material,
-                    m.mesh_tri_offset, m.tri_vertices, sim.materials, sim.data.sphere_pos, s.body_pos, s.body_quat,
-                    sim.data.st.start, sim.data.st.count, sim.data.st.key_a, sim.data.st.key_b, sim.data.st.hist],
-            outputs=[out], device=m.device,
-        )
+        wp.launch(sphere_triangle_elastic_kernel, m.n_spheres,
+                  inputs=[spheres, kernel_args.meshes_of(m, d), sim.materials, kin,
+                          kernel_args.body_state_of(sim.state), kernel_args.triangle_list_of(d.st)],
+                  outputs=[out], device=m.device)
     return out.numpy()
 
 
