@@ -94,3 +94,13 @@ def test_the_readme_quotes_the_committed_run(run: str) -> None:
     text = _readme()
     missing = [q for q in CASES[run]() if q not in text]
     assert not missing, f"README.md does not quote docs/runs/{run}/ as it is: {missing}"
+
+
+def test_the_quickstart_ci_check_does_not_block_the_default_run() -> None:
+    """`warpdem reproduce` refuses a folder holding a run of another scale (calibration/cli.py, `_claim`), so the
+    README's quick `--scale ci` check must write elsewhere than the default run's `results/reproduce/`."""
+    import re
+
+    text = _readme()
+    for m in re.finditer(r"`warpdem reproduce --scale ci[^`]*`", text):
+        assert "--out " in m.group(0) and "--out results/reproduce`" not in m.group(0), m.group(0)
