@@ -265,6 +265,63 @@ def moment_arms(rows: list[dict[str, float]], tool: PassiveTool) -> list[dict[st
     return out
 
 
+def quasi_static_sensitivity(tool: PassiveTool, springs: int, draught: float, arm: float) -> float:
+    """d(reading)/d(draught) [m/N]: how far the lab's sensor moves per newton of draught held at rest, the draught
+    ``draught`` [N] acting ``arm`` [m] about the pivot (its moment through the stack law, preload and stop included;
+    a central difference of :meth:`PassiveTool.lab_reading` over +-1 N m). In the stack's linear range it is
+    arm a / (k a^2 + K_g) (a: the stack's lever, k: its rate, K_g: the tool's pendulum stiffness)."""
+    sweep = tool.sweep()
+    m = draught * arm
+    return arm * (tool.lab_reading(springs, m + 1.0, sweep) - tool.lab_reading(springs, m - 1.0, sweep)) / 2.0
+
+
+def displacement_noise(series: dict[str, np.ndarray], rows: list[dict[str, float]], tool: PassiveTool,
+                       steady_travel: float) -> list[dict[str, float]]:
+    """Where the displacement's fluctuation comes from, per passive configuration.
+
+    Below its natural frequency f_n the tool follows the draught at rest: its reading's fluctuation is the draught's
+    fluctuation below f_n times :func:`quasi_static_sensitivity`. Above f_n its inertia filters the draught out.
+    The same sensitivity turns the laboratory's displacement std into the most slow draught fluctuation its tool
+    can have seen (sensor noise and faster motion only add to a reading's std).
+
+    Args:
+        series: a passive stage's records (``passive_<variant>.npz``): time [s] (k,), travel [m] (k, w), draught
+            [N] (k, w), displacement [m] (k, w); world j is ``rows[j]``.
+        rows: :func:`passive_table`'s rows (w,), with :func:`moment_arms`' ``arm_m`` and ``lab_arm_m`` merged in.
+        tool: the stage's tool description. steady_travel: [m] where the steady window starts.
+
+    Returns per configuration: f_n [Hz] (the tool alone on its stack, no ringing load), draught_std [N] and
+    draught_slow_std [N] (below f_n: 4th-order Butterworth, zero phase) over the steady window while the carriage
+    moves, sensitivity [mm/N], predicted_std_mm (sensitivity x draught_slow_std), disp_std_mm (simulated),
+    lab_disp_std_mm, lab_draught_std [N] (Table 3's passive) and lab_slow_bound [N] (the lab's displacement std
+    over the sensitivity at the lab's draught and lever).
+    """
+    from scipy import signal
+
+    t = np.asarray(series["time"], dtype=np.float64)
+    fs = 1.0 / float(np.median(np.diff(t)))
+    t3 = _table3()
+    out = []
+    for w, r in enumerate(rows):
+        n = int(r["springs"])
+        trav = np.asarray(series["travel"])[:, w]
+        steady = (trav >= steady_travel) & (trav < trav.max())
+        f_n = tool.ringing_frequency(n, load_force=0.0)
+        sos = signal.butter(4, min(f_n, 0.45 * fs), fs=fs, output="sos")
+        draught = np.asarray(series["draught"], dtype=np.float64)[:, w]
+        slow = signal.sosfiltfilt(sos, draught)[steady]
+        disp = 1e3 * np.asarray(series["displacement"], dtype=np.float64)[steady, w]
+        s = 1e3 * quasi_static_sensitivity(tool, n, r["passive_n"], r["arm_m"])
+        lab = t3[n]
+        s_lab = 1e3 * quasi_static_sensitivity(tool, n, lab["passive_draught_mean_n"], r["lab_arm_m"])
+        out.append({"springs": n, "f_n": f_n, "draught_std": float(draught[steady].std()),
+                    "draught_slow_std": float(slow.std()), "sensitivity_mm_n": s,
+                    "predicted_std_mm": s * float(slow.std()), "disp_std_mm": float(disp.std()),
+                    "lab_disp_std_mm": lab["displacement_std_mm"], "lab_draught_std": lab["passive_draught_std_n"],
+                    "lab_slow_bound": lab["displacement_std_mm"] / s_lab})
+    return out
+
+
 def lab_pitch_relation() -> list[dict[str, float]]:
     """What the laboratory implies: each configuration's mean displacement as a backward pitch (d / 0.1 m) and
     its draught change against the rigid tool (minus its reduction) [%]."""
@@ -372,6 +429,31 @@ def write_report(out: str | Path) -> Path:
                       "|---:|---:|---:|---:|---:|"]
             lines += [f"| {r['springs']} | {r['force_n']:.0f} | {r['arm_m']:.3f} | {r['lab_force_n']:.0f} | "
                       f"{r['lab_arm_m']:.3f} |" for r in arms]
+            npz = out / f"passive_{v}.npz"
+            if npz.exists():
+                with np.load(npz) as z:
+                    series = {k: z[k] for k in z.files}
+                start = meta.get("steady_travel") or sb.SCALES[meta.get("scale", "paper")]["steady_travel"]
+                noise = displacement_noise(series, [{**r, **a} for r, a in zip(rows, arms, strict=True)], tool,
+                                           start)
+                lines += ["", "### Where the displacement's fluctuation comes from", "",
+                          "Below its natural frequency f_n (the tool alone on its stack) the tool follows the draught "
+                          "at rest, so its reading fluctuates by the draught's slow fluctuation (below f_n) times the "
+                          "tool's quasi-static sensitivity (closed form through its stack law). The laboratory's "
+                          "displacement std over the same sensitivity bounds the slow draught fluctuation its tool "
+                          "saw (sensor noise and faster motion only add to it).", "",
+                          "| springs | f_n [Hz] | draught std [N] | below f_n [N] | sensitivity [mm/N] | predicted "
+                          "std [mm] | simulated std [mm] | lab std [mm] | lab draught std [N] | lab below f_n, at "
+                          "most [N] |", "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+                lines += [f"| {q['springs']} | {q['f_n']:.1f} | {q['draught_std']:.1f} | {q['draught_slow_std']:.1f}"
+                          f" | {q['sensitivity_mm_n']:.4f} | {q['predicted_std_mm']:.2f} | {q['disp_std_mm']:.2f} | "
+                          f"{q['lab_disp_std_mm']:.3f} | {q['lab_draught_std']:.1f} | {q['lab_slow_bound']:.1f} |"
+                          for q in noise]
+                ratio = [q["disp_std_mm"] / q["predicted_std_mm"] for q in noise]
+                excess = [q["draught_slow_std"] / q["lab_slow_bound"] for q in noise]
+                lines += ["", f"Simulated over predicted std: {min(ratio):.2f}-{max(ratio):.2f}. The simulated "
+                          f"draught's slow fluctuation is {min(excess):.1f}-{max(excess):.1f}x the most the "
+                          "laboratory's displacement allows."]
         lines.append("")
         fig, axes = plt.subplots(1, 2, figsize=(10, 4))
         n = [r["springs"] for r in rows]

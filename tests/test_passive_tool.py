@@ -19,11 +19,12 @@ import numpy as np
 import pytest
 
 import warpdem as wd
+from calibration.passive_study import PRELOAD_TABLE3, displacement_noise, quasi_static_sensitivity
 from calibration.tool_fit import fit_table2
 from scenes import paper
 from scenes import soil_bin as sb
 from scenes.assemblies import AssemblySpec, Bed
-from scenes.passive_tool import BOUNDS, PassiveTool, load_toml, parse
+from scenes.passive_tool import BOUNDS, PassiveTool, lever, load_toml, parse
 from scenes.ringing import analytic_frequency, build_ringing, run_ringing
 from scenes.sweep import build_sweep, pitch_matrix
 from warpdem.errors import InputError
@@ -204,3 +205,28 @@ def test_workflow_passive_job_runs_the_described_tool(tmp_path) -> None:
     assert [r["draught_mean"] for r in out["rows"]] == [r["draught_mean"] for r in run.steady]
     assert [r["displacement_mean"] for r in out["rows"]] == [r["displacement_mean"] for r in run.steady]
     assert out["tool_tip_z"] == pytest.approx(float(sb.place_tool(bed, paper.WORKING_DEPTH, desc.sweep()).tip[2]))
+
+
+def test_displacement_noise_reads_the_slow_draught_through_the_closed_form_sensitivity() -> None:
+    """The quasi-static sensitivity against its closed form in the stack's linear range, arm a / (k a^2 + K_g); and
+    the draught's fluctuation below the tool's natural frequency against a synthetic record of known parts: a 2 Hz
+    swing of 20 N (below f_n = 8 Hz for 16 springs: kept) and a 60 Hz one of 50 N (filtered out), each over whole
+    cycles of the steady window, so their stds are amplitude / sqrt(2)."""
+    tool = PassiveTool(preload=PRELOAD_TABLE3, shank_length=0.44)
+    sweep = tool.sweep()
+    a, n, draught, arm = lever(sweep), 16, 330.0, 0.39  # stack force ~1.3 kN, past the 0.25 kN preload: linear
+    closed = arm * a / (tool.effective_rate(n) * a**2 + tool.tool_gravity_stiffness(sweep))
+    assert quasi_static_sensitivity(tool, n, draught, arm) == pytest.approx(closed, rel=1e-6)
+
+    fs, speed = 500.0, 0.5
+    t = np.arange(0.0, 3.0, 1.0 / fs)
+    travel = np.minimum(t * speed, 1.2)[:, None]  # the carriage stops at 2.4 s; the window is 0.4-2.4 s
+    f = draught + 20.0 * np.sin(2 * np.pi * 2.0 * t) + 50.0 * np.sin(2 * np.pi * 60.0 * t)
+    series = {"time": t, "travel": travel, "draught": f[:, None], "displacement": np.zeros((len(t), 1))}
+    rows = [{"springs": n, "passive_n": draught, "arm_m": arm, "lab_arm_m": arm}]
+    q = displacement_noise(series, rows, tool, steady_travel=0.2)[0]
+    assert q["f_n"] == pytest.approx(tool.ringing_frequency(n, load_force=0.0))
+    assert 2.0 < q["f_n"] < 60.0
+    assert q["draught_std"] == pytest.approx(math.hypot(20.0, 50.0) / math.sqrt(2), rel=0.01)
+    assert q["draught_slow_std"] == pytest.approx(20.0 / math.sqrt(2), rel=0.02)
+    assert q["predicted_std_mm"] == pytest.approx(1e3 * closed * 20.0 / math.sqrt(2), rel=0.02)
