@@ -12,10 +12,11 @@
     warpdem shear-box [--scale] [--assembly] [--device] [--out DIR]
     warpdem demo      [--device] [--particles N] [--out DIR]
     warpdem calibrate ringing --springs 16 [--spring-model paper|linear] [--fitness paper|max] [--refine N]
-    warpdem calibrate draught --assembly C [--scale ci|cpu|paper] [--speed 0.62] [--screen-scale ci|cpu|paper]
-                      [--no-screen] [--beds DIR]
-                      (both: [--generations 5] [--population 20] [--parents 7] [--seed 0] [--device] [--out DIR]
-                       [--gene NAME=LOW:HIGH] [--archive FILE] [--no-resume] [--ray-workers N] [--ray-address A])
+    warpdem calibrate draught|soil --assembly C [--scale ci|cpu|paper|paper_1m] [--speed 0.62]
+                      [--screen-scale ci|cpu|paper] [--no-screen] [--beds DIR]
+                      (all: [--generations 5] [--population 20] [--parents 7] [--seed 0] [--device] [--out DIR]
+                       [--gene NAME=LOW:HIGH] [--archive FILE] [--no-resume] [--ray-workers N] [--ray-address A]
+                       [--budget S])
     warpdem diagnose MEASURED --rig ringing|soil-bin [--rig-file rig.toml] [--params FILE] [--mechanisms a,b]
                      [--uncertainty k=v,...]
                       [--rounds N] [--batch-worlds N] [--no-resume] [--device] [--out DIR]
@@ -626,6 +627,8 @@ def _genes(args: argparse.Namespace) -> dict[str, tuple[float, float]] | None:
 def run_calibrate_cmd(args: argparse.Namespace) -> int:
     from calibration.genes import GASettings
     from calibration.workflow import run_calibration
+    from calibration.workflow_config import SCREEN_SCALE
+    from warpdem.errors import BudgetExhausted
 
     device = _setup(args)
     settings = GASettings(generations=args.generations, population=args.population, parents=args.parents,
@@ -636,7 +639,7 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
     else:
         kw = {"assembly": args.assembly, "scale": args.scale, "speed": args.speed, "seed": args.seed}
         if args.kind == "soil":
-            kw["box_scale"] = args.screen_scale or args.scale
+            kw["box_scale"] = args.screen_scale or SCREEN_SCALE.get(args.scale, args.scale)
         if args.beds:
             kw["cache_dir"] = str(args.beds)
     out = _claim(args, args.out or f"results/calibrate/{args.kind}_" + (str(args.springs) if args.kind == "ringing"
@@ -650,13 +653,18 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
         print(f"{h['stage']:6s} {h['generation']:3d}/{total}: best fitness {h['best_fitness']:.4g} ({errs}); "
               f"{h['simulated']} simulated in {h['simulation_s']:.1f} s, {h['wall_s']:.0f} s so far", flush=True)
 
-    result, summary = run_calibration(
-        args.kind, out, settings=settings, device=device, ray_workers=args.ray_workers, ray_address=args.ray_address,
-        gpus_per_worker=1.0 if (device.startswith("cuda") and (args.ray_workers or args.ray_address)) else 0.0,
-        screen_scale=(args.screen_scale or args.scale) if args.kind == "draught" and not args.no_screen else None,
-        archive=args.archive,
-        resume=not args.no_resume, progress=show, genes=genes,
-        screen_progress=lambda ph, d, n: _bar(f"screening: shear box {ph}", int(1e6 * d), int(1e6 * n)), **kw)
+    try:
+        result, summary = run_calibration(
+            args.kind, out, settings=settings, device=device, ray_workers=args.ray_workers,
+            ray_address=args.ray_address,
+            gpus_per_worker=1.0 if (device.startswith("cuda") and (args.ray_workers or args.ray_address)) else 0.0,
+            screen_scale=(args.screen_scale or SCREEN_SCALE.get(args.scale, args.scale))
+            if args.kind == "draught" and not args.no_screen else None,
+            archive=args.archive, resume=not args.no_resume, progress=show, genes=genes, budget=args.budget,
+            screen_progress=lambda ph, d, n: _bar(f"screening: shear box {ph}", int(1e6 * d), int(1e6 * n)), **kw)
+    except BudgetExhausted as e:
+        print(f"warpdem calibrate: {e}; the generations so far are in {out}", file=sys.stderr)
+        return 3
     best = result.best
     print(f"best: {best.genes} -> {best.observables}, errors {best.errors}, fitness {best.fitness:.4g}")
     if summary.get("screening"):
@@ -1001,7 +1009,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="ringing: spring model")
     c.add_argument("--fitness", choices=("paper", "max"), default="paper",
                    help="ringing: eq. (7) 1/(REf REd), or 1/max(REf, REd)")
-    c.add_argument("--scale", default="ci", choices=("ci", "cpu", "paper"), help="draught: soil-bin scale")
+    c.add_argument("--scale", default="ci", choices=("ci", "cpu", "paper", "paper_1m"),
+                   help="draught, soil: soil-bin scale (paper_1m: the paper's 1 m calibration bin at its particle "
+                        "size)")
     c.add_argument("--assembly", default="C", choices=("A", "B", "C"), help="draught: assembly")
     c.add_argument("--speed", type=_number(float, gt=0, unit="m/s"), default=0.62, help="draught: carriage speed [m/s]")
     c.add_argument("--screen-scale", default=None, choices=("ci", "cpu", "paper"),
@@ -1014,6 +1024,9 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--ray-workers", type=_number(int, ge=1), default=None,
                    help="evaluate on N Ray workers (optional extra)")
     c.add_argument("--ray-address", default=None, help="address of an existing Ray cluster")
+    c.add_argument("--budget", type=_number(float, gt=0, unit="s"), default=None,
+                   help="wall time [s] for this call: stop before a GA batch that would not fit (exit 3); the same "
+                        "command continues")
     q = sub.add_parser("diagnose", help="model criticism: residuals, candidate mechanisms, the named cause, its gain")
     q.add_argument("measured", help="MEASURED data (a summary CSV or a folder; calibration.measured), or "
                                     "paper:ringing (Table 2) or paper:soil-bin (Table 3)")

@@ -59,6 +59,7 @@ from warpdem.files import write_atomic
 from . import diagnosis as diagnosis_mod
 from . import diagnosis_report, measured
 from .archive import same_or_extended, write_json_atomic
+from .budget import BatchGuard, Budget
 from .ga import accepted_records, calibrate
 from .problems import DraughtProblem, RingingProblem, SoilProblem
 from .report import write_report
@@ -66,43 +67,6 @@ from .rig_models import SoilBinRigModel
 from .screening import screen
 from .workflow_config import CALIBRATION_SCALE, REFIT_FIELDS, SCREEN_SCALE, VARIANTS, WorkflowConfig
 from .workflow_report import write_workflow_report
-
-
-class Budget:
-    """A wall-time budget [s] (None: unlimited) shared by the pieces of one call."""
-
-    def __init__(self, seconds: float | None) -> None:
-        if seconds is not None and not (math.isfinite(seconds) and seconds > 0):
-            raise InputError(f"budget must be a positive number of seconds, got {seconds!r}")
-        self.deadline = None if seconds is None else time.time() + seconds
-
-    def left(self) -> float:
-        return math.inf if self.deadline is None else self.deadline - time.time()
-
-    def require(self, seconds: float, what: str) -> None:
-        """Raise BudgetExhausted unless ``seconds`` are left for ``what``."""
-        if self.left() < seconds:
-            raise BudgetExhausted(f"stopped before {what} (about {seconds:.0f} s needed, {max(self.left(), 0):.0f} "
-                                  "s left of the budget); run the same command again to continue")
-
-
-class _Guard:
-    """An evaluator that refuses a batch the budget cannot hold: one taking as long per individual as the last
-    (``per_individual`` [s]: the estimate before the first batch, e.g. from an earlier call; ``timed`` receives
-    each new estimate)."""
-
-    def __init__(self, evaluate: Callable[[np.ndarray], list[dict[str, float]]], budget: Budget, what: str,
-                 per_individual: float = 0.0, timed: Callable[[float], None] | None = None) -> None:
-        self.evaluate, self.budget, self.what = evaluate, budget, what
-        self.per_individual, self.timed = per_individual, timed or (lambda v: None)
-
-    def __call__(self, values: np.ndarray) -> list[dict[str, float]]:
-        self.budget.require(self.per_individual * len(values), f"a batch of {len(values)} {self.what}")
-        t = time.perf_counter()
-        out = self.evaluate(values)
-        self.per_individual = (time.perf_counter() - t) / max(len(values), 1)
-        self.timed(self.per_individual)
-        return out
 
 
 class Lockstep:
@@ -415,7 +379,7 @@ class Workflow:
             self.log(f"  the calibration bed was missing and has been deposited again as another realisation (was "
                      f"{old}): generations before and after this call see different beds")
         t0 = time.perf_counter()
-        guard = _Guard(problem.evaluate, budget, "soil-bin worlds", self._timing("draught_per_world"),
+        guard = BatchGuard(problem.evaluate, budget, "soil-bin worlds", self._timing("draught_per_world"),
                        lambda v: self._timed("draught_per_world", v))
         res = calibrate(problem, self.config.draught_ga, out=self.out / "draught", evaluator=guard,
                         progress=lambda h: self.log(f"  draught GA generation {h['generation']}: best fitness "

@@ -8,10 +8,13 @@
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Callable
 from pathlib import Path
 
+from .archive import write_json_atomic
+from .budget import BatchGuard, Budget
 from .evaluators import LocalEvaluator, RayEvaluator
 from .ga import CalibrationResult, accepted_records, calibrate
 from .genes import GASettings
@@ -19,20 +22,29 @@ from .problems import make_problem
 from .report import write_report
 from .screening import screen
 
+TIMING_FILE = "batch_timing.json"
+"""in a calibration's folder: the last GA batch's wall time per individual [s], which sizes a later call's budget
+check."""
+
 
 def run_calibration(kind: str, out: str | Path, *, settings: GASettings | None = None, device: str | None = None,
                     ray_workers: int | None = None, ray_address: str | None = None, gpus_per_worker: float = 0.0,
                     screen_scale: str | None = None, screen_top: int = 6, archive: str | Path | None = None,
                     resume: bool = True, progress: Callable[[dict[str, object]], None] | None = None,
                     screen_progress: Callable[[str, float, float], None] | None = None,
+                    budget: float | None = None,
                     **problem_kwargs: object) -> tuple[CalibrationResult, dict[str, object]]:
     """Calibrate, screen (draught: the accepted sets, at most ``screen_top`` of them, in the shear box at
     ``screen_scale``; None skips it) and write the report into ``out``.
 
     ``ray_workers`` or ``ray_address``: evaluate through :class:`~calibration.evaluators.RayEvaluator`.
     ``screen_progress(phase, done, total)``: the shear box's progress (simulated times [s]).
+    ``budget``: wall time [s] for this call. A GA batch that would not fit (as long per individual as the last one,
+    also a previous call's: ``out/batch_timing.json``) is not started: :class:`warpdem.errors.BudgetExhausted` is
+    raised with every finished generation saved, and the same call continues the calibration.
     ``problem_kwargs``: the problem's fields (:mod:`calibration.problems`). Returns the result and a summary dict.
     """
+    clock = Budget(budget)
     out = Path(out)
     if kind in ("draught", "soil"):
         problem_kwargs.setdefault("cache_dir", str(out / "beds"))
@@ -46,7 +58,11 @@ def run_calibration(kind: str, out: str | Path, *, settings: GASettings | None =
     try:
         if use_ray:
             extra["workers"] = evaluator.placements()
-        result = calibrate(problem, settings, out=out, evaluator=evaluator, resume=resume, archive=archive,
+        timing = out / TIMING_FILE
+        guard = BatchGuard(evaluator, clock, "individuals",
+                           json.loads(timing.read_text())["per_individual_s"] if timing.exists() else 0.0,
+                           lambda v: write_json_atomic(timing, {"per_individual_s": v}))
+        result = calibrate(problem, settings, out=out, evaluator=guard, resume=resume, archive=archive,
                            progress=progress)
     finally:
         evaluator.close()

@@ -17,7 +17,7 @@ from .genes import GASettings
 CALIBRATION_SCALE = {"ci": "ci", "cpu": "cpu", "paper": "paper_1m", "strip": "strip"}
 """soil-bin scale of the draught calibration for each workflow scale: the paper calibrated in its first, 1 m long
 bin (section 2.1.2); ``paper_1m`` is that bin at the paper scale's particle size."""
-SCREEN_SCALE = {"ci": "ci", "cpu": "cpu", "paper": "paper", "strip": "paper"}
+SCREEN_SCALE = {"ci": "ci", "cpu": "cpu", "paper": "paper", "paper_1m": "paper", "strip": "paper"}
 """shear-box scale (:func:`scenes.shear_box.preset`) of the screening for each workflow scale."""
 VARIANTS = ("offset", "no_offset")
 """Table 3 variants: the passive tool with Table 2's support offsets (the paper's final model) and without."""

@@ -353,3 +353,34 @@ def test_a_gene_range_that_collapses_the_time_step_is_refused_before_it_runs() -
     p = RingingProblem(springs=16, spring_model="paper", genes={"young": (1e6, 1e20)})
     with pytest.raises(InputError, match=r"dt = .* steps, more than 5e\+07.*young 1e\+20"):
         _ = p.dt
+
+
+def test_calibrate_budget_stops_between_generations_and_the_same_command_finishes_the_same_run(tmp_path, monkeypatch,
+                                                                                                 capsys) -> None:
+    """`warpdem calibrate --budget S` refuses a GA batch that would not fit (sized by the last batch's time per
+    individual), exits 3 with the generations so far saved, and the same command continues to the result of an
+    uninterrupted run (same individuals, same bits). The first call's clock is made to read 1,000 s per batch, so
+    generation 1 (sized at 250 s an individual) cannot fit its 100 s."""
+    import json
+    from types import SimpleNamespace
+
+    import calibration.budget as budget_mod
+    from calibration.cli import main
+
+    args = ["calibrate", "ringing", "--springs", "16", "--spring-model", "linear", "--generations", "2",
+            "--population", "4", "--parents", "2", "--device", DEVICE]
+    assert main([*args, "--out", str(tmp_path / "whole")]) == 0
+    ticks = iter(range(0, 10**6, 1000))
+    monkeypatch.setattr(budget_mod, "time", SimpleNamespace(time=budget_mod.time.time,
+                                                            perf_counter=lambda: float(next(ticks))))
+    assert main([*args, "--out", str(tmp_path / "cut"), "--budget", "100"]) == 3
+    err = capsys.readouterr().err
+    assert "stopped before a batch of" in err and "run the same command again" in err
+    history = json.loads((tmp_path / "cut" / "history.json").read_text())
+    assert [h["generation"] for h in history] == [0]
+    monkeypatch.undo()
+    assert main([*args, "--out", str(tmp_path / "cut")]) == 0
+    runs = [Archive.load(tmp_path / r / "archive.json") for r in ("whole", "cut")]
+    assert [x.observables for x in runs[0]] == [x.observables for x in runs[1]]
+    best = [json.loads((tmp_path / r / "result.json").read_text())["best"] for r in ("whole", "cut")]
+    assert best[0] == best[1]
