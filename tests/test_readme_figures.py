@@ -86,7 +86,34 @@ def _draught_calibration() -> list[str]:
             f"its shear box gave {sc['cohesion_kpa']:.2f} kPa and {sc['friction_angle_deg']:.1f} deg"]
 
 
+def _reproduce_cpu() -> list[str]:
+    import numpy as np
+
+    from scenes import paper
+
+    s = _json("reproduce_cpu/summary.json")
+    rows = {(r["springs"], r["speed"]): r for r in s["soil_bin"]}
+    r52, r68, p16, p32 = rows[(0, 0.52)], rows[(0, 0.68)], rows[(16, 0.68)], rows[(32, 0.52)]
+    sem = [r["draught_sem"] for r in (r52, r68, p16, p32)]
+    t3 = paper.table("soil_bin_measured")  # the report's rule: Table 3's rigid runs at the same speed
+    ratios = [r["draught_mean"] / float(np.mean(t3["rigid_draught_mean_n"][np.abs(t3["speed_mean_m_s"] - r["speed"])
+                                                                             < 5e-3])) for r in (r52, r68)]
+    runs, ring = s["soil_bin_runs"], s["ringing_wall_s"]
+    particles = f"{s['bed']['particles']:,}"
+    return [f"`cpu` (default; {particles} particles)",
+            f"a bed of {particles} particles",
+            f"{s['wall_s']:.0f} s (ringing {ring['paper']:.1f} + {ring['linear']:.1f} + {ring['twin']:.1f} s",
+            f"deposition of the assembly-C bed {s['bed']['deposition_wall_s']:.0f} s; the rigid runs at 0.52 and "
+            f"0.68 m/s {runs['rigid']['wall_s']:.0f} s; the passive runs {runs['passive']['wall_s']:.0f} s)",
+            f"Rigid {r52['draught_mean']:.1f} N at 0.52 m/s and {r68['draught_mean']:.1f} N at 0.68 m/s, 16 springs "
+            f"{p16['draught_mean']:.1f} N, 32 springs {p32['draught_mean']:.1f} N, each with a standard error of "
+            f"{min(sem):.0f}-{max(sem):.0f} N",
+            f"it draws {100 * min(ratios):.0f}-{100 * max(ratios):.0f} % of the laboratory's rigid draught",
+            f"| {s['wall_s']:.0f} s on 2 CPU cores shared with two other jobs, deposition included (`--scale cpu`)"]
+
+
 CASES: dict[str, Callable[[], list[str]]] = {
+    "reproduce_cpu": _reproduce_cpu,
     "soil_bin_paper_h100_s8": _soil_bin_s8,
     "table3-paper-h100": _table3_workflow,
     "speed_sweep_paper_h100": _speed_sweep,
