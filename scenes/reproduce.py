@@ -83,7 +83,9 @@ FIGURE_CAPTIONS = {
         "(Table 7). Each trace ends where its carriage stops at the end of travel (the steady window's end): a "
         "faster world's tool then stands still at the end of the bin while the slowest world finishes, and those "
         "records (no cutting; the soil relaxing against a stopped tool, its draught falling to zero or below) are "
-        "left out of the plot, as they are of the statistics. The displacement "
+        "left out of the plot, as they are of the statistics. The displacement's last record, at the stop itself, "
+        "is left out of the plot too: the carriage has overshot the travel there by up to one record interval "
+        "x its speed (about 1 mm), which that one reading takes as displacement. The displacement "
         "is zeroed on the tool at rest before the cut; a negative value means the tool moved forward of its rest "
         "pose.",
     "fig17_fft_draught.png":
@@ -138,9 +140,10 @@ def plot_soil_bin(study: dict, out: Path, assembly: str = "C") -> list[str]:
         a.set_title(_world_name(n, run, w), fontsize=9, loc="left")
         if n:
             b = a.twinx()
-            disp = 1e3 * run.series["displacement"][:m, w]
+            md = figures.displacement_records(run.travel[:, w])
+            disp = 1e3 * run.series["displacement"][:md, w]
             lab = float(t3["displacement_mean_mm"][i])
-            b.plot(x, disp, color="C2", lw=0.8, label="displacement, warpdem")
+            b.plot(x[:md], disp, color="C2", lw=0.8, label="displacement, warpdem")
             dm, ds = st.get("displacement_mean"), st.get("displacement_sem")
             figures.steady_band(b, start, end, None if dm is None else 1e3 * dm, None if ds is None else 1e3 * ds,
                                 "C2", "displacement, warpdem steady mean ± SE")
@@ -171,7 +174,8 @@ def plot_soil_bin(study: dict, out: Path, assembly: str = "C") -> list[str]:
         for n, run, w in series:
             if key == "displacement" and n == 0:
                 continue
-            m = figures.moving_records(run.travel[:, w])
+            m = figures.moving_records(run.travel[:, w]) if key == "draught" else \
+                figures.displacement_records(run.travel[:, w])
             sel = np.zeros(len(run.time), bool)
             sel[:m] = run.travel[:m, w] >= start
             scale = 1e3 if key == "displacement" else 1.0
