@@ -1,0 +1,80 @@
+"""The kernels' argument structs (warpdem/kernel_args.py): every field documented with its dtype, and every array
+field set by the host builders from a simulation's model, state and data (the same arrays, no copies)."""
+
+from __future__ import annotations
+
+import ast
+import inspect
+
+import numpy as np
+import warp as wp
+from conftest import DEVICE
+from test_worlds import packing_scene
+
+import warpdem as wd
+from warpdem import kernel_args as ka
+from warpdem import world_steps
+from warpdem.accumulate import vec3l
+from warpdem.contact_law import Hist
+
+DTYPE_WORDS = {
+    wp.int32: "int32", wp.float32: "float32", wp.float64: "float64", wp.uint64: "uint64", wp.int64: "int64",
+    wp.vec3f: "vec3f", wp.vec3d: "vec3d", wp.quatd: "quatd", vec3l: "vec3l", Hist: "Hist",
+}
+"""how a field's docstring names each array dtype."""
+STRUCT = type(ka.Bodies)
+"""the type of a @wp.struct."""
+
+
+def _structs() -> list[type]:
+    return [c for m in (ka, world_steps) for _, c in inspect.getmembers(m)
+            if isinstance(c, STRUCT) and c.cls.__module__ == m.__name__]
+
+
+def _field_docs(struct: STRUCT) -> dict[str, str]:
+    """Field name -> the docstring that follows its annotation in the class body."""
+    tree = ast.parse(inspect.getsource(struct.cls).lstrip())
+    body = tree.body[0].body
+    docs = {}
+    for stmt, nxt in zip(body, body[1:] + [None], strict=True):
+        if isinstance(stmt, ast.AnnAssign):
+            doc = nxt.value.value if isinstance(nxt, ast.Expr) and isinstance(nxt.value, ast.Constant) else ""
+            docs[stmt.target.id] = doc
+    return docs
+
+
+def test_every_field_is_documented_with_its_dtype() -> None:
+    structs = _structs()
+    assert {"Bodies", "Spheres", "Meshes", "Springs", "Motion", "BodyState", "SphereState", "SphereList",
+            "TriangleList", "Sums", "Advance", "Worlds"} <= {s.key for s in structs}
+    for struct in structs:
+        docs = _field_docs(struct)
+        assert list(docs) == list(struct.vars), struct.key  # every field, in order, has an annotation here
+        for name, var in struct.vars.items():
+            doc = docs[name]
+            assert doc.strip(), f"{struct.key}.{name} has no docstring"
+            if isinstance(var.type, wp.array):
+                word = DTYPE_WORDS[var.type.dtype]
+                assert word in doc, f"{struct.key}.{name}: the docstring should name the dtype {word}: {doc!r}"
+
+
+def test_builders_set_every_array_with_the_simulations_own() -> None:
+    model, state = packing_scene(np.zeros(3)).finalize(DEVICE, n_worlds=2)
+    sim = wd.Simulation(model, state, dt=2e-5, contact_threads="pair")
+    d = sim.data
+    built = {
+        "bodies": ka.bodies_of(model), "spheres": ka.spheres_of(model), "meshes": ka.meshes_of(model, d),
+        "springs": ka.springs_of(model), "state": ka.body_state_of(state), "kin": ka.sphere_state_of(d),
+        "ss": ka.sphere_list_of(d.ss), "st": ka.triangle_list_of(d.st), "sums": ka.sums_of(d),
+    }
+    for name, struct in built.items():
+        for field, var in struct._cls.vars.items():
+            if isinstance(var.type, wp.array):
+                assert getattr(struct, field) is not None, f"{name}.{field}"
+    assert built["spheres"].radius is model.sphere_radius
+    assert built["state"].pos is state.body_pos
+    assert built["ss"].hist is d.ss.hist and built["ss"].owner is d.ss.owner
+    assert built["sums"].force_acc is d.force_acc
+    # a part's sums: its own slots of the accumulators, the whole float results
+    part = ka.sums_of(d, 0, whole=False)
+    assert part.force_acc.shape[0] == model.n_bodies and part.body_force is d.body_force
