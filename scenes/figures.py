@@ -38,10 +38,10 @@ def moving_records(travel: np.ndarray) -> int:
 
 def displacement_records(travel: np.ndarray) -> int:
     """How many records of one world's displacement to draw: the moving ones (:func:`moving_records`) less the
-    record at the carriage's stop. That record is taken at the first whole record past the full travel, so the
-    carriage has overshot the travel by up to speed x the record interval, while the displacement is read
-    against the travel clamped at its end (``scenes.soil_bin``): its reading is off by that overshoot (about -1 mm
-    at 500 records/s and 0.7 m/s), one record of the steady window."""
+    record at the carriage's stop. That record is taken at the first whole record past the full travel; records
+    written before ``scenes.soil_bin`` read the displacement against the carriage's own position (2026-11-26;
+    docs/figures-review.md) read it against the travel clamped at its end, off by the carriage's overshoot there
+    (up to speed x the record interval, about -1 mm at 500 records/s and 0.7 m/s)."""
     return max(1, moving_records(travel) - 1)
 
 

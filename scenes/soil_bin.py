@@ -740,18 +740,19 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
     else:
         def draught(s: wd.Simulation) -> np.ndarray:
             return -contact(s)[:, 0, 1]
+    every = max(1, int(round(1.0 / (config.sample_rate * dt))))
+    # each world's carriage stops after `travel` (whole records, so the sampling stays uniform); the run ends when
+    # the slowest one does
+    stop = (np.ceil(travel / speeds_a / dt / every) * every).astype(int)
     observers = {
         "draught": draught,
-        "displacement": lambda s: -(sensor(s)[:, 1] - s0 - np.minimum(speeds_a * s.state.time, travel)) - rest,
+        # against the carriage where it is: it stops at its last whole record, up to a record past ``travel``
+        "displacement": lambda s: -(sensor(s)[:, 1] - s0 - speeds_a * np.minimum(s.state.time, stop * dt)) - rest,
         "ke_tool": wd.observers.group_kinetic_energy("tool"),
         "ke_soil": wd.observers.group_kinetic_energy("soil"),
         "coordination": wd.observers.coordination_number("soil"),
         "bonds": wd.observers.cohesive_bonds("soil"),
     }
-    every = max(1, int(round(1.0 / (config.sample_rate * dt))))
-    # each world's carriage stops after `travel` (whole records, so the sampling stays uniform); the run ends when
-    # the slowest one does
-    stop = (np.ceil(travel / speeds_a / dt / every) * every).astype(int)
     n_steps = int(stop.max())
     # the spring spheres' support moves into its offset (+ = against travel) over SUPPORT_RAMP, then rides along
     events, ramp = set(stop.tolist()), -1
