@@ -210,7 +210,8 @@ def plot_soil_bin(study: dict, out: Path, assembly: str = "C") -> list[str]:
     a.set_xlabel("carriage travel [m]")
     a.set_ylabel("kinetic energy of the tool [J]")
     a.set_title("The passive tool's kinetic energy (like the paper's Fig. 19)", fontsize=10)
-    a.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    if a.get_legend_handles_labels()[0]:  # no passive world: an empty axis, no legend
+        a.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.savefig(out / "fig19_tool_kinetic_energy.png", dpi=110, bbox_inches="tight")
     plt.close(fig)
     names.append("fig19_tool_kinetic_energy.png")
