@@ -1,5 +1,6 @@
-"""The kernels' argument structs (warpdem/kernel_args.py): every field documented with its dtype, and every array
-field set by the host builders from a simulation's model, state and data (the same arrays, no copies)."""
+"""The kernels' argument structs (warpdem/kernel_args.py, the settings types.Options): every field documented with
+its dtype, and every array field set by the host builders from a simulation's model, state and data (the same
+arrays, no copies)."""
 
 from __future__ import annotations
 
@@ -13,21 +14,22 @@ from test_worlds import packing_scene
 
 import warpdem as wd
 from warpdem import kernel_args as ka
-from warpdem import world_steps
+from warpdem import types, world_steps
 from warpdem.accumulate import vec3l
 from warpdem.contact_law import Hist
 
 DTYPE_WORDS = {
     wp.int32: "int32", wp.float32: "float32", wp.float64: "float64", wp.uint64: "uint64", wp.int64: "int64",
-    wp.vec3f: "vec3f", wp.vec3d: "vec3d", wp.quatd: "quatd", vec3l: "vec3l", Hist: "Hist",
+    wp.vec3f: "vec3f", wp.vec3d: "vec3d", wp.quatd: "quatd", vec3l: "vec3l", Hist: "Hist", int: "int32",
+    float: "float32",
 }
-"""how a field's docstring names each array dtype."""
+"""how a field's docstring names each array dtype (and each scalar's, in types.Options)."""
 STRUCT = type(ka.Bodies)
 """the type of a @wp.struct."""
 
 
 def _structs() -> list[type]:
-    return [c for m in (ka, world_steps) for _, c in inspect.getmembers(m)
+    return [c for m in (ka, world_steps, types) for _, c in inspect.getmembers(m)
             if isinstance(c, STRUCT) and c.cls.__module__ == m.__name__]
 
 
@@ -45,16 +47,16 @@ def _field_docs(struct: STRUCT) -> dict[str, str]:
 
 def test_every_field_is_documented_with_its_dtype() -> None:
     structs = _structs()
-    assert {"Bodies", "Spheres", "Meshes", "Springs", "Motion", "BodyState", "SphereState", "SphereList",
-            "TriangleList", "Sums", "Advance", "Worlds"} <= {s.key for s in structs}
+    assert {"Bodies", "Spheres", "Meshes", "Springs", "BodyState", "SphereState", "SphereList", "TriangleList",
+            "Sums", "Advance", "Worlds", "Options"} <= {s.key for s in structs}
     for struct in structs:
         docs = _field_docs(struct)
         assert list(docs) == list(struct.vars), struct.key  # every field, in order, has an annotation here
         for name, var in struct.vars.items():
             doc = docs[name]
             assert doc.strip(), f"{struct.key}.{name} has no docstring"
-            if isinstance(var.type, wp.array):
-                word = DTYPE_WORDS[var.type.dtype]
+            if isinstance(var.type, wp.array) or struct is types.Options:
+                word = DTYPE_WORDS[var.type.dtype if isinstance(var.type, wp.array) else var.type]
                 assert word in doc, f"{struct.key}.{name}: the docstring should name the dtype {word}: {doc!r}"
 
 
@@ -78,3 +80,13 @@ def test_builders_set_every_array_with_the_simulations_own() -> None:
     # a part's sums: its own slots of the accumulators, the whole float results
     part = ka.sums_of(d, 0, whole=False)
     assert part.force_acc.shape[0] == model.n_bodies and part.body_force is d.body_force
+
+
+def test_options_hold_the_simulations_settings() -> None:
+    """dt reaches the kernels once (float64; the law rounds it to float32 as the host would)."""
+    model, state = packing_scene(np.zeros(3)).finalize(DEVICE)
+    sim = wd.Simulation(model, state, dt=2e-5, skin=1e-3, unp_max=-1.0, bond_detection_factor=1.1)
+    o = sim.options
+    assert o.dt == 2e-5 and np.float32(o.skin) == np.float32(1e-3) and o.unp_max == -1.0
+    assert np.float32(o.bond_gap) == np.float32(0.1) and o.max_speed == sim.max_speed
+    assert tuple(o.lower) == tuple(sim.bounds[0]) and tuple(o.upper) == tuple(sim.bounds[1])

@@ -32,6 +32,7 @@ from .contact_law import (
     set_cohesion,
 )
 from .kernel_args import BodyState, Meshes, SphereList, Spheres, SphereState, Sums, TriangleList
+from .types import Options
 
 wp.set_module_options({"enable_backward": False})
 
@@ -59,18 +60,6 @@ class Materials:
     alpha_ktw: wp.array(dtype=float)
     flags: wp.array(dtype=int)
     n_materials: int
-
-
-@wp.struct
-class LawOptions:
-    """Switches of the contact law (device scalars, so changing them needs no recompile)."""
-
-    dt: float
-    always_moment: int  # Yade's always_use_moment_law
-    cohesion_on_new: int  # Yade's setCohesionOnNewContacts
-    unp_max: float  # Yade's unpMax [m]: non-fragile tensile break (< 0: never)
-    bond_gap: float  # distance bonding: Yade's interactionDetectionFactor - 1 at a bonding step (0: touching only)
-    track_energy: int
 
 
 @wp.kernel
@@ -113,7 +102,7 @@ def sphere_pair(
     now: int,
     spheres: Spheres,
     mats: Materials,
-    opts: LawOptions,
+    opts: Options,
     kin: SphereState,
     hist: wp.array(dtype=Hist),  # in/out
     energy: wp.array(dtype=wp.float64),  # out
@@ -148,7 +137,7 @@ def sphere_pair(
         wj = kin.angvel[j]
         alpha = (r1 + r2) / (r1 + r2 - un)
         v12 = alpha * (kin.vel[j] - vi) - wp.cross(r1 * wi + r2 * wj, n)
-        law = cohfrict_law(h, p, is_new, n, un, v12, wi + wj, wj - wi, opts.dt, opts.always_moment, opts.unp_max)
+        law = cohfrict_law(h, p, is_new, n, un, v12, wi + wj, wj - wi, float(opts.dt), opts.always_moment, opts.unp_max)
         hist[k] = law.hist
         if law.alive != 0:
             arm_i = arm_i0 + (r1 - 0.5 * un) * n
@@ -168,7 +157,7 @@ def sphere_sphere_one(
     i: int,
     spheres: Spheres,
     mats: Materials,
-    opts: LawOptions,
+    opts: Options,
     kin: SphereState,
     ss: SphereList,  # in/out: the history
     cohesion_now: wp.array(dtype=int),
@@ -206,7 +195,7 @@ def sphere_sphere_kernel(
     first: int,  # the first sphere of this launch (a CPU thread's share)
     spheres: Spheres,
     mats: Materials,
-    opts: LawOptions,
+    opts: Options,
     kin: SphereState,
     ss: SphereList,
     cohesion_now: wp.array(dtype=int),
@@ -220,7 +209,7 @@ def sphere_pair_kernel(
     first: int,  # the first list entry of this launch (a CPU thread's share)
     spheres: Spheres,
     mats: Materials,
-    opts: LawOptions,
+    opts: Options,
     kin: SphereState,
     ss: SphereList,  # with ``owner``
     cohesion_now: wp.array(dtype=int),
@@ -346,7 +335,7 @@ def sphere_triangle_one(
     spheres: Spheres,
     meshes: Meshes,
     mats: Materials,
-    opts: LawOptions,
+    opts: Options,
     kin: SphereState,
     bodies: BodyState,
     st: TriangleList,  # in/out: the history
@@ -406,7 +395,8 @@ def sphere_triangle_one(
         vm = wp.vec3f(bodies.vel[b])
         wm = wp.vec3f(bodies.angvel[b])
         v12 = (vs + wp.cross(ws, arm_s)) - (vm + wp.cross(wm, arm_m))
-        out = cohfrict_law(h, p, is_new, n, g.un, v12, wm + ws, ws - wm, opts.dt, opts.always_moment, opts.unp_max)
+        out = cohfrict_law(h, p, is_new, n, g.un, v12, wm + ws, ws - wm, float(opts.dt), opts.always_moment,
+                           opts.unp_max)
         st.hist[k] = out.hist
         if out.alive == 0:
             continue
@@ -437,7 +427,7 @@ def sphere_triangle_kernel(
     spheres: Spheres,
     meshes: Meshes,
     mats: Materials,
-    opts: LawOptions,
+    opts: Options,
     kin: SphereState,
     bodies: BodyState,
     st: TriangleList,

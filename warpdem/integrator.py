@@ -22,9 +22,10 @@ import warp as wp
 
 from .accumulate import add_wrench, clear_slots, read_float
 from .broadphase import mesh_displacement
-from .contacts import E_DAMPING, E_DRIVEN, E_SPRING_DAMPER, N_ENERGY, LawOptions
-from .kernel_args import Bodies, BodyState, Meshes, Motion, Spheres, SphereState, Springs, Sums
+from .contacts import E_DAMPING, E_DRIVEN, E_SPRING_DAMPER, N_ENERGY
+from .kernel_args import Bodies, BodyState, Meshes, Spheres, SphereState, Springs, Sums
 from .model import ALL_DOFS, FLAG_ASPHERICAL, FLAG_PIVOT, ROT_DOFS
+from .types import Options
 
 wp.set_module_options({"enable_backward": False})
 
@@ -211,7 +212,7 @@ def check_body(
 def integrate_body(
     b: int,
     bodies: Bodies,
-    motion: Motion,
+    opts: Options,
     parts: int,  # CPU threads whose accumulators are summed
     float_sums: int,  # 1: the sums were converted to ``sums.body_force``, ``sums.body_torque`` before
     step: int,
@@ -223,9 +224,9 @@ def integrate_body(
     """Body b's motion for one step (one thread of integrate_bodies_kernel, or a world's loop); ``step``: the step
     being completed, for a fault record. Each path reads what it needs before it writes anything, and the force
     sums are cleared last (Warp's arrays may alias, so a load after a store waits for it)."""
-    dt = motion.dt
+    dt = opts.dt
     gravity = bodies.gravity
-    track_energy = motion.track_energy
+    track_energy = opts.track_energy
     flags = bodies.flags[b]
     w = bodies.world[b]
     m = bodies.mass[b]
@@ -366,14 +367,14 @@ def integrate_body(
         clear_slots(sums.torque_acc, b, n, parts)
         sums.body_force[b] = force
         sums.body_torque[b] = torque
-    check_body(b, x, v, omega, motion.max_speed, motion.lower, motion.upper, step, fault_base, fault)
+    check_body(b, x, v, omega, opts.max_speed, opts.lower, opts.upper, step, fault_base, fault)
 
 
 @wp.kernel
 def integrate_bodies_kernel(
     first: int,  # the first body of this launch (a CPU thread's share)
     bodies: Bodies,
-    motion: Motion,
+    opts: Options,
     parts: int,
     float_sums: int,
     counters: wp.array(dtype=int),
@@ -387,7 +388,7 @@ def integrate_bodies_kernel(
     ``float_sums`` != 0 they were converted before, by accumulate.wrench_to_float_kernel, and are read), one leapfrog
     step (see the module docstring), then the fault check (:func:`check_body`, into fault[fault_base:+3], the step
     being completed as counted at its end)."""
-    integrate_body(wp.tid() + first, bodies, motion, parts, float_sums, counters[0] + 1, fault_base, state, sums, fault)
+    integrate_body(wp.tid() + first, bodies, opts, parts, float_sums, counters[0] + 1, fault_base, state, sums, fault)
 
 
 @wp.func(inline=True)  # inlined: no copies of its array arguments per call
@@ -462,7 +463,7 @@ def spring_one(
     s: int,
     springs: Springs,
     bodies: Bodies,
-    opts: LawOptions,  # dt (float32) and track_energy
+    opts: Options,
     state: BodyState,  # in
     sums: Sums,  # out: the fixed-point wrench sums (a part's), the spring forces, the energy terms
 ):
@@ -493,11 +494,11 @@ def spring_one(
                wp.cross(wp.vec3f(rb), -fa))
     if opts.track_energy != 0:
         wp.atomic_add(sums.energy, bodies.world[a] * N_ENERGY + E_SPRING_DAMPER,
-                      wp.float64(damping * rate * rate * opts.dt))
+                      wp.float64(damping * rate * rate * float(opts.dt)))
 
 
 @wp.kernel
-def spring_kernel(springs: Springs, bodies: Bodies, opts: LawOptions, state: BodyState, sums: Sums):
+def spring_kernel(springs: Springs, bodies: Bodies, opts: Options, state: BodyState, sums: Sums):
     """Spring-dashpot: F = preload + k u + k3 u^3 + c dL/dt, u = L - L0, along a->b (tension > 0 pulls a and b
     together); past a stop at u = 0 on the side the preload drives (preload u < 0), F gains k_stop u."""
     spring_one(wp.tid(), springs, bodies, opts, state, sums)

@@ -1,5 +1,6 @@
 """Kernel arguments grouped as Warp structs, as MuJoCo Warp groups its Model and Data: what a stage of the step
-reads of the model (bodies, spheres, meshes, springs; the materials are ``contacts.Materials``), what it reads and
+reads of the model (bodies, spheres, meshes, springs; the materials are ``contacts.Materials``, the settings
+``types.Options``), what it reads and
 writes of the state (body poses and velocities, sphere kinematics, the candidate lists with their history) and the
 sums it adds into (fixed-point wrenches, energies, their float results).
 
@@ -112,22 +113,6 @@ class Springs:
     """cubic stiffness [N/m^3], float32."""
     stop_stiffness: wp.array(dtype=float)
     """[N/m] added past the stop at u = 0 on the side the preload drives, float32."""
-
-
-@wp.struct
-class Motion:
-    """Settings of the body integration and its fault check (Simulation's)."""
-
-    dt: wp.float64
-    """time step [s]."""
-    track_energy: int
-    """1: add the dissipated and driven energies (``Sums.energy``)."""
-    max_speed: wp.float64
-    """a body faster than this [m/s] is a fault."""
-    lower: wp.vec3d
-    """lower corner of the bounds [m]; a body outside them is a fault."""
-    upper: wp.vec3d
-    """upper corner of the bounds [m]."""
 
 
 # ----------------------------------------------------------------------------- State and Data
@@ -266,14 +251,6 @@ def springs_of(model: object) -> Springs:
     for name in ("body_a", "body_b", "point_a", "point_b", "stiffness", "damping", "rest_length", "preload",
                  "progressive", "stop_stiffness"):
         setattr(a, name, getattr(model, "spring_" + name))
-    return a
-
-
-def motion_of(dt: float, track_energy: bool, max_speed: float, bounds: tuple[object, object]) -> Motion:
-    """A :class:`Motion`: time step [s], energy tracking, largest speed [m/s], bounds (lower, upper) [m]."""
-    a = Motion()
-    a.dt, a.track_energy, a.max_speed = wp.float64(dt), int(track_energy), wp.float64(max_speed)
-    a.lower, a.upper = wp.vec3d(*bounds[0]), wp.vec3d(*bounds[1])
     return a
 
 

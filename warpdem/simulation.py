@@ -23,7 +23,6 @@ from . import broadphase as bp
 from . import kernel_args as ka
 from . import world_steps as world_steps_mod
 from .contacts import (
-    LawOptions,
     Materials,
     sphere_pair_kernel,
     sphere_sphere_kernel,
@@ -36,6 +35,7 @@ from .errors import InputError, SimulationError, check_finite, check_positive
 from .integrator import integrate_bodies_kernel, mesh_end_one, spring_kernel, update_spheres_kernel
 from .model import FLAG_PIVOT, Model, State
 from .timestep import critical_timestep
+from .types import Options
 
 wp.set_module_options({"enable_backward": False})
 
@@ -59,7 +59,7 @@ NO_FAULT_C = wp.constant(NO_FAULT)
 
 @wp.kernel
 def _end_step_kernel(
-    skin: float,
+    opts: Options,
     disp: wp.array(dtype=float),
     fault_parts: wp.array(dtype=int),
     flag_out: wp.array(dtype=int),
@@ -83,7 +83,7 @@ def _end_step_kernel(
     for p in range(DISP_STRIDE, disp.shape[0], DISP_STRIDE):
         ds = wp.max(ds, disp[p])
         disp[p] = 0.0
-    if ds + wp.max(ds, disp[0]) > skin:
+    if ds + wp.max(ds, disp[0]) > opts.skin:
         flag_out[0] = 1
         counters[1] = counters[1] + 1
     else:
@@ -325,21 +325,20 @@ class Simulation:
         ):
             setattr(self.materials, name, arr)
         self.materials.n_materials = model.n_materials
-        self.options = LawOptions()
-        self.options.dt = self.dt
-        self.options.always_moment = int(self.always_use_moment_law)
-        self.options.cohesion_on_new = int(self.cohesion_on_new_contacts)
-        self.options.track_energy = int(self.track_energy)
-        self.options.unp_max = float(unp_max)
         if not (math.isfinite(bond_detection_factor) and 1.0 <= bond_detection_factor <= 3.0):
             raise InputError(f"bond_detection_factor must be in [1, 3] (a centre distance over the radii's sum), "
                              f"got {bond_detection_factor!r}")
         self.bond_detection_factor = float(bond_detection_factor)
-        self.options.bond_gap = self.bond_detection_factor - 1.0
 
         self._args: _KernelArgs | None = None  # the kernels' argument structs (made when first needed)
         self._update_spheres()
         self._set_bounds(bounds)
+        self.options = Options()  # the settings the kernels read (types.py)
+        o = self.options
+        o.dt, o.skin, o.track_energy = wp.float64(self.dt), self.skin, int(self.track_energy)
+        o.always_moment, o.cohesion_on_new = int(self.always_use_moment_law), int(self.cohesion_on_new_contacts)
+        o.unp_max, o.bond_gap = float(unp_max), self.bond_detection_factor - 1.0
+        o.max_speed, o.lower, o.upper = wp.float64(self.max_speed), wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1])
         # broad phase structures; the first build sizes the candidate lists
         cell = 2.0 * model.max_radius + self.skin if ns else 1.0
         self._cell = cell
@@ -553,11 +552,10 @@ class Simulation:
             serial(launch(accumulate.wrench_to_float_kernel, m.n_bodies,
                           inputs=[d.force_acc, d.force_scale, d.torque_acc, d.torque_scale, P],
                           outputs=[d.body_force, d.body_torque], device=dev))
-        moving = ka.motion_of(self.dt, self.track_energy, self.max_speed, self.bounds)
         for p in range(P):
             motion.append([
                 launch(integrate_bodies_kernel, bc[p + 1] - bc[p],
-                       inputs=[bc[p], a.bodies, moving, P, float_sums, d.counters, p * DISP_STRIDE, a.state],
+                       inputs=[bc[p], a.bodies, self.options, P, float_sums, d.counters, p * DISP_STRIDE, a.state],
                        outputs=[a.whole_sums[p], d.fault_parts], device=dev),
                 self._update_spheres(launch, sc[p], sc[p + 1] - sc[p], disp_slot=(1 + p) * DISP_STRIDE),
             ])
@@ -567,7 +565,7 @@ class Simulation:
             serial(launch(_mesh_end_kernel, m.n_meshes,
                           inputs=[a.meshes, P, a.state, d.mesh_build_pos, d.mesh_build_quat],
                           outputs=[a.whole_sums[0], d.disp], device=dev))
-        serial(launch(_end_step_kernel, 1, inputs=[self.skin, d.disp, d.fault_parts],
+        serial(launch(_end_step_kernel, 1, inputs=[self.options, d.disp, d.fault_parts],
                       outputs=[d.rebuild_flag, d.counters, d.fault, d.cohesion_now], device=dev))
         if P > 1 and self.track_energy:
             serial(launch(accumulate.fold_energy_kernel, d.energy.shape[0], inputs=[d.energy_extra, P],
@@ -930,18 +928,17 @@ class Simulation:
         ws.lanes, ws.stride = self.world_lanes, self.world_lane_stride
         ws.spw, ws.bpw, ws.mpw, ws.kpw = (m.spheres_per_world, m.bodies_per_world, m.meshes_per_world,
                                           m.springs_per_world)
-        ws.n_worlds, ws.stop_others, ws.skin = m.n_worlds, int(self.world_stop_others), self.skin
+        ws.n_worlds, ws.stop_others = m.n_worlds, int(self.world_stop_others)
         ws.step, ws.flag, ws.disp, ws.fault = self._world_step, self._world_flag, self._world_disp, self._world_fault
         ws.stop, ws.stage_cycles = self._world_stop, self.world_stage_cycles
         ws.rec_bodies, ws.rec_pos, ws.rec_quat = self._rec_bodies, self._rec_pos, self._rec_quat
         a = self._kernel_args()
-        moving = ka.motion_of(self.dt, self.track_energy, self.max_speed, self.bounds)
         cut = self._world_cut
         return [wp.launch(
             world_steps_mod.world_steps_kernel, (cut[j + 1] - cut[j], self.world_lanes), block_dim=self.world_lanes,
             record_cmd=True,
             inputs=[world_steps_mod.Advance(), cut[j], ws, a.spheres, a.meshes, a.springs, a.bodies, self.materials,
-                    self.options, moving],
+                    self.options],
             outputs=[a.kin, a.state, a.ss, a.st, self._no_cohesion, a.whole_sums[0], d.build_pos, d.mesh_build_pos,
                      d.mesh_build_quat],
             device=self.device,

@@ -27,14 +27,13 @@ from __future__ import annotations
 
 import warp as wp
 
-from .contacts import LawOptions, Materials, sphere_sphere_one, sphere_triangle_one
+from .contacts import Materials, sphere_sphere_one, sphere_triangle_one
 from .data import NO_FAULT
 from .integrator import integrate_body, mesh_end_one, spring_one, update_sphere
 from .kernel_args import (
     Bodies,
     BodyState,
     Meshes,
-    Motion,
     SphereList,
     Spheres,
     SphereState,
@@ -42,6 +41,7 @@ from .kernel_args import (
     Sums,
     TriangleList,
 )
+from .types import Options
 
 wp.set_module_options({"enable_backward": False})
 
@@ -140,8 +140,6 @@ class Worlds:
     """worlds of the simulation."""
     stop_others: int
     """1: a world that needs a rebuild stops the others (all worlds' blocks resident at once)."""
-    skin: float
-    """neighbour skin of the candidate lists [m]."""
     step: wp.array(dtype=int)
     """steps each world has run in this advance, int32 (n_worlds,)."""
     flag: wp.array(dtype=int)
@@ -173,8 +171,7 @@ def world_steps_kernel(
     springs: Springs,
     bodies: Bodies,
     mats: Materials,
-    opts: LawOptions,
-    motion: Motion,
+    opts: Options,
     kin: SphereState,  # in/out
     state: BodyState,  # in/out
     ss: SphereList,  # in/out: the history
@@ -242,7 +239,7 @@ def world_steps_kernel(
         c_2 = cycle_count()
         step = adv.first_step + k + 1
         for b in range(b0 + slot, b0 + bpw, slots):
-            integrate_body(b, bodies, motion, 1, 0, step, fb, state, sums, ws.fault)
+            integrate_body(b, bodies, opts, 1, 0, step, fb, state, sums, ws.fault)
         block_sync()
         c_4 = cycle_count()
         for q in range(slot, spw + mpw, slots):
@@ -265,7 +262,7 @@ def world_steps_kernel(
         # the end of the step, for this world (simulation._end_step_kernel): every lane reads the displacements
         # and takes the same decision; then lane 0 resets them and files the step's fault
         ds = ws.disp[dm + 1]
-        rebuild = spw > 0 and ds + wp.max(ds, ws.disp[dm]) > ws.skin  # no spheres: no lists to rebuild
+        rebuild = spw > 0 and ds + wp.max(ds, ws.disp[dm]) > opts.skin  # no spheres: no lists to rebuild
         stopped = ws.disp[dm + 2] != 0.0
         block_sync()
         if lane == 0:
