@@ -1,6 +1,6 @@
-"""The kernels' argument structs (warpdem/kernel_args.py, the settings types.Options): every field documented with
-its dtype, and every array field set by the host builders from a simulation's model, state and data (the same
-arrays, no copies)."""
+"""The kernels' argument structs (warpdem/kernel_args.py, the settings types.Options, contact_law.Materials):
+every field documented with its dtype, and every array field set by the host builders from a simulation's model,
+state and data (the same arrays, no copies)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ import warpdem as wd
 from warpdem import kernel_args as ka
 from warpdem import types, world_steps
 from warpdem.accumulate import vec3l
-from warpdem.contact_law import Hist
+from warpdem.contact_law import Hist, Materials
 
 DTYPE_WORDS = {
     wp.int32: "int32", wp.float32: "float32", wp.float64: "float64", wp.uint64: "uint64", wp.int64: "int64",
@@ -30,7 +30,7 @@ STRUCT = type(ka.Bodies)
 
 def _structs() -> list[type]:
     return [c for m in (ka, world_steps, types) for _, c in inspect.getmembers(m)
-            if isinstance(c, STRUCT) and c.cls.__module__ == m.__name__]
+            if isinstance(c, STRUCT) and c.cls.__module__ == m.__name__] + [Materials]
 
 
 def _field_docs(struct: STRUCT) -> dict[str, str]:
@@ -48,7 +48,7 @@ def _field_docs(struct: STRUCT) -> dict[str, str]:
 def test_every_field_is_documented_with_its_dtype() -> None:
     structs = _structs()
     assert {"Bodies", "Spheres", "Meshes", "Springs", "BodyState", "SphereState", "SphereList", "TriangleList",
-            "Sums", "Advance", "Worlds", "Options"} <= {s.key for s in structs}
+            "Sums", "Advance", "Worlds", "Options", "Materials"} <= {s.key for s in structs}
     for struct in structs:
         docs = _field_docs(struct)
         assert list(docs) == list(struct.vars), struct.key  # every field, in order, has an annotation here

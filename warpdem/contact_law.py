@@ -74,46 +74,59 @@ def hmean(a: float, b: float) -> float:
     return 0.0
 
 
+@wp.struct
+class Materials:
+    """Per-world material tables (Simulation.materials, from the Model's), each of shape (n_worlds * n_materials,)."""
+
+    young: wp.array(dtype=float)
+    """Young's modulus [Pa], float32."""
+    poisson: wp.array(dtype=float)
+    """Poisson's ratio (Yade's: the shear to normal stiffness ratio) [-], float32."""
+    tan_friction: wp.array(dtype=float)
+    """tangent of the friction angle [-], float32."""
+    normal_coh: wp.array(dtype=float)
+    """normal cohesion [Pa], float32."""
+    shear_coh: wp.array(dtype=float)
+    """shear cohesion [Pa], float32."""
+    eta_roll: wp.array(dtype=float)
+    """rolling plasticity coefficient [-], float32."""
+    eta_twist: wp.array(dtype=float)
+    """twisting plasticity coefficient [-], float32."""
+    alpha_kr: wp.array(dtype=float)
+    """rolling stiffness factor [-], float32."""
+    alpha_ktw: wp.array(dtype=float)
+    """twisting stiffness factor [-], float32."""
+    flags: wp.array(dtype=int)
+    """MAT_MOMENT | MAT_FRAGILE | MAT_COHESIVE, int32."""
+    n_materials: int
+    """materials per world."""
+
+
 @wp.func
-def make_phys(
-    mi: int,
-    mj: int,
-    r1: float,
-    r2: float,
-    young: wp.array(dtype=float),
-    poisson: wp.array(dtype=float),
-    tan_friction: wp.array(dtype=float),
-    normal_coh: wp.array(dtype=float),
-    shear_coh: wp.array(dtype=float),
-    eta_roll: wp.array(dtype=float),
-    eta_twist: wp.array(dtype=float),
-    alpha_kr: wp.array(dtype=float),
-    alpha_ktw: wp.array(dtype=float),
-    mat_flags: wp.array(dtype=int),
-) -> Phys:
-    """Contact parameters for materials mi (radius r1) and mj (radius r2), indices into per-world tables."""
+def make_phys(mats: Materials, mi: int, mj: int, r1: float, r2: float) -> Phys:
+    """Contact parameters for materials mi (radius r1) and mj (radius r2), indices into the per-world tables."""
     p = Phys()
-    a1 = young[mi] * r1
-    a2 = young[mj] * r2
+    a1 = mats.young[mi] * r1
+    a2 = mats.young[mj] * r2
     p.kn = 2.0 * a1 * a2 / (a1 + a2)
-    b1 = a1 * poisson[mi]
-    b2 = a2 * poisson[mj]
+    b1 = a1 * mats.poisson[mi]
+    b2 = a2 * mats.poisson[mj]
     p.ks = 0.0
     if b1 + b2 > 0.0:
         p.ks = 2.0 * b1 * b2 / (b1 + b2)
-    p.kr = r1 * r2 * p.ks * hmean(alpha_kr[mi], alpha_kr[mj])
-    p.ktw = r1 * r2 * p.ks * hmean(alpha_ktw[mi], alpha_ktw[mj])
-    p.tan_phi = wp.min(tan_friction[mi], tan_friction[mj])  # tan(min(phi_i, phi_j)): tan is increasing
-    p.max_roll = wp.min(eta_roll[mi] * r1, eta_roll[mj] * r2)
-    p.max_twist = wp.min(eta_twist[mi] * r1, eta_twist[mj] * r2)
-    fi = mat_flags[mi]
-    fj = mat_flags[mj]
+    p.kr = r1 * r2 * p.ks * hmean(mats.alpha_kr[mi], mats.alpha_kr[mj])
+    p.ktw = r1 * r2 * p.ks * hmean(mats.alpha_ktw[mi], mats.alpha_ktw[mj])
+    p.tan_phi = wp.min(mats.tan_friction[mi], mats.tan_friction[mj])  # tan(min(phi_i, phi_j)): tan is increasing
+    p.max_roll = wp.min(mats.eta_roll[mi] * r1, mats.eta_roll[mj] * r2)
+    p.max_twist = wp.min(mats.eta_twist[mi] * r1, mats.eta_twist[mj] * r2)
+    fi = mats.flags[mi]
+    fj = mats.flags[mj]
     p.moment_law = int((fi & MAT_MOMENT) != 0 and (fj & MAT_MOMENT) != 0)
     p.cohesive = int((fi & MAT_COHESIVE) != 0 and (fj & MAT_COHESIVE) != 0)
     p.fragile = int((fi & MAT_FRAGILE) != 0 or (fj & MAT_FRAGILE) != 0)
     rmin = wp.min(r1, r2)
-    p.an = wp.min(normal_coh[mi], normal_coh[mj]) * rmin * rmin
-    p.as_ = wp.min(shear_coh[mi], shear_coh[mj]) * rmin * rmin
+    p.an = wp.min(mats.normal_coh[mi], mats.normal_coh[mj]) * rmin * rmin
+    p.as_ = wp.min(mats.shear_coh[mi], mats.shear_coh[mj]) * rmin * rmin
     return p
 
 

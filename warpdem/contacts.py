@@ -23,6 +23,7 @@ from .broadphase import sphere_in_body_frame
 from .contact_law import (
     ACTIVE,
     Hist,
+    Materials,
     closest_point_triangle,
     cohfrict_law,
     elastic_energy,
@@ -45,23 +46,6 @@ E_DRIVEN = wp.constant(4)  # work done by drivers (kinematic bodies, imposed vel
 N_ENERGY = wp.constant(5)  # slots per world in the energy accumulator
 
 
-@wp.struct
-class Materials:
-    """Per-world material tables, each float32 or int32 of shape (n_worlds * n_materials,)."""
-
-    young: wp.array(dtype=float)
-    poisson: wp.array(dtype=float)
-    tan_friction: wp.array(dtype=float)
-    normal_coh: wp.array(dtype=float)
-    shear_coh: wp.array(dtype=float)
-    eta_roll: wp.array(dtype=float)
-    eta_twist: wp.array(dtype=float)
-    alpha_kr: wp.array(dtype=float)
-    alpha_ktw: wp.array(dtype=float)
-    flags: wp.array(dtype=int)
-    n_materials: int
-
-
 @wp.kernel
 def tan_kernel(angle: wp.array(dtype=float), out: wp.array(dtype=float)):
     """out = tan(angle) (float32, the tangent the contact law used to take per contact)."""
@@ -71,11 +55,9 @@ def tan_kernel(angle: wp.array(dtype=float), out: wp.array(dtype=float)):
 
 @wp.func
 def phys_of(mats: Materials, world: int, mi: int, mj: int, r1: float, r2: float):
+    """The contact parameters of materials mi and mj of ``world`` (contact radii r1, r2 [m])."""
     off = world * mats.n_materials
-    return make_phys(
-        off + mi, off + mj, r1, r2, mats.young, mats.poisson, mats.tan_friction, mats.normal_coh, mats.shear_coh,
-        mats.eta_roll, mats.eta_twist, mats.alpha_kr, mats.alpha_ktw, mats.flags
-    )
+    return make_phys(mats, off + mi, off + mj, r1, r2)
 
 
 @wp.struct
