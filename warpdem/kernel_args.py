@@ -293,7 +293,7 @@ def sums_of(data: object, part: int = 0, whole: bool = True) -> Sums:
     nb = data.force_scale.shape[0]
     nm = data.mesh_force_scale.shape[0]
     ne = data.energy.shape[0]
-    if whole:
+    if whole or data.force_acc.shape[0] == nb:  # all parts, or the only one (no slices of an empty array)
         a.force_acc, a.torque_acc = data.force_acc, data.torque_acc
         a.mesh_force_acc, a.mesh_torque_acc = data.mesh_force_acc, data.mesh_torque_acc
     else:
