@@ -14,7 +14,9 @@ Protocols (simulation-wide; one simulation each, one world per cohesion factor):
   (``bond_detection_factor``; benchmarks/yade/bond_protocols_report.md checks it against Yade);
 - ``settled_new`` / ``new``: and cohesion on every new contact (Yade's setCohesionOnNewContacts);
 - ``ductile`` / ``settled_ductile``: bonds that yield instead of breaking (``fragile=False``, Yade's unpMax = 0: a
-  bond is deleted at its first tensile yield, and keeps its shear strength while it slides).
+  bond is deleted at its first tensile yield, and keeps its shear strength while it slides);
+- ``dense_settled`` / ``dense_settled_ductile``: the settled protocols on a bed deposited without friction
+  (``SoilBinConfig.deposit_friction`` 0: porosity 0.31 and coordination 8.1 at ci scale against 0.44 and 4.5).
 Cohesion factors (``--factors``): normal and shear cohesion = factor x set 11's (22.5 kPa, 11.2 kPa), per world.
 
 Per world. Soil bin: bonds after the bonding step, at 0.1 s (the tool has moved 7 cm: a loss beyond its path is the
@@ -50,6 +52,8 @@ SOIL_BIN = {
     "settled_new": {"settle_time": None, "cohesion_on_new_contacts": True},
     "ductile": {"fragile": False},
     "settled_ductile": {"settle_time": None, "fragile": False},
+    "dense_settled": {"settle_time": None, "deposit_friction": 0.0},
+    "dense_settled_ductile": {"settle_time": None, "deposit_friction": 0.0, "fragile": False},
 }
 SHEAR_BOX = {
     "touch": {},
@@ -64,13 +68,13 @@ LAB_DRAUGHT = 343.05
 def soil_bin_part(a: argparse.Namespace, done: dict[str, object], save: object) -> None:
     base = sb.SoilBinConfig(scale=a.scale, assembly="C", springs=(0,), parameter_set=11,
                             travel=a.travel, steady_travel=a.steady_travel)
-    bed = sb.bed_for(base, device=a.device, cache_dir=Path(a.out) / "beds")
     mat = base.soil_material()
     for name in a.protocols:
         if name in done:
             continue
         changes = {k: (a.settle if v is None else v) for k, v in SOIL_BIN[name].items()}
         cfg = replace(base, **changes)
+        bed = sb.bed_for(cfg, device=a.device, cache_dir=Path(a.out) / "beds")  # the dense protocols' own bed
         overrides = {"normal_cohesion": [f * mat.normal_cohesion for f in a.factors],
                      "shear_cohesion": [f * mat.shear_cohesion for f in a.factors]}
         t0 = time.perf_counter()
@@ -85,7 +89,8 @@ def soil_bin_part(a: argparse.Namespace, done: dict[str, object], save: object) 
                          "bonds_end": r["bonds_end"], "coordination_start": r["coordination_start"],
                          "coordination_end": r["coordination_end"]})
         done[name] = {"changes": changes, "worlds": rows, "wall_s": time.perf_counter() - t0, "steps": run.steps,
-                      "dt": run.dt, "bed_particles": bed.n_particles, "bed_porosity": bed.porosity}
+                      "dt": run.dt, "bed_particles": bed.n_particles, "bed_porosity": bed.porosity,
+                      "bed_coordination": bed.coordination}
         save()
         print(f"{name}: {time.perf_counter() - t0:.0f} s", flush=True)
 

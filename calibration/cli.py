@@ -637,7 +637,8 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
     if args.kind == "ringing":
         kw: dict[str, object] = {"springs": args.springs, "spring_model": args.spring_model, "fitness": args.fitness}
     else:
-        kw = {"assembly": args.assembly, "scale": args.scale, "speed": args.speed, "seed": args.seed}
+        kw = {"assembly": args.assembly, "scale": args.scale, "speed": args.speed, "seed": args.seed,
+              "deposit_friction": args.deposit_friction}
         if args.kind == "soil":
             kw["box_scale"] = args.screen_scale or SCREEN_SCALE.get(args.scale, args.scale)
         if args.beds:
@@ -1017,6 +1018,8 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--screen-scale", default=None, choices=("ci", "cpu", "paper"),
                    help="draught: shear-box scale of the screening; soil: of the shear box (default: --scale)")
     c.add_argument("--no-screen", action="store_true", help="draught: calibrate only, no shear-box screening")
+    c.add_argument("--deposit-friction", type=_number(float, ge=0, lt=90, unit="deg"), default=30.0,
+                   help="draught, soil: contact friction of the bed's deposition [deg] (0: a dense bed)")
     c.add_argument("--beds", default=None,
                    help="draught: folder of deposited beds to read and add to (default OUT/beds)")
     c.add_argument("--archive", default=None, help="archive.json of an earlier calibration to reuse")

@@ -28,7 +28,7 @@ import numpy as np
 import warpdem as wd
 from scenes import paper, shear_box
 from scenes.ringing import RingingConfig, build_ringing, run_ringing
-from scenes.soil_bin import SCALES, SoilBinConfig, bed_for, run_soil_bin
+from scenes.soil_bin import DEPOSIT_FRICTION, SCALES, SoilBinConfig, bed_for, run_soil_bin
 from warpdem import analysis
 
 from .genes import FITNESS_MODES, Gene, with_ranges
@@ -183,6 +183,7 @@ class DraughtProblem:
         travel, steady_travel: [m], default the scale's; the mean draught is taken after ``steady_travel``.
         settle_time: [s] the bed settles under each individual's soil set before the tool moves (SoilBinConfig).
         fragile: the soil's bonds break at their strength (True, Yade's default) or yield (SoilBinConfig.fragile).
+        deposit_friction: [deg] contact friction of the bed's deposition (SoilBinConfig.deposit_friction; 0: dense).
         seed: the bed's deposition seed. cache_dir: where deposited beds are kept (None: not kept).
         device: Warp device of the simulations.
     """
@@ -197,6 +198,7 @@ class DraughtProblem:
     working_depth: float = paper.WORKING_DEPTH
     settle_time: float = 0.0
     fragile: bool = True
+    deposit_friction: float = DEPOSIT_FRICTION
     seed: int = 0
     cache_dir: str | None = None
     device: str | None = None
@@ -219,7 +221,8 @@ class DraughtProblem:
         self.config = SoilBinConfig(scale=self.scale, assembly=self.assembly, springs=(0,), speed=(self.speed,),
                                     working_depth=self.working_depth, travel=self.travel,
                                     steady_travel=self.steady_travel, seed=self.seed,
-                                    settle_time=self.settle_time, fragile=self.fragile)
+                                    settle_time=self.settle_time, fragile=self.fragile,
+                                    deposit_friction=self.deposit_friction)
 
     def __getstate__(self) -> dict[str, object]:  # the bed is re-read or re-deposited by a remote worker
         return {**self.__dict__, "_bed": None}
@@ -235,7 +238,8 @@ class DraughtProblem:
                 "working_depth": self.working_depth, "travel": self.travel or p["travel"],
                 "steady_travel": self.steady_travel or p["steady_travel"], "seed": self.seed,
                 **({"settle_time": self.settle_time} if self.settle_time else {}),
-                **({} if self.fragile else {"fragile": False})}
+                **({} if self.fragile else {"fragile": False}),
+                **({} if self.deposit_friction == DEPOSIT_FRICTION else {"deposit_friction": self.deposit_friction})}
 
     def spec(self) -> dict[str, object]:
         return {**self.simulation_key(), "targets": self.targets, "genes": [asdict(g) for g in self.gene_list]}

@@ -61,6 +61,9 @@ SCALES = {
     "strip": {"bin": (0.6, 0.75, 0.45), "bed_depth": 0.25, "radius": 0.007, "travel": 0.45, "steady_travel": 0.2},
 }
 SPRING_MODELS = ("linear", "paper")
+DEPOSIT_FRICTION = 30.0
+"""contact friction [deg] of a bed's deposition (``SoilBinConfig.deposit_friction``'s default): porosity 0.456,
+coordination 4.9 at paper scale for assembly C (docs/fidelity.md)."""
 KNOBS = ("stiffness", "dashpot", "pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
          "stack_preload", "tool_mass_scale")
 """per-world settings and extensions of the passive rig with linear springs (``run_soil_bin(knobs=...)``), SI:
@@ -126,8 +129,14 @@ class SoilBinConfig:
     fragile: bool = True
     """the soil's bonds break for good at their strength (Yade's CohFrictMat default), or, False, yield in tension
     (deleted at their first tensile yield: Yade's unpMax = 0) and keep their shear strength while sliding."""
+    deposit_friction: float = DEPOSIT_FRICTION
+    """contact friction [deg] while the bed is deposited (``scenes.assemblies.deposit``; no cohesion, damping 0.4):
+    a lower friction packs the bed denser (0: the densest random packing of the particles' shapes), the way Yade
+    users compact a bed before giving it its material. The run's own soil material is set afterwards."""
 
     def __post_init__(self) -> None:
+        if not (math.isfinite(self.deposit_friction) and 0.0 <= self.deposit_friction < 90.0):
+            raise ValueError(f"deposit_friction must be in [0, 90) deg, got {self.deposit_friction!r}")
         if self.scale not in SCALES:
             raise ValueError(f"scale must be one of {sorted(SCALES)}, got {self.scale!r}")
         if self.spring_model not in SPRING_MODELS:
@@ -305,6 +314,8 @@ def bed_path(config: SoilBinConfig, cache_dir: str | Path, replica: int | None =
     p = config.preset
     spec = AssemblySpec(kind=config.assembly, radius=config.member_radius or p["radius"])
     what = [asdict(spec), p["bin"], p["bed_depth"], config.seed] + ([] if replica is None else ["replica", replica])
+    if config.deposit_friction != DEPOSIT_FRICTION:
+        what.append(["deposit_friction", config.deposit_friction])
     key = hashlib.sha1(json.dumps(what).encode()).hexdigest()[:12]
     return Path(cache_dir) / f"bed_{config.scale}_{config.assembly}_{key}.npz"
 
@@ -321,13 +332,15 @@ def bed_for(config: SoilBinConfig, *, device: str | None = None, cache_dir: str 
     path = bed_path(config, cache_dir, replica) if cache_dir else None
     if path is not None and path.exists():
         return Bed.load(path)
+    packing = {"friction_angle": config.deposit_friction,  # a denser packing needs more particles to fill the depth
+               "porosity_guess": 0.45 if config.deposit_friction >= 20.0 else 0.36}
     if replica is None:
-        bed = deposit(spec, p["bin"], p["bed_depth"], seed=config.seed, device=device, progress=progress)
+        bed = deposit(spec, p["bin"], p["bed_depth"], seed=config.seed, device=device, progress=progress, **packing)
     else:
         if not (isinstance(replica, int) and replica >= 0):
             raise InputError(f"replica must be an integer >= 0, got {replica!r}")
         bed = deposit(spec, p["bin"], p["bed_depth"], seed=replica, device=device,
-                      progress=progress, population_seed=config.seed)
+                      progress=progress, population_seed=config.seed, **packing)
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         bed.save(path)
