@@ -960,9 +960,10 @@ def main(argv: list[str] | None = None) -> int:
                         "-4,-2,2,4,6,8,9)")
     t.add_argument("--variants", type=_variants, default=None,
                    help="tool variants of the passive runs, comma-separated (default fitted,din_preload)")
-    t.add_argument("--soil", choices=("workflow", "bonded"), default="workflow",
+    t.add_argument("--soil", choices=("workflow", "bonded", "dense"), default="workflow",
                    help="workflow: the paper-scale workflow's calibrated soil (default); bonded: GA set 11 with 4x its "
-                        "cohesions, yielding bonds on a settled bed (its draught and shear box match the lab's)")
+                        "cohesions, yielding bonds on a settled bed (its draught and shear box match the lab's); "
+                        "dense: GA set 11, yielding bonds on a bed deposited without friction")
     t.add_argument("--budget", type=_number(float, gt=0, unit="s"), default=None,
                    help="wall time [s] of this call; a soil-bin stage stops into its checkpoint (exit code 3) and "
                         "the same command continues")
