@@ -662,6 +662,7 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
             screen_scale=(args.screen_scale or SCREEN_SCALE.get(args.scale, args.scale))
             if args.kind == "draught" and not args.no_screen else None,
             archive=args.archive, resume=not args.no_resume, progress=show, genes=genes, budget=args.budget,
+            **({"stage_progress": _bar} if args.kind != "ringing" else {}),
             screen_progress=lambda ph, d, n: _bar(f"screening: shear box {ph}", int(1e6 * d), int(1e6 * n)), **kw)
     except BudgetExhausted as e:
         print(f"warpdem calibrate: {e}; the generations so far are in {out}", file=sys.stderr)

@@ -186,6 +186,8 @@ class DraughtProblem:
         deposit_friction: [deg] contact friction of the bed's deposition (SoilBinConfig.deposit_friction; 0: dense).
         seed: the bed's deposition seed. cache_dir: where deposited beds are kept (None: not kept).
         device: Warp device of the simulations.
+        stage_progress: ``f(stage, done, total)`` of the bed's deposition and of each simulation of a batch, in this
+            process (not sent to remote workers).
     """
 
     assembly: str = "C"
@@ -202,6 +204,7 @@ class DraughtProblem:
     seed: int = 0
     cache_dir: str | None = None
     device: str | None = None
+    stage_progress: Callable[[str, float, float], None] | None = field(default=None, repr=False, compare=False)
 
     name = "draught"
     default_genes = DRAUGHT_GENES
@@ -225,11 +228,13 @@ class DraughtProblem:
                                     deposit_friction=self.deposit_friction)
 
     def __getstate__(self) -> dict[str, object]:  # the bed is re-read or re-deposited by a remote worker
-        return {**self.__dict__, "_bed": None}
+        return {**self.__dict__, "_bed": None, "stage_progress": None}
 
     def bed(self):  # noqa: ANN201 (scenes.assemblies.Bed)
         if self._bed is None:
-            self._bed = bed_for(self.config, device=self.device, cache_dir=self.cache_dir)
+            bar = self.stage_progress  # a phase at rest early reports the deposition's max_time (3 s) last
+            self._bed = bed_for(self.config, device=self.device, cache_dir=self.cache_dir,
+                                progress=(lambda ph, t, ke: bar(f"deposition: {ph}", t, 3.0)) if bar else None)
         return self._bed
 
     def simulation_key(self) -> dict[str, object]:
@@ -256,8 +261,10 @@ class DraughtProblem:
         """Observables per individual (n, 3) -> [{draught_mean_n, draught_std_n, draught_sem_n}] (the last: the
         mean's standard error from the correlated record's effective sample size), one simulation of n worlds."""
         values = np.atleast_2d(np.asarray(values, dtype=np.float64))
+        bar = self.stage_progress
         run = run_soil_bin(self.config, [0] * len(values), bed=self.bed(), device=self.device,
-                           soil_overrides=self.soil_overrides(values))
+                           soil_overrides=self.soil_overrides(values),
+                           progress=(lambda d, n: bar(f"soil bin: {len(values)} worlds", d, n)) if bar else None)
         return [{"draught_mean_n": float(r["draught_mean"]), "draught_std_n": float(r["draught_std"]),
                  "draught_sem_n": float(r["draught_sem"])} for r in run.steady]
 
@@ -341,7 +348,9 @@ class SoilProblem(DraughtProblem):
                    for i in range(len(values))]
         if self._box_bed is None:
             self._box_bed = shear_box.make_bed(self.box, self.device)
-        boxes = shear_box.run_shear_boxes(configs, self.device, bed=self._box_bed)
+        bar = self.stage_progress
+        boxes = shear_box.run_shear_boxes(configs, self.device, bed=self._box_bed,
+                                          progress=(lambda ph, d, n: bar(f"shear box: {ph}", d, n)) if bar else None)
         for row, res in zip(rows, boxes, strict=True):
             row.update(cohesion_kpa=float(res.fit.cohesion / 1e3), friction_angle_deg=float(res.fit.friction_angle_deg),
                        r2=float(res.fit.r2))

@@ -27,6 +27,7 @@ import hashlib
 import json
 import math
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
@@ -576,16 +577,18 @@ def _stop_carriages(sim: wd.Simulation, worlds: np.ndarray) -> None:
             sim.set_body_velocity(name, (0.0, 0.0, 0.0), worlds)
 
 
-def _settle(sim: wd.Simulation, duration: float, carriage_vel: np.ndarray) -> None:
+def _settle(sim: wd.Simulation, duration: float, carriage_vel: np.ndarray,
+            progress: Callable[[int, int], None] | None = None) -> None:
     """Let the bed settle for ``duration`` [s] with the driven bodies at rest and damping SETTLE_DAMPING on the soil,
-    then give the driven bodies their carriage velocities [m/s] (n_worlds, 3) back and start the clock at 0."""
+    then give the driven bodies their carriage velocities [m/s] (n_worlds, 3) back and start the clock at 0.
+    ``progress(steps done, steps)`` as :meth:`warpdem.Simulation.run` reports it."""
     m = sim.model
     worlds = np.arange(m.n_worlds)
     _stop_carriages(sim, worlds)
     soil = m.names["group"]["soil"]
-    saved = m.group_damping.numpy().reshape(m.n_worlds, m.n_groups)[:, soil].copy()
+    saved = sim.control.group_damping.numpy().reshape(m.n_worlds, m.n_groups)[:, soil].copy()
     sim.set_local_damping("soil", SETTLE_DAMPING)
-    sim.run(int(round(duration / sim.dt)))
+    sim.run(int(round(duration / sim.dt)), progress=progress)
     sim.set_local_damping("soil", saved)
     for name in ("sweep_lower", "carriage", "support"):
         if name in m.names["body"]:
@@ -682,6 +685,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
     ``pitch``: per world, the tool's backward rotation about its pivot at the start [deg] (n_worlds,) (rigid:
     the pose it keeps; passive: where its springs take it from). The particles any world's tool would overlap at
     the start are left out of every world.
+    ``progress(steps done, steps)``: over the bed's settling (``config.settle_time``) and the travel together.
     """
     t0 = time.perf_counter()
     if deadline is not None and checkpoint is None:
@@ -740,8 +744,15 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
     sensor = wd.observers.body_point("sweep_lower", points)
     if drawing:
         sensor(sim)
-    if config.settle_time > 0:
-        _settle(sim, config.settle_time, carriage_vel)
+    every = max(1, int(round(1.0 / (config.sample_rate * dt))))
+    # each world's carriage stops after `travel` (whole records, so the sampling stays uniform); the run ends when
+    # the slowest one does
+    stop = (np.ceil(travel / speeds_a / dt / every) * every).astype(int)
+    n_steps = int(stop.max())
+    n_settle = int(round(config.settle_time / dt)) if config.settle_time > 0 else 0
+    if n_settle:  # the progress runs over the settling and the travel together
+        _settle(sim, config.settle_time, carriage_vel,
+                (lambda d, n: progress(d, n_settle + n_steps)) if progress else None)
     sim.set_cohesion_now()
     s0 = np.full(len(springs), tool.sensor_point[1]) if drawing else sensor(sim)[:, 1].copy()
     contact = wd.observers.mesh_wrench("sweep_lower")
@@ -753,10 +764,6 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
     else:
         def draught(s: wd.Simulation) -> np.ndarray:
             return -contact(s)[:, 0, 1]
-    every = max(1, int(round(1.0 / (config.sample_rate * dt))))
-    # each world's carriage stops after `travel` (whole records, so the sampling stays uniform); the run ends when
-    # the slowest one does
-    stop = (np.ceil(travel / speeds_a / dt / every) * every).astype(int)
     observers = {
         "draught": draught,
         # against the carriage where it is: it stops at its last whole record, up to a record past ``travel``
@@ -766,7 +773,6 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
         "coordination": wd.observers.coordination_number("soil"),
         "bonds": wd.observers.cohesive_bonds("soil"),
     }
-    n_steps = int(stop.max())
     # the spring spheres' support moves into its offset (+ = against travel) over SUPPORT_RAMP, then rides along
     events, ramp = set(stop.tolist()), -1
     if config.spring_model == "paper" and not rigid and any(info["support_offset_m"]):
@@ -804,7 +810,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
         while done < end:
             k = min(chunk, end - done) if ck is not None else end - done
             part = sim.run(k, record_every=every, observers=observers,
-                           progress=(lambda d, n, base=done: progress(base + d, n_steps)) if progress else None)
+                           progress=(lambda d, n, base=done: progress(n_settle + base + d, n_settle + n_steps))
+                           if progress else None)
             part.pop("vtk", None)  # frames are files, not series
             parts.append(part if not parts else {kk: v[1:] for kk, v in part.items()})  # drop the repeated record
             done += k

@@ -324,10 +324,11 @@ def test_calibrate_command_writes_a_table_2_report(tmp_path) -> None:
     assert (out / "convergence.png").stat().st_size > 0 and "| index |" in (out / "report.md").read_text()
 
 
-def test_calibrations_share_a_bed_folder_and_can_skip_screening(tmp_path) -> None:
+def test_calibrations_share_a_bed_folder_and_can_skip_screening(tmp_path, capsys) -> None:
     # `--beds DIR`: the first draught calibration deposits its bed there, the second reads it (the file is not
     # written again) and, on the same bed with the same GA seed, simulates the same individuals to the same bits.
-    # `--no-screen`: no shear-box screening in the result. (warpdem against itself: plumbing, not physics.)
+    # `--no-screen`: no shear-box screening in the result. (warpdem against itself: plumbing, not physics.) Each
+    # stage shows its bar: the deposition, then every batch's soil-bin simulation, each run to 100 %.
     import json
 
     from calibration.cli import main
@@ -336,6 +337,9 @@ def test_calibrations_share_a_bed_folder_and_can_skip_screening(tmp_path) -> Non
     args = ["calibrate", "draught", "--scale", "ci", "--generations", "1", "--population", "2", "--parents", "1",
             "--no-screen", "--beds", str(beds), "--device", DEVICE]
     assert main([*args, "--out", str(tmp_path / "one")]) == 0
+    bars = capsys.readouterr().err
+    assert "deposition: fill" in bars and "deposition: cut" in bars
+    assert "soil bin: 2 worlds" in bars and bars.count("100 %") >= 3
     (bed,) = beds.glob("bed_ci_C_*.npz")
     written = bed.stat().st_mtime_ns
     assert main([*args, "--out", str(tmp_path / "two")]) == 0
