@@ -68,8 +68,8 @@ def digest(sim: wd.Simulation) -> dict[str, str]:
         "energy": [d.energy.numpy()],
         "lists": [d.ss.start.numpy(), d.ss.count.numpy(), d.ss.key_a.numpy(), d.ss.hist.numpy(),
                   d.st.start.numpy(), d.st.count.numpy(), d.st.key_a.numpy(), d.st.key_b.numpy(), d.st.hist.numpy()],
-        "counters": [d.counters.numpy(), d.fault.numpy(), sim.model.group_damping.numpy(),
-                     sim.model.body_pivot_vel.numpy()],
+        "counters": [d.counters.numpy(), d.fault.numpy(), sim.control.group_damping.numpy(),
+                     sim.control.pivot_vel.numpy()],
     }
     out = {}
     total = hashlib.sha256()

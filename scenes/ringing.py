@@ -423,7 +423,7 @@ def run_ringing(config: RingingConfig | None = None, *, device: str | None = Non
     s0 = sensor(sim)[:, 1].copy()
     # settle under the load
     damped = [g for g in ("tool", "load", "springs") if g in model.names["group"]]
-    saved = model.group_damping.numpy().reshape(model.n_worlds, model.n_groups).copy()
+    saved = sim.control.group_damping.numpy().reshape(model.n_worlds, model.n_groups).copy()
     for g in damped:
         sim.set_local_damping(g, SETTLE_DAMPING)
     n_settle = int(round(cfg.settle_time / dt))

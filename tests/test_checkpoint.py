@@ -28,7 +28,8 @@ def test_restored_run_continues_identically(tmp_path) -> None:
     b = make()
     wd.checkpoint.load(b, tmp_path / "ck.npz")
     assert b.state.step == 2500
-    np.testing.assert_array_equal(b.model.group_damping.numpy(), a.model.group_damping.numpy())
+    np.testing.assert_array_equal(b.control.group_damping.numpy(), a.control.group_damping.numpy())
+    np.testing.assert_array_equal(b.control.pivot_vel.numpy(), a.control.pivot_vel.numpy())
     b.advance(1500)
     for k in a.state.ARRAYS:
         np.testing.assert_array_equal(getattr(a.state, k).numpy(), getattr(b.state, k).numpy())
@@ -36,6 +37,30 @@ def test_restored_run_continues_identically(tmp_path) -> None:
     np.testing.assert_array_equal(a.data.ss.hist.numpy(), b.data.ss.hist.numpy())
     assert a.state.time == b.state.time
     assert wd.observers.contact_count(a).sum() > 0
+
+
+def test_setters_change_the_control_not_the_model(tmp_path) -> None:
+    """The Model stays as built; a format-4 file (the Control's arrays stored as the model's) still loads."""
+    a = make()
+    built = a.model.group_damping.numpy().copy()
+    a.advance(200)
+    a.set_local_damping("soil", 0.05)
+    np.testing.assert_array_equal(a.model.group_damping.numpy(), built)
+    assert not np.array_equal(a.control.group_damping.numpy(), built)
+    wd.checkpoint.save(a, tmp_path / "ck.npz")
+    with np.load(tmp_path / "ck.npz") as f:
+        data = {k: f[k] for k in f.files}
+    data["format"] = np.array(4)
+    data["model/body_pivot_vel"] = data.pop("control/pivot_vel")
+    data["model/group_damping"] = data.pop("control/group_damping")
+    _resave(tmp_path / "old.npz", data)
+    a.advance(300)
+    b = make()
+    wd.checkpoint.load(b, tmp_path / "old.npz")
+    np.testing.assert_array_equal(b.control.group_damping.numpy(), a.control.group_damping.numpy())
+    b.advance(300)
+    for k in a.state.ARRAYS:
+        np.testing.assert_array_equal(getattr(a.state, k).numpy(), getattr(b.state, k).numpy())
 
 
 def test_checkpoint_of_another_scene_is_refused(tmp_path) -> None:

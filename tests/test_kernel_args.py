@@ -1,11 +1,14 @@
 """The kernels' argument structs (warpdem/kernel_args.py, the settings types.Options, contact_law.Materials):
 every field documented with its dtype, and every array field set by the host builders from a simulation's model,
-state and data (the same arrays, no copies)."""
+state and data (the same arrays, no copies). The host-side types (types.Control): every field documented with its
+unit, dtype and shape."""
 
 from __future__ import annotations
 
 import ast
+import dataclasses
 import inspect
+import re
 
 import numpy as np
 import warp as wp
@@ -33,9 +36,9 @@ def _structs() -> list[type]:
             if isinstance(c, STRUCT) and c.cls.__module__ == m.__name__] + [Materials]
 
 
-def _field_docs(struct: STRUCT) -> dict[str, str]:
+def _field_docs(struct: STRUCT | type) -> dict[str, str]:
     """Field name -> the docstring that follows its annotation in the class body."""
-    tree = ast.parse(inspect.getsource(struct.cls).lstrip())
+    tree = ast.parse(inspect.getsource(getattr(struct, "cls", struct)).lstrip())
     body = tree.body[0].body
     docs = {}
     for stmt, nxt in zip(body, body[1:] + [None], strict=True):
@@ -65,7 +68,7 @@ def test_builders_set_every_array_with_the_simulations_own() -> None:
     sim = wd.Simulation(model, state, dt=2e-5, contact_threads="pair")
     d = sim.data
     built = {
-        "bodies": ka.bodies_of(model), "spheres": ka.spheres_of(model), "meshes": ka.meshes_of(model, d),
+        "bodies": ka.bodies_of(model, sim.control), "spheres": ka.spheres_of(model), "meshes": ka.meshes_of(model, d),
         "springs": ka.springs_of(model), "state": ka.body_state_of(state), "kin": ka.sphere_state_of(d),
         "ss": ka.sphere_list_of(d.ss), "st": ka.triangle_list_of(d.st), "sums": ka.sums_of(d),
     }
@@ -74,6 +77,8 @@ def test_builders_set_every_array_with_the_simulations_own() -> None:
             if isinstance(var.type, wp.array):
                 assert getattr(struct, field) is not None, f"{name}.{field}"
     assert built["spheres"].radius is model.sphere_radius
+    assert built["bodies"].group_damping is sim.control.group_damping
+    assert built["bodies"].pivot_vel is sim.control.pivot_vel
     assert built["state"].pos is state.body_pos
     assert built["ss"].hist is d.ss.hist and built["ss"].owner is d.ss.owner
     assert built["sums"].force_acc is d.force_acc
@@ -90,3 +95,31 @@ def test_options_hold_the_simulations_settings() -> None:
     assert o.dt == 2e-5 and np.float32(o.skin) == np.float32(1e-3) and o.unp_max == -1.0
     assert np.float32(o.bond_gap) == np.float32(0.1) and o.max_speed == sim.max_speed
     assert tuple(o.lower) == tuple(sim.bounds[0]) and tuple(o.upper) == tuple(sim.bounds[1])
+
+
+HOST_TYPES = (types.Control,)
+"""the host-side dataclasses of types.py whose fields are arrays."""
+ARRAY_WORDS = ("int32", "float32", "float64", "vec3f", "vec3d", "quatd", "vec3l", "Hist", "uint64", "int64")
+
+
+def test_host_types_document_unit_dtype_and_shape() -> None:
+    """Every field of types.Control: a docstring with a unit in brackets, a dtype and a shape in parentheses."""
+    for cls in HOST_TYPES:
+        docs = _field_docs(cls)
+        assert list(docs) == [f.name for f in dataclasses.fields(cls)], cls.__name__
+        for name, doc in docs.items():
+            where = f"{cls.__name__}.{name}: {doc!r}"
+            assert re.search(r"\[[^\]]*\]", doc), f"{where} names no unit"
+            assert any(w in doc for w in ARRAY_WORDS), f"{where} names no dtype"
+            assert re.search(r"\([^()]*,\)", doc), f"{where} names no shape"
+
+
+def test_control_holds_copies_of_the_models_values() -> None:
+    model, state = packing_scene(np.zeros(3)).finalize(DEVICE, n_worlds=2)
+    sim = wd.Simulation(model, state, dt=2e-5)
+    c = sim.control
+    for field in dataclasses.fields(types.Control):
+        arr = getattr(c, field.name)
+        assert arr is not getattr(model, {"pivot_vel": "body_pivot_vel"}.get(field.name, field.name))
+        assert arr.device == model.device
+    np.testing.assert_array_equal(c.group_damping.numpy(), model.group_damping.numpy())

@@ -1,11 +1,10 @@
 """Checkpoints: save the full dynamic state of a Simulation (bodies, contact history, broad-phase reference
 positions, counters, energy accumulators, the last step's spring forces and body and mesh forces and torques that
-observers read, and the model values
-a run may change while it goes: pivot velocities set by ``set_body_velocity`` and local damping set by
-``set_local_damping``) and restore it into a Simulation built
-from the same scene.
+observers read, and the run's ``types.Control``: pivot velocities set by ``set_body_velocity`` and local damping set
+by ``set_local_damping``) and restore it into a Simulation built from the same scene.
 
-A restored CPU run continues bit for bit as the uninterrupted one would.
+A restored CPU run continues bit for bit as the uninterrupted one would. Files of format 4 (the Control's arrays
+stored as the model's ``body_pivot_vel`` and ``group_damping``) are read too.
 
 The file carries a manifest (every array's shape, dtype and CRC-32); loading checks it, then checks the arrays
 against the simulation (shapes, finite state, candidate lists inside their capacity, partners that exist) and
@@ -25,13 +24,17 @@ import warp as wp
 from .errors import InputError
 from .files import write_atomic
 
-_FORMAT = 4  # 2: five energy slots (driven work), mutable model arrays; 3: manifest with checksums; 4: the last
-# step's forces (what an observer reads before the next step)
+_FORMAT = 5  # 2: five energy slots (driven work), mutable model arrays; 3: manifest with checksums; 4: the last
+# step's forces (what an observer reads before the next step); 5: the Control's arrays as control/...
+_READS = (4, 5)
+"""the formats :func:`load` reads."""
 _SIM_ARRAYS = ("energy", "counters", "build_pos", "mesh_build_pos", "mesh_build_quat", "cohesion_now", "fault",
                "spring_force", "body_force", "body_torque", "mesh_force", "mesh_torque")
 """fields of Simulation.data (warpdem/data.py) saved beside the state and the candidate lists."""
-_MODEL_ARRAYS = ("body_pivot_vel", "group_damping")
-"""model arrays that the Simulation's setters change during a run."""
+_CONTROL_ARRAYS = ("pivot_vel", "group_damping")
+"""fields of Simulation.control (types.Control), saved as ``control/<field>``."""
+_FORMAT4_KEYS = {"control/pivot_vel": "model/body_pivot_vel", "control/group_damping": "model/group_damping"}
+"""where a format-4 file keeps the Control's arrays."""
 
 
 def _signature(sim: object) -> np.ndarray:
@@ -49,8 +52,8 @@ def save(sim: object, path: str | os.PathLike) -> None:
     data["dt"] = np.array(sim.dt)
     for k in _SIM_ARRAYS:
         data["sim/" + k] = getattr(sim.data, k).numpy()
-    for k in _MODEL_ARRAYS:
-        data["model/" + k] = getattr(sim.model, k).numpy()
+    for k in _CONTROL_ARRAYS:
+        data["control/" + k] = getattr(sim.control, k).numpy()
     for name in ("ss", "st"):
         lst = getattr(sim.data, name)
         data[f"{name}/capacity"] = np.array(lst.capacity)
@@ -73,8 +76,9 @@ def _read(path: str | os.PathLike) -> dict[str, np.ndarray]:
     except (OSError, EOFError, ValueError, zipfile.BadZipFile) as e:
         raise InputError(f"{where} is not readable ({type(e).__name__}: {e})") from None
     fmt = int(data["format"]) if "format" in data and data["format"].shape == () else -1
-    if fmt != _FORMAT:
-        raise InputError(f"{where} has format {fmt}; this warpdem reads format {_FORMAT} (run again from the start)")
+    if fmt not in _READS:
+        raise InputError(f"{where} has format {fmt}; this warpdem reads formats {list(_READS)} (run again from the "
+                         "start)")
     try:
         manifest = json.loads(str(data.pop("manifest")))
     except (KeyError, ValueError):
@@ -87,6 +91,10 @@ def _read(path: str | os.PathLike) -> dict[str, np.ndarray]:
             what = (f"shape {list(v.shape)}, dtype {v.dtype.str} (manifest {shape}, {dtype})"
                     if [list(v.shape), v.dtype.str] != [shape, dtype] else "checksum differs from its manifest")
             raise InputError(f"{where}: field {k!r} is damaged: {what}")
+    if fmt == 4:
+        for new, old in _FORMAT4_KEYS.items():
+            if old in data:
+                data[new] = data.pop(old)
     return data
 
 
@@ -111,8 +119,8 @@ def _check(sim: object, data: dict[str, np.ndarray], where: str) -> None:
             raise InputError(f"{where}: field 'state/{k}' holds NaN or inf")
     for k in _SIM_ARRAYS:
         expect("sim/" + k, _host_shape(getattr(sim.data, k)))
-    for k in _MODEL_ARRAYS:
-        expect("model/" + k, _host_shape(getattr(sim.model, k)))
+    for k in _CONTROL_ARRAYS:
+        expect("control/" + k, _host_shape(getattr(sim.control, k)))
     m = sim.model
     for name, partners in (("ss", (m.n_spheres,)), ("st", (m.n_meshes, _max_faces(sim)))):
         expect(f"{name}/capacity", ())
@@ -159,8 +167,8 @@ def load(sim: object, path: str | os.PathLike) -> None:
     sim.state.step = int(data["step"])
     for k in _SIM_ARRAYS:
         getattr(sim.data, k).assign(data["sim/" + k])
-    for k in _MODEL_ARRAYS:
-        getattr(sim.model, k).assign(data["model/" + k])
+    for k in _CONTROL_ARRAYS:
+        getattr(sim.control, k).assign(data["control/" + k])
     for name in ("ss", "st"):
         lst, scratch = getattr(sim.data, name), getattr(sim.data, name + "_new")
         cap = int(data[f"{name}/capacity"])

@@ -25,7 +25,8 @@ wp.set_module_options({"enable_backward": False})
 # ----------------------------------------------------------------------------- Model
 @wp.struct
 class Bodies:
-    """The bodies (Model): each array of shape (nb,) but ``group_damping``."""
+    """The bodies (Model, and the Control's pivot velocities and damping): each array of shape (nb,) but
+    ``group_damping``."""
 
     world: wp.array(dtype=int)
     """world of each body, int32."""
@@ -40,11 +41,12 @@ class Bodies:
     pivot: wp.array(dtype=wp.vec3d)
     """a hinged body's pivot from its centre of mass, principal frame [m], vec3d."""
     pivot_vel: wp.array(dtype=wp.vec3d)
-    """velocity of a hinged body's pivot [m/s], vec3d (changed by Simulation.set_body_velocity)."""
+    """velocity of a hinged body's pivot [m/s], vec3d (``types.Control.pivot_vel``)."""
     pivot_friction: wp.array(dtype=wp.float64)
     """dry friction torque at a hinged body's pivot [N m], float64."""
     group_damping: wp.array(dtype=float)
-    """Cundall local damping per world and group [-], float32 (n_worlds * n_groups,)."""
+    """Cundall local damping per world and group [-], float32 (n_worlds * n_groups,)
+    (``types.Control.group_damping``)."""
     n_groups: int
     """damping groups per world."""
     gravity: wp.vec3d
@@ -218,13 +220,13 @@ class Sums:
 
 
 # ----------------------------------------------------------------------------- made on the host
-def bodies_of(model: object) -> Bodies:
-    """The :class:`Bodies` of a Model."""
+def bodies_of(model: object, control: object) -> Bodies:
+    """The :class:`Bodies` of a Model with a run's ``types.Control``."""
     a = Bodies()
     a.world, a.group, a.flags = model.body_world, model.body_group, model.body_flags
     a.mass, a.inertia = model.body_mass, model.body_inertia
-    a.pivot, a.pivot_vel, a.pivot_friction = model.body_pivot, model.body_pivot_vel, model.body_pivot_friction
-    a.group_damping, a.n_groups, a.gravity = model.group_damping, model.n_groups, wp.vec3d(*model.gravity)
+    a.pivot, a.pivot_vel, a.pivot_friction = model.body_pivot, control.pivot_vel, model.body_pivot_friction
+    a.group_damping, a.n_groups, a.gravity = control.group_damping, model.n_groups, wp.vec3d(*model.gravity)
     return a
 
 

@@ -34,7 +34,8 @@ def dof_mask(blocked: str) -> int:
 
 @dataclass
 class Model:
-    """Static description of a (batched) scene, on one device. Produced by :meth:`ModelBuilder.finalize`.
+    """Static description of a (batched) scene, on one device. Produced by :meth:`ModelBuilder.finalize` and not
+    changed after it (what a run changes is in ``types.Control``).
 
     Sizes: ``n_worlds`` worlds, each with ``bodies_per_world`` bodies, ``spheres_per_world`` spheres,
     ``meshes_per_world`` mesh instances and ``springs_per_world`` springs; the arrays hold all worlds.
@@ -66,7 +67,8 @@ class Model:
     """pivot of a hinged body (FLAG_PIVOT) in its principal frame, relative to the centre of mass [m], vec3d
     (n_bodies,); zero for other bodies."""
     body_pivot_vel: wp.array
-    """velocity of a hinged body's pivot (the carriage), world frame [m/s], vec3d (n_bodies,)."""
+    """initial velocity of a hinged body's pivot (the carriage), world frame [m/s], vec3d (n_bodies,) (a run's
+    current one: ``types.Control.pivot_vel``)."""
     body_pivot_friction: wp.array
     """dry (Coulomb) friction torque at a hinged body's pivot [N m], float64 (n_bodies,); 0: frictionless."""
 
@@ -111,6 +113,8 @@ class Model:
 
     # Local damping per world and group (n_worlds * n_groups,)
     group_damping: wp.array
+    """initial Cundall local damping [-] per world and group, float32 (n_worlds * n_groups,) (a run's current one:
+    ``types.Control.group_damping``)."""
 
     # Springs (n_springs,)
     spring_body_a: wp.array

@@ -35,7 +35,7 @@ from .errors import InputError, SimulationError, check_finite, check_positive
 from .integrator import integrate_bodies_kernel, mesh_end_one, spring_kernel, update_spheres_kernel
 from .model import FLAG_PIVOT, Model, State
 from .timestep import critical_timestep
-from .types import Options
+from .types import Control, Options
 
 wp.set_module_options({"enable_backward": False})
 
@@ -167,7 +167,7 @@ class _KernelArgs:
         self.spheres = ka.spheres_of(m)
         self.meshes = ka.meshes_of(m, d)
         self.springs = ka.springs_of(m)
-        self.bodies = ka.bodies_of(m)
+        self.bodies = ka.bodies_of(m, sim.control)
         self.state = ka.body_state_of(sim.state)
         self.kin = ka.sphere_state_of(d)
         self.ss = ka.sphere_list_of(d.ss)
@@ -177,7 +177,8 @@ class _KernelArgs:
 
 
 class Simulation:
-    """Time stepping of a Model/State pair.
+    """Time stepping of a Model/State pair. What the setters change (pivot velocities, local damping) is the
+    simulation's own ``control`` (types.Control, made from the Model's initial values); the Model is not changed.
 
     Args:
         model, state: from :meth:`ModelBuilder.finalize`.
@@ -265,6 +266,7 @@ class Simulation:
         check_positive("max_speed", max_speed)
         self.model = model
         self.state = state
+        self.control = Control.of(model)  # what the setters change (types.py); the model stays as built
         self.device = model.device
         self.dt = float(dt)
         self.dt_critical = critical_timestep(model)
@@ -664,9 +666,10 @@ class Simulation:
         values = np.broadcast_to(np.asarray(damping, dtype=np.float64), (m.n_worlds,))
         if np.any(~np.isfinite(values)) or np.any((values < 0) | (values >= 1)):
             raise InputError(f"local damping must be in [0, 1), got {values.tolist()}")
-        table = m.group_damping.numpy().reshape(m.n_worlds, m.n_groups)
+        damping = self.control.group_damping
+        table = damping.numpy().reshape(m.n_worlds, m.n_groups)
         table[:, m.names["group"][group]] = values
-        m.group_damping.assign(wp.array(table.reshape(-1).astype(np.float32), dtype=float, device=m.device))
+        damping.assign(wp.array(table.reshape(-1).astype(np.float32), dtype=float, device=m.device))
 
     def set_body_velocity(self, name: str, velocity: object, worlds: object | None = None) -> None:
         """Set a named body's velocity [m/s] now: (3,) or (n_worlds, 3) values, in every world or in ``worlds``.
@@ -682,7 +685,7 @@ class Simulation:
         values = np.broadcast_to(np.asarray(velocity, dtype=np.float64), (len(idx), 3))
         check_finite("velocity", values)
         hinged = (m.host["body_flags"][idx[0]] & FLAG_PIVOT) != 0 if len(idx) else False
-        target = m.body_pivot_vel if hinged else self.state.body_vel
+        target = self.control.pivot_vel if hinged else self.state.body_vel
         table = target.numpy().copy()
         table[idx] = values
         target.assign(table)

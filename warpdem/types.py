@@ -1,11 +1,24 @@
-"""Settings of a simulation as the kernels read them (issue #40, item 2, in part): :class:`Options`, fixed when a
-:class:`~warpdem.simulation.Simulation` is made (``Simulation.options``). The time step reaches the kernels once,
-in float64; the contact law takes it in float32 (the same rounding as a float32 given on the host).
+"""What a simulation holds besides its static Model and its State (issue #40, item 2):
+
+- :class:`Options`: the settings the kernels read, fixed when a :class:`~warpdem.simulation.Simulation` is made
+  (``Simulation.options``). The time step reaches the kernels once, in float64; the contact law takes it in float32
+  (the same rounding as a float32 given on the host).
+- :class:`Control`: what the host changes while a run goes (``Simulation.control``: set by
+  ``Simulation.set_body_velocity`` and ``Simulation.set_local_damping``, saved by checkpoints); the Model is not
+  changed after ``ModelBuilder.finalize``.
+
+Sizes: ``nb`` bodies, ``W`` worlds, ``G`` damping groups per world.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
 import warp as wp
+
+if TYPE_CHECKING:
+    from .model import Model
 
 wp.set_module_options({"enable_backward": False})
 
@@ -34,3 +47,22 @@ class Options:
     """lower corner of the bounds [m], vec3d; a body outside them is a fault."""
     upper: wp.vec3d
     """upper corner of the bounds [m], vec3d."""
+
+
+@dataclass
+class Control:
+    """The values a run may change from the host while it goes, on the model's device; made from the Model's
+    initial values by :meth:`of`. (A body that is not hinged has its imposed velocity in ``State.body_vel``: a
+    kinematic body keeps it, a dynamic one continues from it.)"""
+
+    pivot_vel: wp.array
+    """velocity of each hinged body's pivot (the carriage), world frame [m/s], vec3d (nb,); zero for other
+    bodies."""
+    group_damping: wp.array
+    """Cundall local damping of each world's body groups [-], float32 (W * G,), world after world."""
+
+    @classmethod
+    def of(cls, model: Model) -> Control:
+        """A Control holding copies of ``model``'s initial values (``Model.body_pivot_vel``,
+        ``Model.group_damping``), so that changing it leaves the Model as built."""
+        return cls(pivot_vel=wp.clone(model.body_pivot_vel), group_damping=wp.clone(model.group_damping))
