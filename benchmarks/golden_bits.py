@@ -59,15 +59,15 @@ PLATE_STEPS = 8000
 # ----------------------------------------------------------------------------- hashing
 def digest(sim: wd.Simulation) -> dict[str, str]:
     """SHA-256 (hex, first 16 digits) of each group of final arrays, and of all of them ("all")."""
-    s, d = sim.state, sim.data
+    s, d, c = sim.state, sim.data, sim.contacts
     groups = {
         "state": [getattr(s, k).numpy() for k in s.ARRAYS] + [np.array([s.time, s.step])],
         "spheres": [d.sphere_pos.numpy(), d.sphere_vel.numpy(), d.sphere_angvel.numpy(), d.sphere_arm.numpy()],
         "forces": [d.body_force.numpy(), d.body_torque.numpy(), d.mesh_force.numpy(), d.mesh_torque.numpy(),
                    d.mesh_force_sum.numpy(), d.spring_force.numpy()],
         "energy": [d.energy.numpy()],
-        "lists": [d.ss.start.numpy(), d.ss.count.numpy(), d.ss.key_a.numpy(), d.ss.hist.numpy(),
-                  d.st.start.numpy(), d.st.count.numpy(), d.st.key_a.numpy(), d.st.key_b.numpy(), d.st.hist.numpy()],
+        "lists": [c.ss.start.numpy(), c.ss.count.numpy(), c.ss.key_a.numpy(), c.ss.hist.numpy(),
+                  c.st.start.numpy(), c.st.count.numpy(), c.st.key_a.numpy(), c.st.key_b.numpy(), c.st.hist.numpy()],
         "counters": [d.counters.numpy(), d.fault.numpy(), sim.control.group_damping.numpy(),
                      sim.control.pivot_vel.numpy()],
     }
@@ -227,7 +227,7 @@ def checkpoint() -> wd.Simulation:
     da, db = digest(a), digest(b)
     differ = [k for k in da if k not in ("all", "forces", "lists") and da[k] != db[k]]
     if differ or not (np.array_equal(a.data.body_force.numpy(), b.data.body_force.numpy())
-                      and np.array_equal(a.data.ss.hist.numpy(), b.data.ss.hist.numpy())):
+                      and np.array_equal(a.contacts.ss.hist.numpy(), b.contacts.ss.hist.numpy())):
         raise AssertionError(f"checkpoint: the restored run differs from the uninterrupted one ({differ})")
     return b
 

@@ -125,7 +125,7 @@ def profile(sim: object, device: str, steps: int, warmup: int
     t_all = time.perf_counter()
     for _ in range(steps):
         t = time.perf_counter()
-        if sim.data.rebuild_flag.numpy()[0]:
+        if sim.contacts.rebuild_flag.numpy()[0]:
             sim._rebuild_checked()
             rebuilds += 1
             wp.synchronize_device(device)

@@ -75,7 +75,7 @@ def run_warpdem(n: int, device: str, steps: int, warmup: int, threads: int | Non
     b.add_spheres(pos, rad, "soil")
     sim, setup, wall = timed_run(b, device, steps, warmup, threads)
     model = sim.model
-    counts = sim.data.ss.count.numpy()
+    counts = sim.contacts.ss.count.numpy()
     contacts = int(wd.observers.contact_count(sim).sum()) if n <= 100_000 else int(counts.sum())
     return {"engine": "warpdem", "device": str(model.device), "threads": sim.parts, "spheres": len(pos),
             "steps": steps,

@@ -21,7 +21,7 @@ def build(positions: np.ndarray, radii: np.ndarray, n_worlds: int = 1, mesh: tup
 
 
 def ss_pairs(sim: wd.Simulation) -> set[tuple[int, int]]:
-    ss = sim.data.ss.numpy()
+    ss = sim.contacts.ss.numpy()
     return {(i, int(ss["key_a"][k])) for i in range(len(ss["start"]))
             for k in range(ss["start"][i], ss["start"][i] + ss["count"][i])}
 
@@ -60,7 +60,7 @@ def test_sphere_triangle_candidates_equal_brute_force() -> None:
     pos = centre + rng.normal(0, 1, (n, 3)) * 0.05 / np.sqrt(3) * rng.uniform(0.6, 1.4, (n, 1))
     rad = rng.uniform(0.003, 0.008, n)
     sim, model = build(pos, rad, mesh=(verts, faces))
-    st = sim.data.st.numpy()
+    st = sim.contacts.st.numpy()
     found = {(i, int(st["key_b"][k])) for i in range(n) for k in range(st["start"][i], st["start"][i] + st["count"][i])}
     tri = verts[faces]
     gap = point_triangle_distance(pos[:, None], tri[None, :, 0], tri[None, :, 1], tri[None, :, 2]) - rad[:, None]
@@ -111,7 +111,7 @@ def test_mesh_in_body_frame_follows_rotation() -> None:
     local = model.host["mesh_vertices_local"][0]
     verts = local @ quat_to_matrix(q).T + x0
     tri = verts[model.host["mesh_faces"][0]]
-    st = sim.data.st.numpy()
+    st = sim.contacts.st.numpy()
     found = {(i, int(st["key_b"][k])) for i in range(300)
              for k in range(st["start"][i], st["start"][i] + st["count"][i])}
     x = sim.data.sphere_pos.numpy()

@@ -34,7 +34,7 @@ def test_restored_run_continues_identically(tmp_path) -> None:
     for k in a.state.ARRAYS:
         np.testing.assert_array_equal(getattr(a.state, k).numpy(), getattr(b.state, k).numpy())
     np.testing.assert_array_equal(a.data.energy.numpy(), b.data.energy.numpy())
-    np.testing.assert_array_equal(a.data.ss.hist.numpy(), b.data.ss.hist.numpy())
+    np.testing.assert_array_equal(a.contacts.ss.hist.numpy(), b.contacts.ss.hist.numpy())
     assert a.state.time == b.state.time
     assert wd.observers.contact_count(a).sum() > 0
 

@@ -172,7 +172,7 @@ def test_rolling_resistance_threshold() -> None:
     moments = []
     for _ in range(3000):
         sim.step()
-        moments.append(sim.data.ss.hist.numpy()[0]["mb"][2])
+        moments.append(sim.contacts.ss.hist.numpy()[0]["mb"][2])
     moments = np.asarray(moments)
     steps = np.arange(1, len(moments) + 1)
     elastic = kr * w * dt * steps < 0.9 * m_cap
@@ -181,7 +181,7 @@ def test_rolling_resistance_threshold() -> None:
     # Yade applies the moment law to non-cohesive contacts only with always_use_moment_law
     b2 = wd.Simulation(*b.finalize(DEVICE), dt=dt)
     b2.advance(100)
-    assert np.all(b2.data.ss.hist.numpy()[0]["mb"] == 0.0)
+    assert np.all(b2.contacts.ss.hist.numpy()[0]["mb"] == 0.0)
 
 
 def test_clump_inertia_matches_trimesh() -> None:

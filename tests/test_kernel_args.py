@@ -1,7 +1,7 @@
 """The kernels' argument structs (warpdem/kernel_args.py, the settings types.Options, contact_law.Materials):
 every field documented with its dtype, and every array field set by the host builders from a simulation's model,
-state and data (the same arrays, no copies). The host-side types (types.Control): every field documented with its
-unit, dtype and shape."""
+state and data (the same arrays, no copies). The host-side types (types.Control, types.Contacts): every field
+documented with its unit, dtype and shape."""
 
 from __future__ import annotations
 
@@ -66,11 +66,11 @@ def test_every_field_is_documented_with_its_dtype() -> None:
 def test_builders_set_every_array_with_the_simulations_own() -> None:
     model, state = packing_scene(np.zeros(3)).finalize(DEVICE, n_worlds=2)
     sim = wd.Simulation(model, state, dt=2e-5, contact_threads="pair")
-    d = sim.data
+    d, c = sim.data, sim.contacts
     built = {
         "bodies": ka.bodies_of(model, sim.control), "spheres": ka.spheres_of(model), "meshes": ka.meshes_of(model, d),
         "springs": ka.springs_of(model), "state": ka.body_state_of(state), "kin": ka.sphere_state_of(d),
-        "ss": ka.sphere_list_of(d.ss), "st": ka.triangle_list_of(d.st), "sums": ka.sums_of(d),
+        "ss": ka.sphere_list_of(c.ss), "st": ka.triangle_list_of(c.st), "sums": ka.sums_of(d),
     }
     for name, struct in built.items():
         for field, var in struct._cls.vars.items():
@@ -80,7 +80,7 @@ def test_builders_set_every_array_with_the_simulations_own() -> None:
     assert built["bodies"].group_damping is sim.control.group_damping
     assert built["bodies"].pivot_vel is sim.control.pivot_vel
     assert built["state"].pos is state.body_pos
-    assert built["ss"].hist is d.ss.hist and built["ss"].owner is d.ss.owner
+    assert built["ss"].hist is c.ss.hist and built["ss"].owner is c.ss.owner
     assert built["sums"].force_acc is d.force_acc
     # a part's sums: its own slots of the accumulators, the whole float results
     part = ka.sums_of(d, 0, whole=False)
@@ -97,13 +97,14 @@ def test_options_hold_the_simulations_settings() -> None:
     assert tuple(o.lower) == tuple(sim.bounds[0]) and tuple(o.upper) == tuple(sim.bounds[1])
 
 
-HOST_TYPES = (types.Control,)
+HOST_TYPES = (types.Control, types.Contacts)
 """the host-side dataclasses of types.py whose fields are arrays."""
 ARRAY_WORDS = ("int32", "float32", "float64", "vec3f", "vec3d", "quatd", "vec3l", "Hist", "uint64", "int64")
 
 
 def test_host_types_document_unit_dtype_and_shape() -> None:
-    """Every field of types.Control: a docstring with a unit in brackets, a dtype and a shape in parentheses."""
+    """Every field of types.Control and types.Contacts: a docstring with a unit in brackets, a dtype and a shape
+    in parentheses."""
     for cls in HOST_TYPES:
         docs = _field_docs(cls)
         assert list(docs) == [f.name for f in dataclasses.fields(cls)], cls.__name__
@@ -111,7 +112,7 @@ def test_host_types_document_unit_dtype_and_shape() -> None:
             where = f"{cls.__name__}.{name}: {doc!r}"
             assert re.search(r"\[[^\]]*\]", doc), f"{where} names no unit"
             assert any(w in doc for w in ARRAY_WORDS), f"{where} names no dtype"
-            assert re.search(r"\([^()]*,\)", doc), f"{where} names no shape"
+            assert re.search(r"\w,\)", doc), f"{where} names no shape"  # (n,) or (a * b,)
 
 
 def test_control_holds_copies_of_the_models_values() -> None:
@@ -123,3 +124,13 @@ def test_control_holds_copies_of_the_models_values() -> None:
         assert arr is not getattr(model, {"pivot_vel": "body_pivot_vel"}.get(field.name, field.name))
         assert arr.device == model.device
     np.testing.assert_array_equal(c.group_damping.numpy(), model.group_damping.numpy())
+
+
+def test_contacts_hold_the_lists_the_kernels_read() -> None:
+    model, state = packing_scene(np.zeros(3)).finalize(DEVICE, n_worlds=2)
+    sim = wd.Simulation(model, state, dt=2e-5)
+    c = sim.contacts
+    assert c.build_pos.shape == (model.n_spheres,) and c.list_stats.shape == (4,)
+    assert c.ss.other is c.ss.key_a and c.st.mesh is c.st.key_a and c.st.face is c.st.key_b
+    stats = c.list_stats.numpy()
+    assert stats[0] >= c.ss.count.numpy().sum() and stats[2] == 0

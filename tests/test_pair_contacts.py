@@ -82,8 +82,8 @@ def _bonded_block(seed: int = 3) -> wd.ModelBuilder:
 
 def _expected_owner(sim: wd.Simulation) -> np.ndarray:
     """The sphere of each entry of the sphere-sphere lists from their start and count in numpy, -1 on free slots."""
-    ss = sim.data.ss.numpy()
-    expect = np.full(sim.data.ss.capacity, -1)
+    ss = sim.contacts.ss.numpy()
+    expect = np.full(sim.contacts.ss.capacity, -1)
     for i, (s, c) in enumerate(zip(ss["start"], ss["count"], strict=True)):
         expect[s:s + c] = i
     return expect
@@ -119,16 +119,16 @@ def test_pair_threads_match_sphere_threads_on_a_bonded_block(tmp_path: object) -
     sim.advance(50)
     wd.checkpoint.save(sim, path)
     a, b = _kicked("sphere", load=path), _kicked("pair", load=path)
-    np.testing.assert_array_equal(b.data.ss.owner.numpy(), _expected_owner(b))
+    np.testing.assert_array_equal(b.contacts.ss.owner.numpy(), _expected_owner(b))
     a.step()
     b.step()
     fused = 0 if DEVICE == "cpu" else FMA_ULPS
-    ha, hb = a.data.ss.numpy()["hist"], b.data.ss.numpy()["hist"]
+    ha, hb = a.contacts.ss.numpy()["hist"], b.contacts.ss.numpy()["hist"]
     for field in ha.dtype.names:
         np.testing.assert_allclose(hb[field], ha[field], rtol=0.0, atol=fused * EPS32 * np.abs(ha[field]).max())
     fa, fb = a.data.body_force.numpy(), b.data.body_force.numpy()
     ta, tb = a.data.body_torque.numpy(), b.data.body_torque.numpy()
-    per_list = int(a.data.ss.count.numpy().max())
+    per_list = int(a.contacts.ss.count.numpy().max())
     assert per_list == 3 and np.abs(fa).max() > 0.1
     assert np.abs(fb - fa).max() <= (per_list + fused) * EPS32 * np.abs(fa).max()
     assert np.abs(tb - ta).max() <= (per_list + fused) * EPS32 * np.abs(ta).max()
@@ -166,26 +166,26 @@ def test_pair_entries_index_their_spheres_through_rebuilds_growth_and_loads(monk
     sims = []
     for threads in (1, 2):
         sim = _gathering("pair", threads)
-        cap0 = sim.data.ss.capacity
+        cap0 = sim.contacts.ss.capacity
         wd.checkpoint.save(sim, first)
         sim.advance(1500)
         sims.append(sim)
     sim = sims[-1]
-    assert sim.rebuild_count > 0 and sim.data.ss.capacity > cap0
+    assert sim.rebuild_count > 0 and sim.contacts.ss.capacity > cap0
     assert wd.observers.contact_count(sim).sum() > 100  # the spheres did gather
-    np.testing.assert_array_equal(sim.data.ss.owner.numpy(), _expected_owner(sim))
+    np.testing.assert_array_equal(sim.contacts.ss.owner.numpy(), _expected_owner(sim))
     if DEVICE == "cpu":
         assert sims[1].parts == 2
         for name in ("body_pos", "body_vel", "body_angvel"):
             np.testing.assert_array_equal(getattr(sims[1].state, name).numpy(), getattr(sims[0].state, name).numpy())
     wd.checkpoint.save(sim, grown)
     wd.checkpoint.load(sim, first)
-    assert sim.data.ss.capacity == cap0
-    np.testing.assert_array_equal(sim.data.ss.owner.numpy(), _expected_owner(sim))
+    assert sim.contacts.ss.capacity == cap0
+    np.testing.assert_array_equal(sim.contacts.ss.owner.numpy(), _expected_owner(sim))
     fresh = _gathering("pair", 1)
     wd.checkpoint.load(fresh, grown)
-    assert fresh.data.ss.count.numpy().sum() > cap0
-    np.testing.assert_array_equal(fresh.data.ss.owner.numpy(), _expected_owner(fresh))
+    assert fresh.contacts.ss.count.numpy().sum() > cap0
+    np.testing.assert_array_equal(fresh.contacts.ss.owner.numpy(), _expected_owner(fresh))
 
 
 @pytest.mark.parametrize("kwargs, word", [

@@ -183,7 +183,7 @@ def _pair_run(prefix: str, unp_max: float | None = None, stop_at_break: bool = F
     while s < n_steps:
         sim.step()
         s += 1
-        e = _entry(sim.data.ss, 0, 1)
+        e = _entry(sim.contacts.ss, 0, 1)
         active = e is not None and (e["flags"] & 1) != 0
         if active:
             seen = True
@@ -441,7 +441,7 @@ def _slide_run(prefix: str) -> dict:
         out["force"].append(sim.data.body_force.numpy()[sid].astype(np.float64))
         ex = []
         for j in range(len(d["facet_vertices"])):
-            e = _entry(sim.data.st, 0, j)
+            e = _entry(sim.contacts.st, 0, j)
             ex.append(e is not None and (e["flags"] & 1) != 0)
         out["exists"].append(ex)
         if "table" not in out and any(ex):
@@ -751,7 +751,7 @@ def _packing_run(jitter: float = 0.0, seed: int = 0) -> dict:
         cc = obs.contact_count(sim)[0]
         out["n_ss"].append(int(cc[0]))
         out["n_sf"].append(int(cc[1]))
-        ss = sim.data.ss.numpy()
+        ss = sim.contacts.ss.numpy()
         rows = [np.arange(a, a + c) for a, c in zip(ss["start"], ss["count"], strict=True)]
         idx = np.concatenate(rows).astype(np.int64)
         out["n_coh"].append(int(((ss["hist"]["flags"][idx] & 3) == 3).sum()))  # active and cohesive

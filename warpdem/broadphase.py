@@ -298,8 +298,9 @@ def _list_total_kernel(alloc_total: wp.array(dtype=int), slot: int, out: wp.arra
 
 # ----------------------------------------------------------------------------- the build
 def build(grid: wp.HashGrid, cell: float, skin: float, model: object, state: object, data: object,
-          parts: Sequence[tuple[int, int]] | None = None) -> None:
-    """Rebuild both candidate lists of ``data`` (warpdem.data.Data) from the current sphere and body positions.
+          contacts: object, parts: Sequence[tuple[int, int]] | None = None) -> None:
+    """Rebuild both candidate lists of ``contacts`` (types.Contacts) from the current sphere positions of ``data``
+    (warpdem.data.Data) and body positions of ``state``.
 
     The new lists are made in the scratch lists (``ss_new``, ``st_new``), each surviving pair's history is copied
     from the old lists, and the result is copied back, so the arrays keep their addresses (capturable on CUDA).
@@ -308,7 +309,7 @@ def build(grid: wp.HashGrid, cell: float, skin: float, model: object, state: obj
     ``parts``: on the CPU, sphere ranges (first, end) whose per-sphere kernels run at once on CPU threads
     (cpu_threads.Parallel); default: all spheres in one launch.
     """
-    m, d, dev = model, data, model.device
+    m, d, c, dev = model, data, contacts, model.device
     ns = m.n_spheres
     if ns == 0:
         return
@@ -327,30 +328,30 @@ def build(grid: wp.HashGrid, cell: float, skin: float, model: object, state: obj
 
     grid.build(d.sphere_pos, cell, groups=m.sphere_world)
     spheres = ka.spheres_of(m)
-    common = [grid.id, spheres, m.max_radius, skin, d.sphere_pos, ka.sphere_list_of(d.ss)]
-    new = ka.sphere_list_of(d.ss_new)
+    common = [grid.id, spheres, m.max_radius, skin, d.sphere_pos, ka.sphere_list_of(c.ss)]
+    new = ka.sphere_list_of(c.ss_new)
     per_sphere(_ss_count_kernel, common, [new])
-    d.alloc_total.zero_()
-    wp.launch(allocate_blocks_kernel, ns, inputs=[d.ss_new.count, d.alloc_total[0:1]], outputs=[d.ss_new.start],
+    c.alloc_total.zero_()
+    wp.launch(allocate_blocks_kernel, ns, inputs=[c.ss_new.count, c.alloc_total[0:1]], outputs=[c.ss_new.start],
               device=dev)
-    per_sphere(_ss_fill_kernel, common, [new, d.list_stats[2:3]])
-    wp.launch(_list_total_kernel, 1, inputs=[d.alloc_total, 0, d.list_stats], device=dev)
-    d.ss.copy_from(d.ss_new)
-    d.ss.index_owners()
-    wp.copy(d.build_pos, d.sphere_pos)
+    per_sphere(_ss_fill_kernel, common, [new, c.list_stats[2:3]])
+    wp.launch(_list_total_kernel, 1, inputs=[c.alloc_total, 0, c.list_stats], device=dev)
+    c.ss.copy_from(c.ss_new)
+    c.ss.index_owners()
+    wp.copy(c.build_pos, d.sphere_pos)
     if m.n_meshes == 0:
         return
     meshes = ka.meshes_of(m, d)
-    st_in = [d.sphere_pos, ka.body_state_of(state), ka.triangle_list_of(d.st)]
-    st_out = [ka.triangle_list_of(d.st_new), d.list_stats[3:4]]
+    st_in = [d.sphere_pos, ka.body_state_of(state), ka.triangle_list_of(c.st)]
+    st_out = [ka.triangle_list_of(c.st_new), c.list_stats[3:4]]
     per_sphere(_st_build_kernel, [spheres, meshes, skin, 0, *st_in], st_out)
-    wp.launch(allocate_blocks_kernel, ns, inputs=[d.st_new.count, d.alloc_total[1:2]], outputs=[d.st_new.start],
+    wp.launch(allocate_blocks_kernel, ns, inputs=[c.st_new.count, c.alloc_total[1:2]], outputs=[c.st_new.start],
               device=dev)
     per_sphere(_st_build_kernel, [spheres, meshes, skin, 1, *st_in], st_out)
-    wp.launch(_list_total_kernel, 1, inputs=[d.alloc_total, 1, d.list_stats], device=dev)
-    d.st.copy_from(d.st_new)
+    wp.launch(_list_total_kernel, 1, inputs=[c.alloc_total, 1, c.list_stats], device=dev)
+    c.st.copy_from(c.st_new)
     wp.launch(_record_mesh_build_pose_kernel, m.n_meshes, inputs=[m.mesh_body, state.body_pos, state.body_quat],
-              outputs=[d.mesh_build_pos, d.mesh_build_quat], device=dev)
+              outputs=[c.mesh_build_pos, c.mesh_build_quat], device=dev)
 
 
 @wp.kernel
@@ -378,6 +379,22 @@ class PairList:
         self.key_b = wp.zeros(self.capacity if two_keys else 1, dtype=int, device=device)
         self.hist = wp.zeros(self.capacity, dtype=Hist, device=device)
         self.owner: wp.array | None = None  # see enable_owners
+
+    @property
+    def other(self) -> wp.array:
+        """a sphere-sphere list's partner sphere of each entry, int32 (capacity,) (``key_a``)."""
+        return self.key_a
+
+    @property
+    def mesh(self) -> wp.array:
+        """a sphere-triangle list's mesh instance of each entry, int32 (capacity,) (``key_a``)."""
+        return self.key_a
+
+    @property
+    def face(self) -> wp.array:
+        """a sphere-triangle list's triangle of each entry within its mesh's geometry, int32 (capacity,)
+        (``key_b``)."""
+        return self.key_b
 
     def enable_owners(self) -> None:
         """Keep ``owner`` (capacity,): each entry's sphere, -1 for a free slot (contacts.sphere_pair_kernel's

@@ -28,13 +28,20 @@ _FORMAT = 5  # 2: five energy slots (driven work), mutable model arrays; 3: mani
 # step's forces (what an observer reads before the next step); 5: the Control's arrays as control/...
 _READS = (4, 5)
 """the formats :func:`load` reads."""
-_SIM_ARRAYS = ("energy", "counters", "build_pos", "mesh_build_pos", "mesh_build_quat", "cohesion_now", "fault",
-               "spring_force", "body_force", "body_torque", "mesh_force", "mesh_torque")
-"""fields of Simulation.data (warpdem/data.py) saved beside the state and the candidate lists."""
+_SIM_ARRAYS = {k: "data" for k in ("energy", "counters", "cohesion_now", "fault", "spring_force", "body_force",
+                                    "body_torque", "mesh_force", "mesh_torque")} | {
+    k: "contacts" for k in ("build_pos", "mesh_build_pos", "mesh_build_quat")}
+"""fields of Simulation.data (warpdem/data.py) and Simulation.contacts (types.Contacts) saved beside the state
+and the candidate lists, as ``sim/<field>``: field -> the Simulation's attribute that holds it."""
 _CONTROL_ARRAYS = ("pivot_vel", "group_damping")
 """fields of Simulation.control (types.Control), saved as ``control/<field>``."""
 _FORMAT4_KEYS = {"control/pivot_vel": "model/body_pivot_vel", "control/group_damping": "model/group_damping"}
 """where a format-4 file keeps the Control's arrays."""
+
+
+def _sim_array(sim: object, field: str) -> wp.array:
+    """The array of :data:`_SIM_ARRAYS`' ``field`` in ``sim``."""
+    return getattr(getattr(sim, _SIM_ARRAYS[field]), field)
 
 
 def _signature(sim: object) -> np.ndarray:
@@ -51,11 +58,11 @@ def save(sim: object, path: str | os.PathLike) -> None:
     data["step"] = np.array(sim.state.step)
     data["dt"] = np.array(sim.dt)
     for k in _SIM_ARRAYS:
-        data["sim/" + k] = getattr(sim.data, k).numpy()
+        data["sim/" + k] = _sim_array(sim, k).numpy()
     for k in _CONTROL_ARRAYS:
         data["control/" + k] = getattr(sim.control, k).numpy()
     for name in ("ss", "st"):
-        lst = getattr(sim.data, name)
+        lst = getattr(sim.contacts, name)
         data[f"{name}/capacity"] = np.array(lst.capacity)
         for k, v in lst.numpy().items():
             data[f"{name}/{k}"] = v
@@ -118,7 +125,7 @@ def _check(sim: object, data: dict[str, np.ndarray], where: str) -> None:
         if got.dtype.kind == "f" and not np.all(np.isfinite(got)):
             raise InputError(f"{where}: field 'state/{k}' holds NaN or inf")
     for k in _SIM_ARRAYS:
-        expect("sim/" + k, _host_shape(getattr(sim.data, k)))
+        expect("sim/" + k, _host_shape(_sim_array(sim, k)))
     for k in _CONTROL_ARRAYS:
         expect("control/" + k, _host_shape(getattr(sim.control, k)))
     m = sim.model
@@ -166,11 +173,11 @@ def load(sim: object, path: str | os.PathLike) -> None:
     sim.state.time = float(data["time"])
     sim.state.step = int(data["step"])
     for k in _SIM_ARRAYS:
-        getattr(sim.data, k).assign(data["sim/" + k])
+        _sim_array(sim, k).assign(data["sim/" + k])
     for k in _CONTROL_ARRAYS:
         getattr(sim.control, k).assign(data["control/" + k])
     for name in ("ss", "st"):
-        lst, scratch = getattr(sim.data, name), getattr(sim.data, name + "_new")
+        lst, scratch = getattr(sim.contacts, name), getattr(sim.contacts, name + "_new")
         cap = int(data[f"{name}/capacity"])
         if cap != lst.capacity:
             lst.grow(cap)

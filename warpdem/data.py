@@ -3,10 +3,11 @@
 A :class:`~warpdem.simulation.Simulation` holds a static :class:`~warpdem.model.Model`, the bodies'
 :class:`~warpdem.model.State` (pose, velocities: what a step advances) and a :class:`Data`: the per-step work
 arrays that the kernels write and read within a step (sphere kinematics, force and torque sums, spring forces,
-energies), the candidate lists with their contact history, and the device-side bookkeeping of the broad phase and
-the fault checks. Observers, checkpoints and viewers read these fields; every field's shape, dtype and unit is
-listed below. Sizes: ``ns`` spheres, ``nb`` bodies, ``nm`` mesh instances (arrays sized by ``nm`` or the springs
-have at least one entry), ``W`` worlds, all worlds together; ``P`` CPU threads sharing a step (1 on CUDA).
+energies) and the device-side bookkeeping of the step counts, the one-step cohesion request and the fault checks
+(the candidate lists, their contact history and what decides a rebuild are ``types.Contacts``). Observers,
+checkpoints and viewers read these fields; every field's shape, dtype and unit is listed below. Sizes: ``ns``
+spheres, ``nb`` bodies, ``nm`` mesh instances (arrays sized by ``nm`` or the springs have at least one entry),
+``W`` worlds, all worlds together; ``P`` CPU threads sharing a step (1 on CUDA).
 """
 
 from __future__ import annotations
@@ -17,7 +18,6 @@ import numpy as np
 import warp as wp
 
 from . import accumulate
-from .broadphase import PairList
 from .contacts import N_ENERGY
 from .model import Model
 
@@ -85,21 +85,6 @@ class Data:
     """the energy terms of CPU threads 2 .. P within a step [J], float64 ((P - 1) * W * N_ENERGY,), at least one
     entry; added into ``energy`` at the end of the step."""
 
-    # candidate lists and contact history (broadphase.PairList)
-    ss: PairList
-    """sphere-sphere candidates of the current lists: per sphere its partners of higher index, sorted."""
-    st: PairList
-    """sphere-triangle candidates of the current lists: per sphere (mesh instance, triangle) entries."""
-    ss_new: PairList
-    """the sphere-sphere lists being built at a rebuild (history carried over from ``ss``)."""
-    st_new: PairList
-    """the sphere-triangle lists being built at a rebuild."""
-    build_pos: wp.array
-    """sphere centres at the last list build [m], vec3d (ns,)."""
-    mesh_build_pos: wp.array
-    """mesh bodies' positions at the last list build [m], vec3d (nm,)."""
-    mesh_build_quat: wp.array
-    """mesh bodies' orientations at the last list build, quatd (nm,)."""
     mesh_rmax: wp.array
     """each mesh instance's largest vertex distance from its body's centre of mass [m], float32 (nm,)."""
 
@@ -113,20 +98,11 @@ class Data:
     fault_parts: wp.array
     """each CPU thread's failure of the current step (body, cause, step at entry p * DISP_STRIDE), moved into
     ``fault`` at the end of the step, int32 (P * DISP_STRIDE,)."""
-    list_stats: wp.array
-    """entries of the sphere-sphere and sphere-triangle lists at the last build, and any overflow, int32 (4,)."""
-    disp: wp.array
-    """largest mesh displacement (entry 0), then the largest sphere displacement of each CPU thread p (entry
-    (1 + p) * DISP_STRIDE), since the last build [m], float32 ((1 + P) * DISP_STRIDE,)."""
-    alloc_total: wp.array
-    """list entries allocated at a build (sphere-sphere, sphere-triangle), int32 (2,)."""
-    rebuild_flag: wp.array
-    """1: the lists must be rebuilt before the next step, int32 (1,)."""
 
     @classmethod
     def zeros(cls, model: Model, parts: int = 1) -> Data:
         """Zeroed arrays for ``model`` on its device; the scales are set by accumulate.resolutions, the mesh
-        extents from the model's geometry, the lists start with 16 entries per sphere; ``parts`` (P): CPU threads
+        extents from the model's geometry; ``parts`` (P): CPU threads
         that share a step, each with its own accumulators."""
         dev = model.device
         ns, nb, nm = model.n_spheres, model.n_bodies, model.n_meshes
@@ -156,16 +132,10 @@ class Data:
             spring_force=zeros(max(model.n_springs, 1), float),
             energy=zeros(model.n_worlds * N_ENERGY, wp.float64),
             energy_extra=zeros(max(parts - 1, 1) * model.n_worlds * N_ENERGY, wp.float64),
-            ss=PairList(ns, 16, dev, two_keys=False), st=PairList(ns, 16, dev, two_keys=True),
-            ss_new=PairList(ns, 16, dev, two_keys=False), st_new=PairList(ns, 16, dev, two_keys=True),
-            build_pos=zeros(ns, wp.vec3d), mesh_build_pos=zeros(max(nm, 1), wp.vec3d),
-            mesh_build_quat=zeros(max(nm, 1), wp.quatd),
             mesh_rmax=wp.array(np.tile(np.array(rmax, dtype=np.float32), model.n_worlds) if nm else [0.0],
                                dtype=float, device=dev),
             cohesion_now=zeros(1, int), counters=zeros(2, int),
             fault=wp.array([NO_FAULT, 0, 0], dtype=int, device=dev),
             fault_parts=wp.array(np.tile(np.r_[NO_FAULT, np.zeros(DISP_STRIDE - 1)], parts).astype(np.int32),
                                  dtype=int, device=dev),
-            list_stats=zeros(4, int),
-            disp=zeros((1 + parts) * DISP_STRIDE, float), alloc_total=zeros(2, int), rebuild_flag=zeros(1, int),
         )

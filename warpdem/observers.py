@@ -136,17 +136,17 @@ def spring_elastic_energy(sim: object) -> np.ndarray:
 
 def contact_elastic_energy(sim: object) -> np.ndarray:
     """Elastic energy stored in all contacts per world [J], shape (n_worlds,)."""
-    m, d = sim.model, sim.data
+    m, d, c = sim.model, sim.data, sim.contacts
     out = wp.zeros(m.n_worlds, dtype=wp.float64, device=m.device)
     if m.n_spheres:
         spheres, kin = kernel_args.spheres_of(m), kernel_args.sphere_state_of(d)
         wp.launch(sphere_sphere_elastic_kernel, m.n_spheres,
-                  inputs=[spheres, sim.materials, kin, kernel_args.sphere_list_of(d.ss)], outputs=[out],
+                  inputs=[spheres, sim.materials, kin, kernel_args.sphere_list_of(c.ss)], outputs=[out],
                   device=m.device)
     if m.n_spheres and m.n_meshes:
         wp.launch(sphere_triangle_elastic_kernel, m.n_spheres,
                   inputs=[spheres, kernel_args.meshes_of(m, d), sim.materials, kin,
-                          kernel_args.body_state_of(sim.state), kernel_args.triangle_list_of(d.st)],
+                          kernel_args.body_state_of(sim.state), kernel_args.triangle_list_of(c.st)],
                   outputs=[out], device=m.device)
     return out.numpy()
 
@@ -191,7 +191,7 @@ def contact_table(sim: object) -> dict[str, np.ndarray]:
     """Active contacts on the host: body1/body2 (body indices), world, normal (k, 3), radius1/radius2 [m],
     kn/ks [N/m], kr/ktw [N m/rad], kind (0 sphere-sphere, 1 sphere-triangle), sphere indices, shear force [N]."""
     m = sim.model
-    ss = sim.data.ss.numpy()
+    ss = sim.contacts.ss.numpy()
     rad = m.host["sphere_radius"]
     rows = {k: [] for k in ("body1", "body2", "world", "normal", "radius1", "radius2", "kind", "sphere", "fs",
                             "material1", "material2")}
@@ -212,7 +212,7 @@ def contact_table(sim: object) -> dict[str, np.ndarray]:
     rows["material1"].append(m.host["sphere_material"][i])
     rows["material2"].append(m.host["sphere_material"][j])
     if m.n_meshes:
-        st = sim.data.st.numpy()
+        st = sim.contacts.st.numpy()
         owner = np.repeat(np.arange(m.n_spheres), st["count"])
         idx = _csr_entries(st["start"], st["count"])
         h = st["hist"][idx]
@@ -301,8 +301,8 @@ def _count_active(sim: object, pairs: object, group: int, flag: int = ACTIVE) ->
 
 def contact_count(sim: object) -> np.ndarray:
     """Number of active contacts per world, shape (n_worlds, 2): [sphere-sphere, sphere-triangle]."""
-    ss = _count_active(sim, sim.data.ss, -1)
-    st = _count_active(sim, sim.data.st, -1) if sim.model.n_meshes else np.zeros_like(ss)
+    ss = _count_active(sim, sim.contacts.ss, -1)
+    st = _count_active(sim, sim.contacts.st, -1) if sim.model.n_meshes else np.zeros_like(ss)
     return np.stack([ss, st], axis=1)
 
 
@@ -317,7 +317,7 @@ def coordination_number(group: str | None = None) -> Callable[[object], np.ndarr
         g = m.group_index(group) if group is not None else -1
         members = groups == g if group is not None else np.isin(np.arange(m.n_bodies), m.host["sphere_body"])
         n_bodies = np.bincount(m.host["body_world"][members], minlength=m.n_worlds)
-        return 2.0 * _count_active(sim, sim.data.ss, g) / np.maximum(n_bodies, 1)
+        return 2.0 * _count_active(sim, sim.contacts.ss, g) / np.maximum(n_bodies, 1)
 
     return f
 
@@ -327,7 +327,7 @@ def cohesive_bonds(group: str) -> Callable[[object], np.ndarray]:
     cohesion is set and not broken) per world, shape (n_worlds,). Counted on the device (one small copy)."""
 
     def f(sim: object) -> np.ndarray:
-        return _count_active(sim, sim.data.ss, sim.model.group_index(group), COHESIVE).astype(np.float64)
+        return _count_active(sim, sim.contacts.ss, sim.model.group_index(group), COHESIVE).astype(np.float64)
 
     return f
 

@@ -35,7 +35,7 @@ from .errors import InputError, SimulationError, check_finite, check_positive
 from .integrator import integrate_bodies_kernel, mesh_end_one, spring_kernel, update_spheres_kernel
 from .model import FLAG_PIVOT, Model, State
 from .timestep import critical_timestep
-from .types import Control, Options
+from .types import Contacts, Control, Options
 
 wp.set_module_options({"enable_backward": False})
 
@@ -164,14 +164,15 @@ class _KernelArgs:
 
     def __init__(self, sim: Simulation) -> None:
         m, d = sim.model, sim.data
+        c = sim.contacts
         self.spheres = ka.spheres_of(m)
         self.meshes = ka.meshes_of(m, d)
         self.springs = ka.springs_of(m)
         self.bodies = ka.bodies_of(m, sim.control)
         self.state = ka.body_state_of(sim.state)
         self.kin = ka.sphere_state_of(d)
-        self.ss = ka.sphere_list_of(d.ss)
-        self.st = ka.triangle_list_of(d.st)
+        self.ss = ka.sphere_list_of(c.ss)
+        self.st = ka.triangle_list_of(c.st)
         self.part_sums = [ka.sums_of(d, p, whole=False) for p in range(sim.parts)]
         self.whole_sums = [ka.sums_of(d, p) for p in range(sim.parts)]
 
@@ -291,8 +292,9 @@ class Simulation:
         threads = _thread_count(cpu_threads) if dev.is_cpu else 1
         self._share_out(1 if self.world_steps else threads)
         self.data = Data.zeros(model, self.parts)  # the per-step arrays (data.py)
+        self.contacts = Contacts.zeros(model, self.parts)  # the candidate lists and their rebuild state (types.py)
         if contact_threads == "pair":
-            self.data.ss.enable_owners()
+            self.contacts.ss.enable_owners()
         if self.world_steps:  # each world's step count, rebuild request, displacements and faults (world_steps.py)
             self._share_worlds(threads)
             nw = model.n_worlds
@@ -389,15 +391,15 @@ class Simulation:
         sphere), from the lists just built (recording the step again, ~0.4 ms against a rebuild's ~9 ms at 7 k
         spheres). The cut depends only on the lists, which a checkpoint keeps: a resumed run cuts as the
         uninterrupted one did."""
-        d = self.data
-        work = 1 + d.ss.count.numpy().astype(np.int64) + d.st.count.numpy()
+        c = self.contacts
+        work = 1 + c.ss.count.numpy().astype(np.int64) + c.st.count.numpy()
         before = np.concatenate([[0], np.cumsum(work)])
         cut = cpu_threads.split(before, int(before[-1]), self.parts)
         entry_cut = None
         if self.contact_threads == "pair":  # the same spheres' entries: a CPU build's blocks are in sphere order
             # (a CUDA-written checkpoint's are not: its entries are cut unevenly until the next rebuild)
-            start = np.r_[d.ss.start.numpy(), d.ss.capacity]
-            entry_cut = [0, *np.maximum.accumulate(start[cut[1:-1]]).tolist(), d.ss.capacity]
+            start = np.r_[c.ss.start.numpy(), c.ss.capacity]
+            entry_cut = [0, *np.maximum.accumulate(start[cut[1:-1]]).tolist(), c.ss.capacity]
         if cut != self._contact_cut or entry_cut != self._entry_cut:
             self._contact_cut, self._entry_cut = cut, entry_cut
             self.recapture()
@@ -421,13 +423,13 @@ class Simulation:
                         disp_slot: int = -1) -> object:
         """Sphere kinematics from the bodies' state, for spheres first .. first + dim (default: all); with
         ``disp_slot`` >= 0, their largest displacement since the last list build into ``data.disp[disp_slot]``."""
-        d = self.data
+        c = self.contacts
         dim = self.model.n_spheres - first if dim is None else dim
         if dim <= 0:
             return None
         a = self._kernel_args()
         return launch(update_spheres_kernel, dim, inputs=[first, a.spheres, a.state],
-                      outputs=[a.kin, d.build_pos, disp_slot, d.disp], device=self.device)
+                      outputs=[a.kin, c.build_pos, disp_slot, c.disp], device=self.device)
 
     def _kernel_args(self) -> _KernelArgs:
         """The kernels' argument structs (kernel_args.py), made from the model, state and data once and again after
@@ -442,22 +444,22 @@ class Simulation:
         if self.model.n_spheres == 0:
             return
         cut = self._contact_cut
-        bp.build(self.grid, self._cell, self.skin, self.model, self.state, self.data,
+        bp.build(self.grid, self._cell, self.skin, self.model, self.state, self.data, self.contacts,
                  [(cut[p], cut[p + 1]) for p in range(self.parts)])
 
     def _rebuild_checked(self) -> None:
         """Host-side rebuild that grows the lists until everything fits (not capturable)."""
-        d = self.data
+        c = self.contacts
         for _ in range(8):
-            d.list_stats.zero_()
+            c.list_stats.zero_()
             self._rebuild()
-            stats = d.list_stats.numpy()
+            stats = c.list_stats.numpy()
             if stats[2] == 0 and stats[3] == 0:
                 self._grow_if_needed(stats)
                 if self.parts > 1:
                     self._balance_contacts()
                 return
-            for lst, new, need in ((d.ss, d.ss_new, stats[2]), (d.st, d.st_new, stats[3])):
+            for lst, new, need in ((c.ss, c.ss_new, stats[2]), (c.st, c.st_new, stats[3])):
                 if need > 0:
                     cap = int(need * self._capacity_factor) + 64
                     lst.grow(cap)
@@ -467,14 +469,14 @@ class Simulation:
 
     def _rebuild_if_flagged(self) -> None:
         """Rebuild (host side, growing lists as needed) if the last step flagged it; one flag read per step."""
-        if self.data.rebuild_flag.numpy()[0]:
+        if self.contacts.rebuild_flag.numpy()[0]:
             self._rebuild_checked()
 
     def _grow_if_needed(self, stats: np.ndarray) -> bool:
         """Grow a list whose last build used more than 3/4 of its capacity; returns True if anything grew."""
-        d = self.data
+        c = self.contacts
         grew = False
-        for lst, new, used in ((d.ss, d.ss_new, stats[0]), (d.st, d.st_new, stats[1])):
+        for lst, new, used in ((c.ss, c.ss_new, stats[0]), (c.st, c.st_new, stats[1])):
             if used > 0.75 * lst.capacity:
                 cap = int(used * self._capacity_factor) + 64
                 lst.grow(cap)
@@ -495,6 +497,7 @@ class Simulation:
         cover ranges of spheres and bodies; run directly, the parts run one after the other. ``lanes`` (with
         ``record``): the step as one list of launches per CPU thread, with barriers between (:meth:`_lanes`)."""
         d = self.data
+        c = self.contacts
         m, dev = self.model, self.device
         segments: list[tuple[str, object]] = []  # ("phase", parts) or ("serial", op), in order
         P = self.parts
@@ -524,8 +527,8 @@ class Simulation:
             sums = a.part_sums[p]
             part = []
             if ns and self.contact_threads == "pair":  # a thread per list entry
-                ec = self._entry_cut if self._entry_cut and self._entry_cut[-1] == d.ss.capacity else \
-                    [q * d.ss.capacity // P for q in range(P + 1)]
+                ec = self._entry_cut if self._entry_cut and self._entry_cut[-1] == c.ss.capacity else \
+                    [q * c.ss.capacity // P for q in range(P + 1)]
                 e0, e1 = ec[p], ec[p + 1]
                 part.append(launch(
                     sphere_pair_kernel, e1 - e0,
@@ -565,10 +568,10 @@ class Simulation:
         # broad phase next step? when the displacements since the last build could hide a contact
         if m.n_meshes:  # the meshes' sums to float (for the observers) and their displacement
             serial(launch(_mesh_end_kernel, m.n_meshes,
-                          inputs=[a.meshes, P, a.state, d.mesh_build_pos, d.mesh_build_quat],
-                          outputs=[a.whole_sums[0], d.disp], device=dev))
-        serial(launch(_end_step_kernel, 1, inputs=[self.options, d.disp, d.fault_parts],
-                      outputs=[d.rebuild_flag, d.counters, d.fault, d.cohesion_now], device=dev))
+                          inputs=[a.meshes, P, a.state, c.mesh_build_pos, c.mesh_build_quat],
+                          outputs=[a.whole_sums[0], c.disp], device=dev))
+        serial(launch(_end_step_kernel, 1, inputs=[self.options, c.disp, d.fault_parts],
+                      outputs=[c.rebuild_flag, d.counters, d.fault, d.cohesion_now], device=dev))
         if P > 1 and self.track_energy:
             serial(launch(accumulate.fold_energy_kernel, d.energy.shape[0], inputs=[d.energy_extra, P],
                           outputs=[d.energy], device=dev))
@@ -621,7 +624,7 @@ class Simulation:
         fault = self.data.fault.numpy()
         if fault[0] != NO_FAULT:
             self._raise_fault(fault)
-        stats = self.data.list_stats.numpy()
+        stats = self.contacts.list_stats.numpy()
         if stats[2] or stats[3]:
             raise SimulationError(
                 f"contact candidate list overflow during a captured chunk before step {self.state.step} "
@@ -756,8 +759,8 @@ class Simulation:
         run, a step has flagged a list rebuild, or ``graph_steps`` steps call for the host's check. Every thread
         reads the rebuild flag after the step's last barrier, so all stop after the same step; the host then
         rebuilds and hands over again: one hand-over per rebuild interval instead of two per step."""
-        d = self.data
-        flag = d.rebuild_flag.numpy()  # a view of the CPU array
+        c = self.contacts
+        flag = c.rebuild_flag.numpy()  # a view of the CPU array
         every = max(self.graph_steps, 1)
         spheres = self.model.n_spheres > 0
         left, since_check = n_steps, 0
@@ -800,7 +803,7 @@ class Simulation:
                 self._launch_step()
                 for _ in range(n - 1):
                     if spheres:
-                        wp.capture_if(self.data.rebuild_flag, on_false=self._launch_step)
+                        wp.capture_if(self.contacts.rebuild_flag, on_false=self._launch_step)
                     else:
                         self._launch_step()
             graph = self._graphs[n] = capture.graph
@@ -854,6 +857,7 @@ class Simulation:
         that must give cohesion (:meth:`set_cohesion_now`) runs first, the ordinary way. ``record``: (every, bodies
         per world) for :meth:`_advance_recorded`, (0, 0) for none."""
         d, m = self.data, self.model
+        c = self.contacts
         spheres = m.n_spheres > 0
         if spheres:
             self._rebuild_if_flagged()
@@ -881,7 +885,7 @@ class Simulation:
             rebuilds += 1
         wp.launch(world_steps_mod.world_end_kernel, 1, inputs=[n_steps, rebuilds, m.n_worlds, self._world_flag,
                                                               self._world_fault],
-                  outputs=[d.counters, d.rebuild_flag, d.fault], device=self.device)
+                  outputs=[d.counters, c.rebuild_flag, d.fault], device=self.device)
         self.state.step += n_steps
         for _ in range(n_steps):
             self.state.time += self.dt
@@ -926,7 +930,7 @@ class Simulation:
 
     def _record_worlds(self) -> list[object]:
         """The world_steps_kernel launches of :meth:`_launch_worlds`, recorded (their Advance set before each)."""
-        m, d = self.model, self.data
+        m, c = self.model, self.contacts
         ws = world_steps_mod.Worlds()
         ws.lanes, ws.stride = self.world_lanes, self.world_lane_stride
         ws.spw, ws.bpw, ws.mpw, ws.kpw = (m.spheres_per_world, m.bodies_per_world, m.meshes_per_world,
@@ -942,8 +946,8 @@ class Simulation:
             record_cmd=True,
             inputs=[world_steps_mod.Advance(), cut[j], ws, a.spheres, a.meshes, a.springs, a.bodies, self.materials,
                     self.options],
-            outputs=[a.kin, a.state, a.ss, a.st, self._no_cohesion, a.whole_sums[0], d.build_pos, d.mesh_build_pos,
-                     d.mesh_build_quat],
+            outputs=[a.kin, a.state, a.ss, a.st, self._no_cohesion, a.whole_sums[0], c.build_pos, c.mesh_build_pos,
+                     c.mesh_build_quat],
             device=self.device,
         ) for j in range(len(cut) - 1)]
 

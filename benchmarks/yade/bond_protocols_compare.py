@@ -97,7 +97,7 @@ def _bond_gaps(sim: object) -> np.ndarray:
     """Gaps [m] of the bonded sphere-sphere contacts whose spheres do not touch."""
     from warpdem.contact_law import ACTIVE, COHESIVE
 
-    ss = sim.data.ss
+    ss = sim.contacts.ss
     start, count = ss.start.numpy(), ss.count.numpy()
     k = np.concatenate([np.arange(a, a + c) for a, c in zip(start, count, strict=True)]) if count.sum() else np.zeros(0, int)
     owner = np.repeat(np.arange(len(start)), count)

@@ -203,7 +203,7 @@ def contact_counts(sim: wd.Simulation) -> np.ndarray:
     (n_worlds, 3)."""
     m = sim.model
     sb, sw = m.host["sphere_body"], m.host["sphere_world"]
-    ss = sim.data.ss.numpy()
+    ss = sim.contacts.ss.numpy()
     owner = np.repeat(np.arange(m.n_spheres), ss["count"])
     idx = _csr_entries(ss["start"], ss["count"])
     fl = ss["hist"]["flags"][idx]
@@ -212,7 +212,7 @@ def contact_counts(sim: wd.Simulation) -> np.ndarray:
     out = np.zeros((m.n_worlds, 3), np.int64)
     out[:, 0] = np.bincount(sw[owner[act]], minlength=m.n_worlds)
     out[:, 1] = np.bincount(sw[owner[act & ((fl & COHESIVE) != 0)]], minlength=m.n_worlds)
-    st = sim.data.st.numpy()
+    st = sim.contacts.st.numpy()
     owner = np.repeat(np.arange(m.n_spheres), st["count"])
     idx = _csr_entries(st["start"], st["count"])
     act = (st["hist"]["flags"][idx] & ACTIVE) != 0

@@ -123,14 +123,14 @@ class Probe:
         obj (object of the facet, -1 for ss)."""
         ns = sim.model.n_spheres
         sid = self.layout["sphere_id"]
-        ss = sim.data.ss.numpy()
+        ss = sim.contacts.ss.numpy()
         owner = np.repeat(np.arange(ns), ss["count"])
         idx = _csr_entries(ss["start"], ss["count"])
         fl = ss["hist"]["flags"][idx]
         act = (fl & ACTIVE) != 0
         i, j = owner[act], ss["key_a"][idx][act]
         coh_ss = (fl[act] & COHESIVE) != 0
-        st = sim.data.st.numpy()
+        st = sim.contacts.st.numpy()
         owner = np.repeat(np.arange(ns), st["count"])
         idx = _csr_entries(st["start"], st["count"])
         fl = st["hist"]["flags"][idx]
