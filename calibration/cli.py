@@ -286,8 +286,8 @@ def _setup(args: argparse.Namespace) -> str:
 
 
 FULL_ONLY = ("budget", "replicas_min", "replicas_max", "target_sem", "worlds_per_job", "replica_worlds", "settle_time",
-             "soil_protocol", "no_diagnosis", "diagnosis_rounds", "diagnosis_grid", "generations", "population",
-             "parents")
+             "soil_protocol", "deposit_friction", "no_diagnosis", "diagnosis_rounds", "diagnosis_grid", "generations",
+             "population", "parents")
 """options of ``reproduce`` that only the full workflow reads (the quick one refuses them)."""
 
 
@@ -364,6 +364,7 @@ def run_workflow(args: argparse.Namespace) -> int:
                             target_sem=args.target_sem, worlds_per_job=args.worlds_per_job,
                             replica_worlds=args.replica_worlds,
                             settle_time=args.settle_time, soil_protocol=args.soil_protocol, seed=args.seed,
+                            deposit_friction=args.deposit_friction,
                             diagnose=not args.no_diagnosis,
                             diagnosis_rounds=_folder_rounds(args), diagnosis_grid=args.diagnosis_grid)
     if args.tool is not None:
@@ -902,6 +903,9 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--soil-protocol", choices=("paper", "bonded"), default="paper",
                    help="full: paper (default): the draught GA, then shear-box screening, bonds that break; bonded: "
                         "the draught and the shear box calibrated together, yielding bonds on a bed settled >= 1 s")
+    r.add_argument("--deposit-friction", type=_number(float, ge=0, lt=90, unit="deg"), default=30.0,
+                   help="full: contact friction of the soil-bin beds' deposition [deg] (0: a dense bed, near the "
+                        "paper's coordination)")
     r.add_argument("--tool", default=None, metavar="TOML",
                    help="full: Table 3's passive jobs use this passive tool, described once (scenes/passive_tool.py; "
                         "a passive-tool run's tool_fitted.toml), instead of the ringing calibration's springs")

@@ -356,10 +356,12 @@ class Workflow:
         if c.soil_protocol == "bonded":
             return SoilProblem(assembly=c.assembly, scale=CALIBRATION_SCALE[c.scale], box_scale=SCREEN_SCALE[c.scale],
                                travel=c.calibration_travel, settle_time=c.soil_settle_time, fragile=False,
+                               deposit_friction=c.deposit_friction,
                                box_changes=dict(c.screen_changes) or None, seed=c.seed,
                                cache_dir=str(self.out / "beds"), device=self.device)
         return DraughtProblem(assembly=c.assembly, scale=CALIBRATION_SCALE[c.scale], travel=c.calibration_travel,
                               settle_time=c.settle_time, seed=c.seed, cache_dir=str(self.out / "beds"),
+                              deposit_friction=c.deposit_friction,
                               device=self.device)
 
     def draught(self, budget: Budget) -> dict:
@@ -492,7 +494,8 @@ class Workflow:
                                speed=tuple(job["speeds"]), support_offset=job["kind"] == "offset",
                                travel=c.travel, steady_travel=c.steady_travel,
                                seed=c.seed if "replicas" in job else c.seed + job["replica"],
-                               settle_time=c.soil_settle_time, fragile=c.fragile)
+                               settle_time=c.soil_settle_time, fragile=c.fragile,
+                               deposit_friction=c.deposit_friction)
         n = len(job["springs"])
         overrides = {"friction_angle": [soil["friction_angle"]] * n, "normal_cohesion": [soil["normal_cohesion"]] * n,
                      "shear_cohesion": [0.5 * soil["normal_cohesion"]] * n, "eta_roll": [soil["eta_roll"]] * n,

@@ -75,6 +75,10 @@ class WorkflowConfig:
     ``max(settle_time, BONDED_SETTLE)``, the normal cohesion's range up to 500 kPa (10x the paper's top); the
     screening runs the fittest sets in the shear box with the same bonds. docs/runs/bond_protocols_h100 says why:
     with GA set 11 only the second reaches the laboratory's draught and shear box together."""
+    deposit_friction: float = 30.0
+    """[deg] contact friction of the soil-bin beds' deposition (``SoilBinConfig.deposit_friction``; 0: a dense bed,
+    coordination 8.7 at paper scale against 6.95, the paper's 9.55) in the draught calibration and Table 3; the
+    diagnosis stage's rig model keeps the default bed."""
     worlds_per_job: int = 4
     """soil-bin worlds per simulation (at most): smaller jobs fit a shorter budget."""
     travel: float | None = None
@@ -123,6 +127,8 @@ class WorkflowConfig:
     def __post_init__(self) -> None:
         if self.soil_protocol not in SOIL_PROTOCOLS:
             raise InputError(f"soil_protocol must be one of {SOIL_PROTOCOLS}, got {self.soil_protocol!r}")
+        if not (math.isfinite(self.deposit_friction) and 0.0 <= self.deposit_friction < 90.0):
+            raise InputError(f"deposit_friction must be in [0, 90) deg, got {self.deposit_friction!r}")
         if self.passive_tool is not None:
             from scenes.passive_tool import from_dict
 

@@ -129,6 +129,11 @@ BAD = [
     ("reproduce --budget 10 --replicas-max 2 --target-sem 0.1",
      "error: --budget 10, --replicas-max 2, --target-sem 0.1: only --workflow full reads them"),
     ("reproduce --replica-worlds", "error: --replica-worlds: only --workflow full reads it"),
+    ("reproduce --deposit-friction 0", "error: --deposit-friction 0: only --workflow full reads it"),
+    ("reproduce --workflow full --deposit-friction 90", "argument --deposit-friction: must be >= 0 and < 90 deg"),
+    ("calibrate soil --deposit-friction -5", "argument --deposit-friction: must be >= 0 and < 90 deg"),
+    ("calibrate soil --budget 0", "argument --budget: must be > 0 s"),
+    ("calibrate draught --scale paper_2m", "argument --scale: invalid choice: 'paper_2m'"),
     ("calibrate ringing --gene young=1e8:1e6", "argument --gene: --gene must be NAME=LOW:HIGH with finite LOW < HIGH, "
                                                "got 'young=1e8:1e6'"),
     ("calibrate ringing --gene dashpot=1:10 --out {tmp}/c", "error: --gene dashpot=1:10: unknown gene name 'dashpot'"),
