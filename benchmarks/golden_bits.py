@@ -200,7 +200,7 @@ def soil_bin_passive() -> wd.Simulation:
     bed = Bed.load(ROOT / "benchmarks" / "results" / "beds" / "bed_ci_C_d1bcbd134fb2.npz")
     cfg = sb.SoilBinConfig(scale="ci", assembly="C", springs=(16, 32), parameter_set=11)
     tool = sb.place_tool(bed, cfg.working_depth)
-    model, state, _ = sb._build(cfg, bed, tool, [16, 32], [0.6, 0.6], DEVICE)
+    model, state, _ = sb.build_scene(cfg, bed, tool, [16, 32], [0.6, 0.6], DEVICE)
     sim = wd.Simulation(model, state, dt=sb.default_dt(model, cfg.spring_model, False), always_use_moment_law=True,
                         track_energy=True)
     sim.set_cohesion_now()

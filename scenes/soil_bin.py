@@ -455,10 +455,12 @@ def dashpot_for(tool: SweepTool, stiffness: np.ndarray, damping_ratio: np.ndarra
     return 2.0 * np.asarray(damping_ratio) * np.sqrt(k_rot * i_p) / lever**2
 
 
-def _build(config: SoilBinConfig, bed: Bed | list[Bed], tool: SweepTool, springs: list[int], speeds: list[float],
-           device: str | None, soil_overrides: dict[str, object] | None = None,
-           knobs: dict[str, np.ndarray] | None = None, pitch: np.ndarray | None = None
-           ) -> tuple[wd.Model, wd.State, dict]:
+def build_scene(config: SoilBinConfig, bed: Bed | list[Bed], tool: SweepTool, springs: list[int],
+                speeds: list[float], device: str | None, soil_overrides: dict[str, object] | None = None,
+                knobs: dict[str, np.ndarray] | None = None, pitch: np.ndarray | None = None
+                ) -> tuple[wd.Model, wd.State, dict]:
+    """The Model and State that :func:`run_soil_bin` runs (a world per entry of ``springs``, carriage speeds
+    ``speeds`` [m/s]) and a dict of what it needs besides; for tests and benchmarks that build the same scene."""
     rigid = all(n == 0 for n in springs)
     knobs = knobs or {}
     b = wd.ModelBuilder(gravity=(0.0, 0.0, -9.81))
@@ -719,7 +721,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
         pitches = np.asarray(pitch, dtype=np.float64).reshape(-1)
         if len(pitches) != len(springs) or not np.all(np.isfinite(pitches)) or np.any(np.abs(pitches) > 30):
             raise InputError(f"pitch needs one angle per world ({len(springs)}) within +-30 deg, got {list(pitch)}")
-    model, state, info = _build(config, bed, tool, springs, speeds, device, soil_overrides, knob_arrays, pitches)
+    model, state, info = build_scene(config, bed, tool, springs, speeds, device, soil_overrides, knob_arrays,
+                                     pitches)
     dt = config.dt or default_dt(model, config.spring_model, rigid)
     p = config.preset
     travel = config.travel or p["travel"]

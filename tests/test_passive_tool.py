@@ -109,8 +109,8 @@ def test_pitched_tool_starts_rotated_about_its_pivot(device: str) -> None:
     sweep = build_sweep().moved(np.array([0.0, 0.3, 0.8]))
     pitches = [-4.0, 9.0]
     tip_point = wd.observers.body_point("sweep_lower", sweep.tip)
-    tip_point(wd.Simulation(*sb._build(cfg, bed, sweep, [0, 0], [0.5, 0.5], device)[:2], dt=1e-5))  # drawing pose
-    model, state, _ = sb._build(cfg, bed, sweep, [0, 0], [0.5, 0.5], device, pitch=np.array(pitches))
+    tip_point(wd.Simulation(*sb.build_scene(cfg, bed, sweep, [0, 0], [0.5, 0.5], device)[:2], dt=1e-5))  # drawing pose
+    model, state, _ = sb.build_scene(cfg, bed, sweep, [0, 0], [0.5, 0.5], device, pitch=np.array(pitches))
     tip = tip_point(wd.Simulation(model, state, dt=1e-5))  # the same material point on the pitched tools
     for w, angle in enumerate(pitches):
         expected = sweep.pivot + pitch_matrix(angle) @ (sweep.tip - sweep.pivot)

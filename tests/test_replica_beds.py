@@ -104,7 +104,7 @@ def test_replica_world_zero_runs_as_its_bed_alone(beds: list, order: tuple[int, 
     # lone run takes the same one.
     pair = [beds[k] for k in order]
     tool = sb.place_tool(pair, CFG.working_depth)
-    model, _, _ = sb._build(CFG, pair, tool, [0, 0], [0.68, 0.68], DEVICE)
+    model, _, _ = sb.build_scene(CFG, pair, tool, [0, 0], [0.68, 0.68], DEVICE)
     cfg = replace(CFG, dt=sb.default_dt(model, CFG.spring_model, rigid=True))
     run = sb.run_soil_bin(cfg, [0, 0], bed=pair, device=DEVICE, speeds=[0.68, 0.68], tool=tool, place=False)
     alone = sb.run_soil_bin(cfg, [0], bed=pair[0], device=DEVICE, speeds=[0.68], tool=tool, place=False)
@@ -129,7 +129,7 @@ def test_replica_worlds_start_where_their_beds_lie(beds: list) -> None:
     from scipy.spatial import cKDTree
 
     tool = sb.place_tool(beds, CFG.working_depth)
-    model, state, _ = sb._build(CFG, beds, tool, [0, 0], [0.68, 0.68], DEVICE)
+    model, state, _ = sb.build_scene(CFG, beds, tool, [0, 0], [0.68, 0.68], DEVICE)
     sim = wd.Simulation(model, state, dt=0.3 * wd.pwave_timestep(model), always_use_moment_law=True)
     pos = sim.data.sphere_pos.numpy()
     soil = model.host["body_group"][model.host["sphere_body"]] == model.group_index("soil")
@@ -146,7 +146,7 @@ def test_parked_particles_hold_still_and_touch_nothing(beds: list) -> None:
     # has no sphere-sphere or sphere-triangle contact.
     tool = sb.place_tool(beds, CFG.working_depth)
     keeps = [sb.clear_start(b, tool) for b in beds]
-    model, state, info = sb._build(CFG, beds, tool, [0, 0], [0.68, 0.68], DEVICE)
+    model, state, info = sb.build_scene(CFG, beds, tool, [0, 0], [0.68, 0.68], DEVICE)
     sim = wd.Simulation(model, state, dt=0.3 * wd.pwave_timestep(model), always_use_moment_law=True)
     parked_group = model.group_index(replica_beds.PARKED_GROUP)
     parked_body = model.host["body_group"] == parked_group

@@ -220,7 +220,7 @@ def test_linear_spring_support_offsets_are_each_worlds_own(ci_bed) -> None:
     springs = [4, 16, 32]
     cfg = sb.SoilBinConfig(scale="ci", assembly="A", springs=tuple(springs))
     tool = sb.place_tool(ci_bed, cfg.working_depth)
-    model, state, _ = sb._build(cfg, ci_bed, tool, springs, [0.6] * 3, DEVICE)
+    model, state, _ = sb.build_scene(cfg, ci_bed, tool, springs, [0.6] * 3, DEVICE)
     sim = wd.Simulation(model, state, dt=1e-6, force_dt=True)
     sim.advance(1)
     rate = model.spring_stiffness.numpy()[model.names["spring"]["spring"]::model.springs_per_world]

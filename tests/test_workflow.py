@@ -342,7 +342,7 @@ def test_replicas_as_worlds_run_in_groups_each_world_on_its_own_bed(tmp_path):
                                travel=cfg.travel, steady_travel=cfg.steady_travel, seed=cfg.seed, settle_time=0.0)
     beds = [sb.bed_for(run_cfg, cache_dir=tmp_path / "beds", replica=r) for r in (0, 1)]
     tool = sb.place_tool(beds, run_cfg.working_depth)
-    model, _, _ = sb._build(run_cfg, beds, tool, [0, 0], done["speeds"], "cpu")
+    model, _, _ = sb.build_scene(run_cfg, beds, tool, [0, 0], done["speeds"], "cpu")
     one = replace(run_cfg, springs=(0,), speed=(done["speeds"][0],),
                   dt=sb.default_dt(model, run_cfg.spring_model, rigid=True))
     overrides = {"friction_angle": [30.0], "normal_cohesion": [500.0], "shear_cohesion": [250.0], "eta_roll": [0.1],

@@ -10,7 +10,7 @@ The scene is built exactly as ``scenes.soil_bin.run_soil_bin`` builds it for
 ``SoilBinConfig(scale="ci", assembly=X, springs=(0,), parameter_set=11, speed=(0.62,))`` (same functions, same
 order): the bed from ``bed_for(config, cache_dir="results/beds")`` (deposited on the CPU when not cached), the tool
 placed by ``place_tool``, the start trench cleared by ``clear_start``, the bin walls from ``bin_mesh``, the model from
-``scenes.soil_bin._build`` and dt = min(0.3 pwave, 0.5 critical) as run_soil_bin computes it. Nothing is re-derived
+``scenes.soil_bin.build_scene`` and dt = min(0.3 pwave, 0.5 critical) as run_soil_bin computes it. Nothing is re-derived
 by hand: every array below is read back from warpdem's model / simulation after construction.
 
 Keys of the npz (SI units; ns spheres, np particles):
@@ -93,7 +93,7 @@ def build(assembly: str, device: str = "cpu", scale: str = "ci") -> dict:
     # run_soil_bin's prologue, verbatim (rigid: springs [0], speeds [SPEED])
     springs, speeds = [0], [SPEED]
     tool = sb.place_tool(bed, config.working_depth, None)
-    model, state, info = sb._build(config, bed, tool, springs, speeds, device, None, {})
+    model, state, info = sb.build_scene(config, bed, tool, springs, speeds, device, None, {})
     dt = config.dt or min(0.3 * wd.pwave_timestep(model), 0.5 * wd.critical_timestep(model))
     p = config.preset
     travel = config.travel or p["travel"]
