@@ -322,7 +322,7 @@ class Workflow:
         ga = replace(c.ringing_ga, refine_iterations=c.ringing_refine.get(model, 0))
         dt = min(p.dt for p in problems)
         for p in problems:
-            p._dt = dt
+            p.dt = dt
         lock = Lockstep(ringing_batches(problems, self.device), budget, self._timing(f"ringing_{model}_per_world"),
                         lambda v: self._timed(f"ringing_{model}_per_world", v))
         t0 = time.perf_counter()

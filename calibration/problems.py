@@ -135,6 +135,11 @@ class RingingProblem:
             self._dt = dt
         return self._dt
 
+    @dt.setter
+    def dt(self, value: float) -> None:
+        """Set the time step [s] (a workflow gives problems that run in lockstep the smallest of theirs)."""
+        self._dt = value
+
     def simulation_key(self) -> dict[str, object]:
         return {"rig": "ringing", "springs": self.springs, "spring_model": self.spring_model,
                 "settle_time": self.settle_time, "ring_time": self.ring_time, "dt": self.dt}
