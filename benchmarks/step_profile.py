@@ -114,7 +114,7 @@ def profile(sim: object, device: str, steps: int, warmup: int
     import warp as wp
 
     sim.advance(warmup)
-    ops = sim._launch_step(record=True)
+    ops = sim.step_ops()
     names = [op_name(op) for op in ops]
     times: dict[str, float] = defaultdict(float)
     rebuilds = 0
@@ -126,11 +126,11 @@ def profile(sim: object, device: str, steps: int, warmup: int
     for _ in range(steps):
         t = time.perf_counter()
         if sim.contacts.rebuild_flag.numpy()[0]:
-            sim._rebuild_checked()
+            sim.rebuild_lists()
             rebuilds += 1
             wp.synchronize_device(device)
             times["rebuild"] += time.perf_counter() - t
-            ops = sim._launch_step(record=True)  # a rebuild may have grown (moved) the lists
+            ops = sim.step_ops()  # a rebuild may have grown (moved) the lists
             names = [op_name(op) for op in ops]
         for op, name in zip(ops, names, strict=True):
             t = time.perf_counter()

@@ -189,7 +189,4 @@ def load(sim: object, path: str | os.PathLike) -> None:
             lst.key_b.assign(data[f"{name}/key_b"])
         lst.hist.assign(wp.array(data[f"{name}/hist"], dtype=lst.hist.dtype, device=lst.device))
         lst.index_owners()
-    sim.recapture()
-    if sim.parts > 1:
-        sim._balance_contacts()
-    sim._update_spheres()
+    sim.refresh()

@@ -427,7 +427,7 @@ def mesh_end_one(
     sums: Sums,  # in: the whole mesh accumulators (cleared); out: the mesh forces
     disp: wp.array(dtype=float),
 ):
-    """Mesh instance m at the end of a step (one thread of _mesh_end_kernel, or a world's loop): its force into
+    """Mesh instance m at the end of a step (one thread of stages._mesh_end_kernel, or a world's loop): its force into
     sums.mesh_force[m] and added to sums.mesh_force_sum[m], its torque into sums.mesh_torque[m], its displacement
     into disp[slot]."""
     n = sums.mesh_force.shape[0]

@@ -18,21 +18,13 @@ from collections.abc import Callable
 import numpy as np
 import warp as wp
 
-from . import accumulate, cpu_threads
 from . import broadphase as bp
-from . import kernel_args as ka
+from . import cpu_threads, stages
 from . import world_steps as world_steps_mod
-from .contacts import (
-    Materials,
-    sphere_pair_kernel,
-    sphere_sphere_kernel,
-    sphere_triangle_kernel,
-    tan_kernel,
-)
+from .contacts import Materials, tan_kernel
 from .cpu_threads import BARRIER_OK, Barrier
-from .data import DISP_STRIDE, NO_FAULT, Data
+from .data import NO_FAULT, Data
 from .errors import InputError, SimulationError, check_finite, check_positive
-from .integrator import integrate_bodies_kernel, mesh_end_one, spring_kernel, update_spheres_kernel
 from .model import FLAG_PIVOT, Model, State
 from .timestep import critical_timestep
 from .types import Contacts, Control, Options
@@ -54,59 +46,6 @@ world costs a hand-over between CPU threads and a few small reads, more than a f
 RECORD_CHUNK_STEPS = 4096
 """With ``world_steps``, :meth:`Simulation.run` hands pose records to the host at least this many steps at a time
 (whole records): the progress callback and the fault check come as often."""
-NO_FAULT_C = wp.constant(NO_FAULT)
-
-
-@wp.kernel
-def _end_step_kernel(
-    opts: Options,
-    disp: wp.array(dtype=float),
-    fault_parts: wp.array(dtype=int),
-    flag_out: wp.array(dtype=int),
-    counters: wp.array(dtype=int),
-    fault: wp.array(dtype=int),
-    cohesion_now: wp.array(dtype=int),
-):
-    """At the end of a step: decide whether to rebuild the candidate lists before the next one, count steps
-    (counters: steps, rebuilds), keep the step's first body fault unless an earlier step had one, and clear the
-    one-step request for cohesion (``cohesion_now``). disp: the meshes' largest displacement, then the spheres' of
-    each CPU thread; fault_parts: each thread's (body, cause, step), for bodies in thread order; one slot per
-    DISP_STRIDE entries in both."""
-    for base in range(0, fault_parts.shape[0], DISP_STRIDE):
-        if fault_parts[base] != NO_FAULT_C:
-            if fault[0] == NO_FAULT_C:
-                fault[0] = fault_parts[base]
-                fault[1] = fault_parts[base + 1]
-                fault[2] = fault_parts[base + 2]
-            fault_parts[base] = NO_FAULT_C
-    ds = float(0.0)
-    for p in range(DISP_STRIDE, disp.shape[0], DISP_STRIDE):
-        ds = wp.max(ds, disp[p])
-        disp[p] = 0.0
-    if ds + wp.max(ds, disp[0]) > opts.skin:
-        flag_out[0] = 1
-        counters[1] = counters[1] + 1
-    else:
-        flag_out[0] = 0
-    disp[0] = 0.0
-    counters[0] = counters[0] + 1
-    cohesion_now[0] = 0
-
-
-@wp.kernel
-def _mesh_end_kernel(
-    meshes: ka.Meshes,
-    parts: int,
-    state: ka.BodyState,
-    build_pos: wp.array(dtype=wp.vec3d),
-    build_quat: wp.array(dtype=wp.quatd),
-    sums: ka.Sums,
-    disp: wp.array(dtype=float),
-):
-    """Per mesh instance at the end of a step: its contact force and torque sums to float32 (``mesh_force``,
-    ``mesh_torque``, accumulate.take_float; read by the observers only; the force also added to
-    ``mesh_force_sum``) and its displacement since the last list build into disp[0] (atomic max)."""
-    mesh_end_one(wp.tid(), 0, meshes, parts, state, build_pos, build_quat, sums, disp)
 
 
 def _lane_layout(lanes: int | None, stride: int | None, model: Model) -> tuple[int, int]:
@@ -155,26 +94,6 @@ def _cpu_graph(ops: list[Callable[[], object]]) -> Callable[[], object]:
     kernels = [getattr(getattr(op, "__self__", None), "kernel", None) for op in ops]
     replay.__name__ = "graph of " + ", ".join(k.key.split(".")[-1] if k else "op" for k in kernels)
     return replay
-
-
-class _KernelArgs:
-    """The argument structs of a simulation's kernels (kernel_args.py), holding its model's, state's and data's
-    arrays; ``part_sums[p]``: CPU thread p's own accumulator slots (contacts, springs), ``whole_sums[p]``: all
-    slots with thread p's energy terms (integration, the meshes' end of step)."""
-
-    def __init__(self, sim: Simulation) -> None:
-        m, d = sim.model, sim.data
-        c = sim.contacts
-        self.spheres = ka.spheres_of(m)
-        self.meshes = ka.meshes_of(m, d)
-        self.springs = ka.springs_of(m)
-        self.bodies = ka.bodies_of(m, sim.control)
-        self.state = ka.body_state_of(sim.state)
-        self.kin = ka.sphere_state_of(d)
-        self.ss = ka.sphere_list_of(c.ss)
-        self.st = ka.triangle_list_of(c.st)
-        self.part_sums = [ka.sums_of(d, p, whole=False) for p in range(sim.parts)]
-        self.whole_sums = [ka.sums_of(d, p) for p in range(sim.parts)]
 
 
 class Simulation:
@@ -334,8 +253,8 @@ class Simulation:
                              f"got {bond_detection_factor!r}")
         self.bond_detection_factor = float(bond_detection_factor)
 
-        self._args: _KernelArgs | None = None  # the kernels' argument structs (made when first needed)
-        self._update_spheres()
+        self._args: stages.KernelArgs | None = None  # the kernels' argument structs (made when first needed)
+        stages.update_spheres(self.model, self._kernel_args(), self.contacts)
         self._set_bounds(bounds)
         self.options = Options()  # the settings the kernels read (types.py)
         o = self.options
@@ -419,24 +338,20 @@ class Simulation:
                 raise InputError(f"bounds must be (lower (3,), upper (3,)) with lower < upper, got {bounds!r}")
         self.bounds = (lo, hi)
 
-    def _update_spheres(self, launch: Callable[..., object] = wp.launch, first: int = 0, dim: int | None = None,
-                        disp_slot: int = -1) -> object:
-        """Sphere kinematics from the bodies' state, for spheres first .. first + dim (default: all); with
-        ``disp_slot`` >= 0, their largest displacement since the last list build into ``data.disp[disp_slot]``."""
-        c = self.contacts
-        dim = self.model.n_spheres - first if dim is None else dim
-        if dim <= 0:
-            return None
-        a = self._kernel_args()
-        return launch(update_spheres_kernel, dim, inputs=[first, a.spheres, a.state],
-                      outputs=[a.kin, c.build_pos, disp_slot, c.disp], device=self.device)
-
-    def _kernel_args(self) -> _KernelArgs:
-        """The kernels' argument structs (kernel_args.py), made from the model, state and data once and again after
-        :meth:`recapture` (an array replaced)."""
+    def _kernel_args(self) -> stages.KernelArgs:
+        """The kernels' argument structs (stages.KernelArgs), made from the model, state, control, data and
+        contacts once and again after :meth:`recapture` (an array replaced)."""
         if self._args is None:
-            self._args = _KernelArgs(self)
+            self._args = stages.KernelArgs(self.model, self.state, self.control, self.data, self.contacts,
+                                           self.parts)
         return self._args
+
+    def _layout(self) -> stages.Layout:
+        """The CPU threads' shares of a step (stages.Layout)."""
+        return stages.Layout(parts=self.parts, sphere_cut=self._sphere_cut, body_cut=self._body_cut,
+                             contact_cut=self._contact_cut, entry_cut=self._entry_cut,
+                             pair_contacts=self.contact_threads == "pair", float_sums=self._large,
+                             fold_energy=self.parts > 1 and self.track_energy)
 
     # ------------------------------------------------------------------ broad phase
     def _rebuild(self) -> None:
@@ -495,86 +410,10 @@ class Simulation:
         arguments are packed once: on the CPU that packing costs more than a small scene's kernels). With several
         CPU threads (``parts``), the contacts and the integration are phases (cpu_threads.Parallel) whose parts
         cover ranges of spheres and bodies; run directly, the parts run one after the other. ``lanes`` (with
-        ``record``): the step as one list of launches per CPU thread, with barriers between (:meth:`_lanes`)."""
-        d = self.data
-        c = self.contacts
-        m, dev = self.model, self.device
-        segments: list[tuple[str, object]] = []  # ("phase", parts) or ("serial", op), in order
-        P = self.parts
-
-        def launch(kernel: object, dim: int, **kw: object) -> Callable[[], object] | None:
-            if dim <= 0:
-                return None
-            if record:
-                return wp.launch(kernel, dim, record_cmd=True, **kw).launch
-            wp.launch(kernel, dim, **kw)
-            return None
-
-        def serial(op: Callable[[], object] | None) -> None:
-            if op is not None:
-                segments.append(("serial", op))
-
-        def phase(name: str, parts: list[list[Callable[[], object] | None]]) -> None:
-            segments.append(("phase", (name, [[op for op in part if op is not None] for part in parts])))
-
-        a = self._kernel_args()
-        ns = m.n_spheres
-        sc, bc, cc = self._sphere_cut, self._body_cut, self._contact_cut
-        # the accumulators are zero here: the sums to float of the previous step cleared them
-        contacts: list[list[Callable[[], object] | None]] = []
-        for p in range(P):
-            first, dim = cc[p], cc[p + 1] - cc[p]
-            sums = a.part_sums[p]
-            part = []
-            if ns and self.contact_threads == "pair":  # a thread per list entry
-                ec = self._entry_cut if self._entry_cut and self._entry_cut[-1] == c.ss.capacity else \
-                    [q * c.ss.capacity // P for q in range(P + 1)]
-                e0, e1 = ec[p], ec[p + 1]
-                part.append(launch(
-                    sphere_pair_kernel, e1 - e0,
-                    inputs=[e0, a.spheres, self.materials, self.options, a.kin, a.ss, d.cohesion_now],
-                    outputs=[sums], device=dev))
-            elif ns:
-                part.append(launch(
-                    sphere_sphere_kernel, dim,
-                    inputs=[first, a.spheres, self.materials, self.options, a.kin, a.ss, d.cohesion_now],
-                    outputs=[sums], device=dev))
-            if ns and m.n_meshes:
-                part.append(launch(
-                    sphere_triangle_kernel, dim,
-                    inputs=[first, a.spheres, a.meshes, self.materials, self.options, a.kin, a.state, a.st,
-                            d.cohesion_now],
-                    outputs=[sums], device=dev))
-            contacts.append(part)
-        if m.n_springs:  # part 0's, after its contacts: it adds into part 0's sums only
-            contacts[0].append(launch(spring_kernel, m.n_springs, inputs=[a.springs, a.bodies, self.options, a.state],
-                                      outputs=[a.part_sums[0]], device=dev))
-        phase("contacts", contacts)
-        # motion: each part sums its bodies' forces, moves and checks them, and updates their spheres
-        motion: list[list[Callable[[], object] | None]] = []
-        float_sums = int(self._large)
-        if float_sums:
-            serial(launch(accumulate.wrench_to_float_kernel, m.n_bodies,
-                          inputs=[d.force_acc, d.force_scale, d.torque_acc, d.torque_scale, P],
-                          outputs=[d.body_force, d.body_torque], device=dev))
-        for p in range(P):
-            motion.append([
-                launch(integrate_bodies_kernel, bc[p + 1] - bc[p],
-                       inputs=[bc[p], a.bodies, self.options, P, float_sums, d.counters, p * DISP_STRIDE, a.state],
-                       outputs=[a.whole_sums[p], d.fault_parts], device=dev),
-                self._update_spheres(launch, sc[p], sc[p + 1] - sc[p], disp_slot=(1 + p) * DISP_STRIDE),
-            ])
-        phase("motion", motion)
-        # broad phase next step? when the displacements since the last build could hide a contact
-        if m.n_meshes:  # the meshes' sums to float (for the observers) and their displacement
-            serial(launch(_mesh_end_kernel, m.n_meshes,
-                          inputs=[a.meshes, P, a.state, c.mesh_build_pos, c.mesh_build_quat],
-                          outputs=[a.whole_sums[0], c.disp], device=dev))
-        serial(launch(_end_step_kernel, 1, inputs=[self.options, c.disp, d.fault_parts],
-                      outputs=[c.rebuild_flag, d.counters, d.fault, d.cohesion_now], device=dev))
-        if P > 1 and self.track_energy:
-            serial(launch(accumulate.fold_energy_kernel, d.energy.shape[0], inputs=[d.energy_extra, P],
-                          outputs=[d.energy], device=dev))
+        ``record``): the step as one list of launches per CPU thread, with barriers between (:meth:`_lanes`).
+        The launches are the stage functions' (stages.segments)."""
+        segments = stages.segments(self.model, self._kernel_args(), self.contacts, self.data, self.options,
+                                   self.materials, self._layout(), stages.launcher(record))
         if lanes:
             return self._lanes(segments)
         ops: list[Callable[[], object]] = []
@@ -743,6 +582,25 @@ class Simulation:
             self.state.time += self.dt
             if (k + 1) % every == 0 or k == n_steps - 1:
                 self._check()
+
+    def refresh(self) -> None:
+        """After the state, the control or the candidate lists were replaced from outside (checkpoint.load): forget
+        the captured step (:meth:`recapture`), cut the contacts between the CPU threads again from the lists, and
+        compute the spheres' kinematics from the bodies' state."""
+        self.recapture()
+        if self.parts > 1:
+            self._balance_contacts()
+        stages.update_spheres(self.model, self._kernel_args(), self.contacts)
+
+    def rebuild_lists(self) -> None:
+        """Rebuild the candidate lists now (as when a step flags it), growing them until every candidate fits."""
+        self._rebuild_checked()
+
+    def step_ops(self) -> list[Callable[[], object]]:
+        """One step's launches, recorded, in order (for profiling: calling each in turn runs a step; valid until
+        the lists are rebuilt or grow). The caller rebuilds the lists when ``contacts.rebuild_flag`` asks
+        (:meth:`rebuild_lists`) and counts the steps."""
+        return self._launch_step(record=True)
 
     def recapture(self) -> None:
         """Forget the captured graphs and recorded launches of the step (its arrays moved or were replaced, or the

@@ -3,7 +3,7 @@ ringing rigs).
 
 A step of a small world is a handful of spheres, contacts and bodies, while a launch costs the same however little
 it does: a batch of 13 ringing rigs (52 spheres) spends its step in the latency of its seven launches. Here one
-block runs one world's whole step, the stages in the order of :meth:`Simulation._launch_step` (sphere-sphere and
+block runs one world's whole step, the stages in the order of ``stages.segments`` (sphere-sphere and
 sphere-triangle contacts and springs, body motion with its fault check, sphere kinematics and the meshes' end of
 step), each stage's items dealt out between the block's threads (``WORLD_LANES`` on CUDA, one on the CPU by default;
 ``Simulation(world_lanes=...)``) with a barrier between stages; it then decides as the end-of-step kernel does
@@ -259,7 +259,7 @@ def world_steps_kernel(
         k += 1
         block_sync()
         c_6 = cycle_count()
-        # the end of the step, for this world (simulation._end_step_kernel): every lane reads the displacements
+        # the end of the step, for this world (stages._end_step_kernel): every lane reads the displacements
         # and takes the same decision; then lane 0 resets them and files the step's fault
         ds = ws.disp[dm + 1]
         rebuild = spw > 0 and ds + wp.max(ds, ws.disp[dm]) > opts.skin  # no spheres: no lists to rebuild
