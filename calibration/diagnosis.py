@@ -97,10 +97,20 @@ class DiagnosisSettings:
     batch_worlds: int = 0
     """at most this many worlds per batched simulation (0: each round's new points in one); with a checkpoint, the
     simulated points are saved after every batch."""
+    converge_rounds: int = 6
+    """convergence check: at most this many more Levenberg-Marquardt rounds for the baseline and for a fit a step is
+    about to name, until its loss stops falling (0: none; a fit that still falls is named "not converged")."""
+    converge_tol: float = 0.5
+    """a round in which neither the in-sample chi^2 nor the held-out loss falls by this much has converged (chi^2
+    units: a tenth of the 3.84 a one-gene likelihood-ratio test needs at 5 %)."""
 
     def __post_init__(self) -> None:
         if self.rounds < 1:
             raise ValueError(f"rounds must be >= 1, got {self.rounds!r}")
+        if self.converge_rounds < 0:
+            raise ValueError(f"converge_rounds must be >= 0, got {self.converge_rounds!r}")
+        if not (math.isfinite(self.converge_tol) and self.converge_tol > 0):
+            raise ValueError(f"converge_tol must be a positive number, got {self.converge_tol!r}")
         if self.batch_worlds < 0:
             raise ValueError(f"batch_worlds must be >= 0, got {self.batch_worlds!r}")
         if not 0 < self.alpha < 1:
@@ -202,6 +212,20 @@ class Diagnosis:
     """simulated records whose extraction failed (model, configuration, why)."""
     measured_failures: list[str] = field(default_factory=list)
     """measured records whose extraction failed (configuration, why): those values are left out."""
+    absorbed: list[str] = field(default_factory=list)
+    """the fitted baseline's first-order factors outside their physical ranges, in words (issue #39, item 2)."""
+    priority: list[str] = field(default_factory=list)
+    """the mechanisms that would produce what the baseline absorbed: named first where the data cannot tell them
+    from the best."""
+    at_bound: list[dict[str, object]] = field(default_factory=list)
+    """significant candidates not named because a gene of their newest mechanism ended on its physical bound: step,
+    mechanism, gene, value, low, high, unit, side, source."""
+    bounds: dict[str, dict[str, object]] = field(default_factory=dict)
+    """mechanism -> gene -> its physical range (low, high, unit) and the range's source."""
+    sizes: list[dict[str, object]] = field(default_factory=list)
+    """the named causes' sizes with their uncertainty along the inertia-stiffness ridge (or fixed by a datum)."""
+    convergence: dict[str, dict[str, object]] = field(default_factory=dict)
+    """per refined fit (the baseline, each named model): converged, extra rounds, last fall of the loss."""
 
     @property
     def baseline(self) -> Fit:
@@ -395,6 +419,34 @@ class _Fitter:
                     proposals[c.name] = self._lm_steps(c, centres[c.name])
         return {c.name: self._result(c) for c in cands}
 
+    def _fit_losses(self, cand: Candidate) -> tuple[float, float]:
+        """The best in-sample chi^2 over the candidate's points and the sum of its folds' held-out losses."""
+        _, pred = self.points(cand)
+        loss = self.losses(pred)
+        total = loss.sum(axis=1)
+        i_fold = np.argmin(total[:, None] - loss, axis=0)
+        return float(total.min()), float(loss[i_fold, np.arange(loss.shape[1])].sum())
+
+    def refine(self, cand: Candidate, label: str) -> dict[str, object]:
+        """The convergence check: more Levenberg-Marquardt rounds about the candidate's best point until neither its
+        in-sample chi^2 nor its held-out loss falls by ``converge_tol`` in a round (at most ``converge_rounds``).
+        Returns converged, the extra rounds and the last round's fall."""
+        s = self.settings
+        if not cand.genes or s.converge_rounds == 0:
+            return {"converged": not cand.genes, "rounds": 0, "fall": math.nan}
+        prev, fall = self._fit_losses(cand), math.inf
+        for r in range(s.converge_rounds):
+            pts, _ = self.points(cand)
+            centre = pts[self.best(cand)[0][0]]
+            self.evaluate([(cand, z) for z in self._stencil(centre)],
+                          f"{label}, convergence round {r + 1} (differences)")
+            self.evaluate([(cand, z) for z in self._lm_steps(cand, centre)], f"{label}, convergence round {r + 1}")
+            now = self._fit_losses(cand)
+            fall, prev = max(prev[0] - now[0], prev[1] - now[1]), now
+            if fall < s.converge_tol:
+                return {"converged": True, "rounds": r + 1, "fall": fall}
+        return {"converged": False, "rounds": s.converge_rounds, "fall": fall}
+
     def _stencil(self, x0: np.ndarray) -> list[np.ndarray]:
         """Forward-difference points about x0 (one per gene, stepping inwards at the upper bound)."""
         h = self.settings.fd_step
@@ -533,25 +585,92 @@ def mechanisms_for(rig: object, settings: DiagnosisSettings) -> list[mech.Mechan
 
 
 def candidates_for(rig: object, settings: DiagnosisSettings) -> list[Candidate]:
-    """The baseline and one candidate per applicable mechanism."""
+    """The baseline and one candidate per applicable mechanism (genes cut to their physical bounds)."""
     base = Candidate("baseline", (), tuple(rig.genes))
-    return [base] + [extend(base, m) for m in mechanisms_for(rig, settings)]
+    facts = rig.facts() if hasattr(rig, "facts") else None
+    return [base] + [extend(base, m, facts) for m in mechanisms_for(rig, settings)]
 
 
-def extend(cand: Candidate, m: mech.Mechanism) -> Candidate:
-    """A candidate with one more mechanism (its genes appended)."""
+def extend(cand: Candidate, m: mech.Mechanism, facts: mech.RigFacts | None = None) -> Candidate:
+    """A candidate with one more mechanism (its genes appended, their ranges cut to the physical bounds that
+    ``facts`` give, :meth:`calibration.mechanisms.Mechanism.bounded_genes`)."""
     ms = cand.mechanisms + (m,)
-    return Candidate("+".join(x.name for x in ms), ms, cand.genes + m.genes)
+    return Candidate("+".join(x.name for x in ms), ms, cand.genes + m.bounded_genes(facts))
 
 
-def _step(fitter: _Fitter, current: Fit, remaining: list[mech.Mechanism], s: DiagnosisSettings, label: str
-          ) -> list[Fit]:
+def _step(fitter: _Fitter, current: Fit, remaining: list[mech.Mechanism], s: DiagnosisSettings, label: str,
+          facts: mech.RigFacts | None = None) -> list[Fit]:
     """Every remaining mechanism added to ``current`` (each started from current's fit), compared with it."""
-    cands = [extend(current.candidate, m) for m in remaining]
+    cands = [extend(current.candidate, m, facts) for m in remaining]
     seeds = {c.name: np.r_[current.z_all, np.full(len(c.genes) - len(current.z_all), np.nan)] for c in cands}
     fits = fitter.fit(cands, label, seeds)
     out = [fits[c.name] for c in cands]
     _compare(out, current, s)
+    return out
+
+
+def absorbed_parameters(rig: object, base: Fit) -> tuple[list[str], set[str]]:
+    """The fitted baseline's first-order factors outside their physical ranges (``rig.baseline_bounds()``), in
+    words, and the deviations they show ("stiffness_high", "inertia_low", ...). With the inertia and the rates both
+    fitted, ringing records fix only their ratio: it is outside when the ridge s / f_J = const misses the box of
+    both ranges; with one of them fixed (a datum), each is judged alone."""
+    if not hasattr(rig, "baseline_bounds"):
+        return [], set()
+    bb, p = rig.baseline_bounds(), dict(base.params_all())
+    if getattr(rig, "datum_scale", None) is not None:
+        p.setdefault("stiffness_scale", rig.datum_scale)
+    lines, dev = [], set()
+    if "stiffness_scale" in p and "inertia_factor" in p and "stiffness_scale" not in getattr(rig, "fixed", {}) \
+            and any(g.name == "stiffness_scale" for g in base.candidate.genes) \
+            and any(g.name == "inertia_factor" for g in base.candidate.genes):
+        ks, ki = bb["stiffness_scale"], bb["inertia_factor"]
+        r, lo, hi = p["stiffness_scale"] / p["inertia_factor"], ks.low / ki.high, ks.high / ki.low
+        if not lo <= r <= hi:
+            side = "high" if r > hi else "low"
+            dev |= {f"stiffness_{side}", f"inertia_{'low' if side == 'high' else 'high'}"}
+            lines.append(f"the rates relative to the inertia are {r:.3g}x the stated ratio, outside the "
+                         f"{lo:.3g}-{hi:.3g} that the rates' range ({ks.source}) and the inertia's ({ki.source}) "
+                         f"allow: the baseline has absorbed something that makes the rig ring "
+                         f"{'faster' if side == 'high' else 'slower'} than described")
+        return lines, dev
+    for name, b in bb.items():
+        if name not in p:
+            continue
+        v = p[name]
+        side = "low" if v < b.low * (1 - 1e-9) else "high" if v > b.high * (1 + 1e-9) else ""
+        if side:
+            dev.add(f"{name.split('_')[0]}_{side}")
+            lines.append(f"the baseline's {name} = {v:.3g} is outside its physical range {b.low:.3g}-{b.high:.3g} "
+                         f"({b.source}): it has likely absorbed a mechanism the baseline lacks")
+    return lines, dev
+
+
+def cause_sizes(rig: object, fit: Fit) -> list[dict[str, object]]:
+    """Each named gene's size with its uncertainty along the inertia-stiffness ridge: with both factors fitted,
+    ringing records fix the rates relative to the inertia (s / f_J) and a gene of ridge power p
+    (``Mechanism.ridge``) scales as f_J^p along it; the interval is the ridge's stretch where the rates stay within
+    their physical range (``rig.baseline_bounds()``). With the rates fixed by a datum (``rig.datum_scale``) the size
+    is fixed too (interval: the fitted value)."""
+    p = fit.params_all()
+    out = []
+    both = "inertia_factor" in p and "stiffness_scale" in p and hasattr(rig, "baseline_bounds")
+    for m in fit.candidate.mechanisms:
+        for g in m.genes:
+            power = m.ridge.get(g.name, 0.0)
+            v = p[g.name]
+            entry = {"mechanism": m.name, "gene": g.name, "value": v, "unit": g.unit, "low": v, "high": v,
+                     "why": "no inertia-stiffness ridge (the fit fixes it)"}
+            if power and both:
+                ks = rig.baseline_bounds()["stiffness_scale"]
+                f = p["inertia_factor"]
+                r = p["stiffness_scale"] / f
+                lo, hi = sorted((v * (ks.low / r / f) ** power, v * (ks.high / r / f) ** power))
+                entry.update(low=lo, high=hi, why=f"along the inertia-stiffness ridge (rates {r:.3g}x the inertia's "
+                             f"ratio), the rates within {ks.low:.3g}-{ks.high:.3g}x the stated ones: inertia factor "
+                             f"{ks.low / r:.3g}-{ks.high / r:.3g}")
+            elif power and getattr(rig, "datum_scale", None) is not None:
+                entry["why"] = "fixed: the static deflection datum fixes the rates, the frequencies the inertia"
+            out.append(entry)
     return out
 
 
@@ -573,31 +692,68 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
                          f"2 configurations, the data have {rig.n_configs}")
     fitter = _Fitter(rig, s, log, checkpoint)
     remaining = mechanisms_for(rig, s)
+    facts = rig.facts() if hasattr(rig, "facts") else None
     log(f"diagnosis of the {rig.rig} rig: {rig.n_configs} configurations, observables {', '.join(rig.observables)}; "
         f"baseline genes: {', '.join(g.name for g in rig.genes) or 'none'}; mechanisms: "
         f"{', '.join(m.name for m in remaining)}")
-    base = fitter.fit([Candidate("baseline", (), tuple(rig.genes))], "baseline")["baseline"]
+    base_cand = Candidate("baseline", (), tuple(rig.genes))
+    fitter.fit([base_cand], "baseline")
+    convergence = {"baseline": fitter.refine(base_cand, "baseline")}
+    base = fitter._result(base_cand)
     fits = {"baseline": base}
-    current, steps, indist, singles = base, [], [], []
+    absorbed, deviations = absorbed_parameters(rig, base)
+    priority = [m.name for m in remaining if set(m.produces) & deviations]
+    for line in absorbed:
+        log(f"  absorbed: {line}")
+    current, steps, indist, singles, at_bound = base, [], [], [], []
     noise_base = _noise_p(base)
     while remaining:
-        tried = _step(fitter, current, remaining, s, f"step {len(steps) + 1}")
+        label = f"step {len(steps) + 1}"
+        tried = _step(fitter, current, remaining, s, label, facts)
         fits.update({f.name: f for f in tried})
         if not steps:
             singles = sorted(tried, key=lambda f: f.heldout_loss.sum())
         sig = sorted([f for f in tried if f.significant], key=lambda f: f.heldout_loss.sum())
-        if not sig:
+        eligible = []
+        for f in sig:
+            newest = f.candidate.mechanisms[-1]
+            ends = [b for b in f.at_bound() if b["gene"] in {g.name for g in newest.genes}]
+            if not ends:
+                eligible.append(f)
+                continue
+            phys = newest.physical(facts)
+            for b in ends:
+                at_bound.append({"step": len(steps) + 1, "mechanism": newest.name, **b,
+                                 "source": phys[b["gene"]].source,
+                                 "heldout_loss": float(f.heldout_loss.sum())})
+            log(f"  {label}: {newest.name} significant but at its bound ({', '.join(b['gene'] for b in ends)}): "
+                "the cause is likely outside this mechanism")
+        if not eligible:
             break
-        top = sig[0]
-        if not steps:  # within the noise of a chi^2 with one dof per data point: sqrt(2 n)
-            indist = [f.candidate.mechanisms[-1].name for f in sig[1:]
-                      if f.heldout_loss.sum() - top.heldout_loss.sum() < math.sqrt(2.0 * top.n_points)]
+        top = eligible[0]
+        margin = math.sqrt(2.0 * top.n_points)  # the spread of a chi^2 with n data points
+        preferred = [f for f in eligible if f.candidate.mechanisms[-1].name in priority
+                     and f.heldout_loss.sum() - top.heldout_loss.sum() < margin]
+        if preferred:
+            top = preferred[0]
+        if not steps:
+            indist = [f.candidate.mechanisms[-1].name for f in eligible if f is not top
+                      and abs(f.heldout_loss.sum() - top.heldout_loss.sum()) < margin]
+        conv = fitter.refine(top.candidate, label)
+        refined = fitter._result(top.candidate)
+        tried = [refined if f is top else f for f in tried]
+        _compare(tried, current, s)
+        fits[refined.name] = top = refined
+        convergence[top.name] = conv
         steps.append({"step": len(steps) + 1, "named": top.candidate.mechanisms[-1].name, "model": top.name,
                       "heldout_loss_before": float(current.heldout_loss.sum()),
                       "heldout_loss_after": float(top.heldout_loss.sum()), "gain": top.gain, "gain_se": top.gain_se,
-                      "p_lr_holm": top.p_holm, "noise_p_after": _noise_p(top)})
+                      "p_lr_holm": top.p_holm, "noise_p_after": _noise_p(top), "converged": bool(conv["converged"]),
+                      "convergence_rounds": int(conv["rounds"]), "last_fall": float(conv["fall"]),
+                      "preferred_as_absorbed": bool(preferred)})
         log(f"  step {len(steps)}: {top.candidate.mechanisms[-1].name} (held-out loss "
-            f"{current.heldout_loss.sum():.3g} -> {top.heldout_loss.sum():.3g})")
+            f"{current.heldout_loss.sum():.3g} -> {top.heldout_loss.sum():.3g}"
+            f"{'' if conv['converged'] else '; the fit did not converge'})")
         remaining = [m for m in remaining if m.name != top.candidate.mechanisms[-1].name]
         current = top
         if _noise_p(top) >= s.noise_p:
@@ -613,6 +769,11 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
     diag = Diagnosis(rig.rig, tuple(rig.observables), list(rig.configs), rig.measured, rig.sigma,
                      rig.describe_uncertainty(), dict(rig.units), rig.covariates(), fits, ranking, verdict, cause,
                      indist, [], noise_base, noise_final if cause else noise_best)
+    diag.absorbed, diag.priority, diag.at_bound, diag.convergence = absorbed, priority, at_bound, convergence
+    diag.bounds = {m.name: {g: {"low": b.low, "high": b.high, "unit": next(x.unit for x in m.genes if x.name == g),
+                                "source": b.source} for g, b in m.physical(facts).items()}
+                   for m in mechanisms_for(rig, s)}
+    diag.sizes = cause_sizes(rig, current)
     diag.steps = steps
     diag.residual_left = bool(noise_final < s.noise_p)
     if hasattr(rig, "describe_fit"):

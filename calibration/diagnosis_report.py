@@ -45,6 +45,12 @@ def to_json(d: Diagnosis) -> dict[str, object]:
         "residual_left": d.residual_left,
         "steps": d.steps,
         "baseline_adjustments": d.adjustments,
+        "absorbed": d.absorbed,
+        "tried_first": d.priority,
+        "at_bound": d.at_bound,
+        "cause_sizes": d.sizes,
+        "convergence": d.convergence,
+        "physical_bounds": d.bounds,
         "failed_extractions": {"simulated": d.failures, "measured": d.measured_failures},
         "noise_p_baseline": _f(d.noise_p_baseline),
         "noise_p_best": _f(d.noise_p_best),
@@ -207,8 +213,27 @@ def write(d: Diagnosis, out: str | Path, command: str = "") -> Path:
     lines = [f"# Diagnosis of the {d.rig} rig", ""]
     if command:
         lines += [f"Command: `{command}`", ""]
+    if d.absorbed:
+        lines += ["**The baseline absorbed what it lacks:** " + "; ".join(d.absorbed) + "."
+                  + (f" Tried first (named when the data cannot tell them from the best): {', '.join(d.priority)}."
+                     if d.priority else " No registered mechanism that would produce it applies to this rig."), ""]
     verdict = d.verdict + (f": **{' + '.join(d.cause)}**" if d.cause else "")
     lines += [f"**Verdict: {verdict}.**", ""]
+    for b in d.at_bound:
+        lines += [f"**At its bound: the cause is likely outside this mechanism:** {b['mechanism']} (step {b['step']}, "
+                  f"significant, held-out loss {b['heldout_loss']:.3g}) fits {b['gene']} = {b['value']:.4g} "
+                  f"{b['unit']}, the {'upper' if b['side'] == 'high' else 'lower'} end of its physical range "
+                  f"{b['low']:.4g} to {b['high']:.4g} {b['unit']} ({b['source']}); not named, the search went on.",
+                  ""]
+    for st in d.steps:
+        if not st.get("converged", True):
+            lines += [f"Step {st['step']} ({st['named']}) did not converge: its loss still fell by "
+                      f"{st['last_fall']:.3g} in the last of {st['convergence_rounds']} extra rounds.", ""]
+    if d.sizes:
+        lines += ["Size of the named cause: " + "; ".join(
+            f"{e['gene']} = {e['value']:.4g} {e['unit']}" + (
+                f" (from {e['low']:.4g} to {e['high']:.4g} {e['unit']} {e['why']})" if e["high"] > e["low"]
+                else f" ({e['why']})") for e in d.sizes) + ".", ""]
     if d.cause and d.residual_left:
         lines += ["What the named model leaves is still larger than the stated noise (an unexplained residual "
                   "remains; its pattern is below).", ""]

@@ -8,7 +8,17 @@ the rig supports all of its knobs.
 
 Built-in mechanisms (rationale in each entry): ``pivot_friction``, ``progressive_spring``, ``series_compliance``,
 ``extra_mass``, ``load_inertia``, ``pose_change``, ``sensor_offset``, ``sensor_drift``, ``stack_preload``,
-``speed_dependence``, ``rigid_reference_speed``.
+``speed_dependence``, ``rigid_reference_speed``, ``progressive_stack``.
+
+Physical bounds (issue #39, item 1): every gene of a mechanism has a physical range, from the rig (its
+:class:`RigFacts`: the stacks' rates and travel, the tool's mass, the first swing) where the rig states one, with its
+source (:meth:`Mechanism.physical`): a preload within the stiffest stack's travel, a stack's hardening within DIN
+2093's tolerance of its load at 0.75 h0, a pivot friction below the springs' moment at the first swing. The fit
+searches the gene's range cut to that bound; a fit that ends on the bound is not named as a cause
+(``calibration.diagnosis``): the data ask for more than the mechanism physically gives, so the cause is likely
+outside it. ``produces``: the baseline deviations a mechanism would make a fitted baseline absorb (item 2);
+``ridge``: how a gene's fitted size moves along the ringing baseline's inertia-stiffness ridge (value ~ J^p).
+
 Register your own::
 
     from calibration.mechanisms import Mechanism, register
@@ -20,10 +30,41 @@ Register your own::
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from .genes import Gene
+
+SEARCH_ONLY = "the search range (no physical bound stated for it)"
+"""the source of a bound that is only the gene's search range."""
+
+
+@dataclass(frozen=True)
+class Bound:
+    """A physical range of one gene (SI, the gene's unit) and where it comes from."""
+
+    low: float
+    high: float
+    source: str
+
+
+@dataclass(frozen=True)
+class RigFacts:
+    """What a rig states that bounds the mechanisms' parameters (SI; NaN or empty where the rig does not say).
+
+    rig: "ringing" or "soil-bin"; springs (n_configs,): units per stack; rates (n_configs,) [N/m]: the stated rates;
+    travel (n_configs,) [m]: each stack's service travel (DIN 2093: 0.75 h0 per unit); working_deflection
+    (n_configs,) [m]: each stack's static deflection under the rig's load (nominal); swing_moment [N m]: the
+    smallest moment of the springs at a configuration's first swing (K theta_1); tool_mass [kg]."""
+
+    rig: str
+    springs: tuple[int, ...] = ()
+    rates: tuple[float, ...] = ()
+    travel: tuple[float, ...] = ()
+    working_deflection: tuple[float, ...] = ()
+    swing_moment: float = math.nan
+    tool_mass: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -46,6 +87,14 @@ class Mechanism:
     signature: str = ""
     """what it does to the observables, for the report."""
     extra: dict[str, object] = field(default_factory=dict)
+    bounds: Callable[[RigFacts], dict[str, Bound]] | None = None
+    """physical ranges of (some of) its genes from the rig's facts; a gene left out keeps its search range."""
+    produces: tuple[str, ...] = ()
+    """baseline deviations it would make a fitted baseline absorb: "stiffness_high", "stiffness_low",
+    "inertia_high", "inertia_low" (the search tries these mechanisms first when the baseline shows one)."""
+    ridge: dict[str, float] = field(default_factory=dict)
+    """gene -> p: along the inertia-stiffness ridge of a ringing fit (rates and inertia scaled together) the gene's
+    fitted value scales as J^p (a torque, a force law, a mass: 1; a fraction, a sensor reading: 0, left out)."""
 
     def __post_init__(self) -> None:
         if not self.name.replace("_", "").isalnum() or not self.name.islower():
@@ -53,6 +102,30 @@ class Mechanism:
         names = [g.name for g in self.genes]
         if len(set(names)) != len(names):
             raise ValueError(f"mechanism {self.name!r}: gene names repeat: {names}")
+
+    def physical(self, facts: RigFacts | None) -> dict[str, Bound]:
+        """Every gene's physical range (cut to its search range) with its source."""
+        given = self.bounds(facts) if (self.bounds is not None and facts is not None) else {}
+        out = {}
+        for g in self.genes:
+            b = given.get(g.name)
+            if b is None or not (math.isfinite(b.low) or math.isfinite(b.high)):
+                out[g.name] = Bound(g.low, g.high, SEARCH_ONLY)
+            else:
+                out[g.name] = Bound(max(g.low, b.low), min(g.high, b.high), b.source)
+        return out
+
+    def bounded_genes(self, facts: RigFacts | None) -> tuple[Gene, ...]:
+        """Its genes with ranges cut to their physical bounds (a bound narrower than a tenth of a percent of the
+        range keeps a sliver, so the gene stays defined)."""
+        out = []
+        for g in self.genes:
+            b = self.physical(facts)[g.name]
+            lo, hi = b.low, b.high
+            if not hi > lo:
+                hi = lo * 1.001 if lo > 0 else lo + 1e-3 * (g.high - g.low)
+            out.append(Gene(g.name, float(lo), float(hi), log=g.log, unit=g.unit))
+        return tuple(out)
 
     def knob_names(self) -> set[str]:
         """The knobs this mechanism sets (evaluated at the middle of its ranges)."""
@@ -78,6 +151,69 @@ def get(name: str) -> Mechanism:
     return REGISTRY[name]
 
 
+
+DIN_LOAD_TOLERANCE = 0.25
+"""DIN 2093 (1992) section 7.1, group 1: a disc's load at s = 0.75 h0 within +25 % of its nominal (and -7.5 %): a
+stack's hardening above its linear rate stays within that at its service travel."""
+
+
+def _finite(xs: tuple[float, ...]) -> list[float]:
+    return [x for x in xs if math.isfinite(x)]
+
+
+def _friction_bound(f: RigFacts) -> dict[str, Bound]:
+    if f.rig != "ringing" or not math.isfinite(f.swing_moment):
+        return {}
+    return {"pivot_friction": Bound(0.0, f.swing_moment, "a Coulomb oscillator stops where the springs' moment "
+                                    "K theta falls below the friction torque: above the smallest first-swing moment "
+                                    "K theta_1 of the measured configurations a decay could not be recorded (closed "
+                                    "form)")}
+
+
+def _progressive_bound(f: RigFacts) -> dict[str, Bound]:
+    lim = [DIN_LOAD_TOLERANCE * k / s**2 for k, s in zip(f.rates, f.travel, strict=False)
+           if math.isfinite(s) and s > 0]
+    if not lim:
+        return {}
+    return {"progressive": Bound(0.0, min(lim), "DIN 2093 section 7.1: every stack's load at its service travel "
+                                 "s (0.75 h0 per unit) within +25 % of k s, so k3 s^2 <= 0.25 k for each stack")}
+
+
+def _stack_hardening_bound(f: RigFacts) -> dict[str, Bound]:
+    return {"hardening": Bound(0.0, DIN_LOAD_TOLERANCE, "DIN 2093 section 7.1: a disc's load at 0.75 h0 within +25 % "
+                               "of the nominal, so the stack's force at its travel k s (1 + beta) has beta <= 0.25")}
+
+
+def _series_bound(f: RigFacts) -> dict[str, Bound]:
+    rates = _finite(f.rates)
+    if not rates:
+        return {}
+    return {"series_stiffness": Bound(min(rates), math.inf, "softer than the softest stated stack, a compliance in "
+                                      "series would set every configuration's stiffness by itself "
+                                      "(scenes.passive_tool.SERIES_STIFFNESS_MIN for the paper's rig)")}
+
+
+def _extra_mass_bound(f: RigFacts) -> dict[str, Bound]:
+    if not math.isfinite(f.tool_mass):
+        return {}
+    return {"extra_mass": Bound(0.0, f.tool_mass, "hardware riding with the tool (clamps, preload nuts, the "
+                                "sensor's moving part) weighs less than the tool itself (the rig's tool mass)")}
+
+
+def _load_bound(f: RigFacts) -> dict[str, Bound]:
+    return {"load_mass_fraction": Bound(0.0, 1.0, "a fraction of the load's own mass "
+                                        "(scenes.passive_tool.BOUNDS['load_mass_fraction'])")}
+
+
+def _preload_bound(f: RigFacts) -> dict[str, Bound]:
+    travel = _finite(f.travel)
+    if not travel:
+        return {}
+    return {"stack_preload": Bound(0.0, min(travel), "DIN 2093: a stack's compression (preload and working "
+                                   "deflection) stays within its service travel 0.75 h0 per unit; one preload for "
+                                   "all stacks: the stiffest stack's travel (scenes.passive_tool.BOUNDS['preload'])")}
+
+
 register(Mechanism(
     "pivot_friction", "Dry friction at the pivot",
     "The shank turns about a pin in a bore; a dry (Coulomb) friction torque there takes a fixed amount of "
@@ -85,7 +221,8 @@ register(Mechanism(
     "and the tool can stop short of its equilibrium.",
     genes=(Gene("pivot_friction", 1e-3, 3.0, log=True, unit="N m"),),
     knobs=lambda p: {"pivot_friction": p["pivot_friction"]},
-    signature="damping that rises late in a decay and for small swings; equal for all stiffnesses"))
+    signature="damping that rises late in a decay and for small swings; equal for all stiffnesses",
+    bounds=_friction_bound, ridge={"pivot_friction": 1.0}))
 register(Mechanism(
     "progressive_spring", "Progressive spring stack",
     "Stacked disc springs (DIN 2093) stiffen with deflection when discs go flat or touch the guide; F = k u + "
@@ -93,21 +230,24 @@ register(Mechanism(
     "softest stacks, and the frequency grow with amplitude.",
     genes=(Gene("progressive", 1e4, 1e14, log=True, unit="N/m^3"),),
     knobs=lambda p: {"progressive": p["progressive"]},
-    signature="soft configurations stiffer than their nominal rate; frequency falling along a decay"))
+    signature="soft configurations stiffer than their nominal rate; frequency falling along a decay",
+    bounds=_progressive_bound, produces=("stiffness_high", "inertia_low"), ridge={"progressive": 1.0}))
 register(Mechanism(
     "series_compliance", "Compliance in series with the springs",
     "Shank, clamps and frame are not rigid: a stiffness ks in series gives the stack k ks/(k+ks), which lowers the "
     "stiff configurations most and compresses the range of frequencies a spring count can give.",
     genes=(Gene("series_stiffness", 1e3, 1e8, log=True, unit="N/m"),),
     knobs=lambda p: {"series_stiffness": p["series_stiffness"]},
-    signature="stiff configurations softer than nominal; frequency ratio below sqrt of the stiffness ratio"))
+    signature="stiff configurations softer than nominal; frequency ratio below sqrt of the stiffness ratio",
+    bounds=_series_bound, produces=("stiffness_low", "inertia_high"), ridge={"series_stiffness": 1.0}))
 register(Mechanism(
     "extra_mass", "Extra mass on the tool",
     "Preload hardware, clamps and the sensor's moving parts ride with the tool: more mass and inertia about the "
     "pivot lower every frequency by the same factor and the damping ratio of a given dashpot with it.",
     genes=(Gene("extra_mass", 0.0, 30.0, unit="kg"),),
     knobs=lambda p: {"extra_mass": p["extra_mass"]},
-    signature="all frequencies lower by one factor"))
+    signature="all frequencies lower by one factor",
+    bounds=_extra_mass_bound, produces=("inertia_high", "stiffness_low"), ridge={"extra_mass": 1.0}))
 register(Mechanism(
     "load_inertia", "Load force without its mass",
     "A ringing test's load may be applied by a cable, a lever or a spring balance rather than a dead weight: the "
@@ -117,7 +257,8 @@ register(Mechanism(
     genes=(Gene("load_mass_fraction", 0.02, 1.0, unit="-"),),
     knobs=lambda p: {"load_mass_fraction": p["load_mass_fraction"]},
     rigs=("ringing",),
-    signature="all frequencies higher by about one factor"))
+    signature="all frequencies higher by about one factor",
+    bounds=_load_bound, produces=("inertia_low", "stiffness_high")))
 register(Mechanism(
     "pose_change", "Pose change with the static deflection",
     "The springs are unloaded at the drawing's pose: under the load the tool turns back by its static deflection, "
@@ -150,7 +291,8 @@ register(Mechanism(
     genes=(Gene("stack_preload", 0.0, 5e-3, unit="m"),),
     knobs=lambda p: {"stack_preload": p["stack_preload"]},
     rigs=("soil-bin",),
-    signature="mean displacements low by a constant, the stiffest configurations at zero"))
+    signature="mean displacements low by a constant, the stiffest configurations at zero",
+    bounds=_preload_bound))
 register(Mechanism(
     "speed_dependence", "Speed-dependent soil resistance",
     "Soil resistance grows with the tool's speed (rate-dependent strength, soil acceleration): a resistance "
@@ -169,3 +311,13 @@ register(Mechanism(
     knobs=lambda p: {"rigid_speed": p["rigid_speed"]},
     rigs=("soil-bin",),
     signature="reduction residuals falling with the configuration's speed, zero at the reference's speed"))
+register(Mechanism(
+    "progressive_stack", "Progressive stacks, each by its own rate",
+    "A stack of n disc units in series deflects each disc by u / n, so a hardening of the discs gives every stack "
+    "the same law in u / s (s its service travel, 0.75 h0 per unit): F = k u (1 + beta (u / s)^2), k3 = beta k / s^2 "
+    "per configuration. DIN 2093 holds the load at s within +25 % of k s, so beta <= 0.25.",
+    genes=(Gene("hardening", 1e-3, 3.0, log=True, unit="-"),),
+    knobs=lambda p: {"progressive_factor": p["hardening"]},
+    signature="frequencies falling along a decay in proportion to (swing / travel)^2; under one load a uniform "
+              "stiffening (the stacks' deflection per travel is the same)",
+    bounds=_stack_hardening_bound, produces=("stiffness_high", "inertia_low")))

@@ -17,8 +17,16 @@ by a cable instead of a hanging weight. A user describes the rig in a small file
     hit = "record"             # "record": each configuration's first swing from its record; or the sensor's
                                # initial velocity [m/s]
     uncertain = ["inertia", "stiffness", "damping"]   # first-order unknowns the baseline fits
+    damping = "per_configuration"  # or "one_dashpot" (default): one dashpot for all configurations
+    unit_travel = 0.525e-3     # service travel of one unit of a stack [m] (default: DIN 2093 25 x 12.2 x 0.9,
+                               #   0.75 h0, with the default rates; unknown with stated rates unless given)
     [spring_rates]             # [N/m] per spring count (default: DIN 2093 of Table 2)
     4 = 2.1e5
+    [damping_ratios]           # with damping = "per_configuration": each configuration's damping ratio [-]
+    4 = 0.27                   #   (default: each record's own measured ratio)
+    [static_deflection]        # one absolute datum: the sensor's reading [m] under the load (load_force at
+    springs = 4                #   load_arm, load_depth) against its reading without it, on this configuration;
+    deflection = 1.2e-3        #   it fixes the rates, so a fit of the inertia is no longer a ratio
 
 Every key is optional; the defaults are the paper's rig as warpdem builds it (``scenes.ringing``: the sweep's
 inertia, its springs at the sensor's height, the 200 N weight hanging at the blade tip).
@@ -48,6 +56,9 @@ import numpy as np
 
 from warpdem.errors import InputError
 
+DAMPING = ("one_dashpot", "per_configuration")
+"""the baseline's damping: one dashpot for all configurations, or each configuration's own damping ratio (stated in
+``damping_ratios`` or its record's) times one fitted factor ``damping_scale``."""
 UNCERTAIN = ("inertia", "stiffness", "damping")
 """first-order unknowns a baseline may fit: ``inertia`` (a factor on the rig's inertia about the pivot),
 ``stiffness`` (a factor on every spring rate), ``damping`` (one dashpot for all configurations)."""
@@ -78,6 +89,13 @@ class RingingRigDescription:
     spring_rates: dict[int, float] = field(default_factory=dict)
     hit: str | float = "record"
     uncertain: tuple[str, ...] = ("damping",)
+    damping: str = "one_dashpot"
+    damping_ratios: dict[int, float] = field(default_factory=dict)
+    """per spring count, the damping ratio [-] of ``damping = "per_configuration"`` (default: the record's)."""
+    static_deflection: tuple[int, float] | None = None
+    """(spring count, the sensor's reading under the load against without it [m]): one absolute datum."""
+    unit_travel: float | None = None
+    """service travel of one unit of a stack [m] (None: DIN 2093 25 x 12.2 x 0.9's with the default rates)."""
     source: str = ""
     """where it was read from (empty: built in code)."""
 
@@ -113,6 +131,30 @@ class RingingRigDescription:
                                        f"[m/s], got {self.hit!r}")
         elif not (math.isfinite(self.hit) and self.hit != 0):
             raise DescriptionError(f"rig description: hit must be a non-zero velocity [m/s], got {self.hit!r}")
+        if self.damping not in DAMPING:
+            raise DescriptionError(f"rig description: damping must be one of {list(DAMPING)}, got {self.damping!r}")
+        for n, z in self.damping_ratios.items():
+            if n not in SPRING_COUNTS:
+                raise DescriptionError(f"rig description: damping_ratios key {n!r} is not a spring count of the rig; "
+                                       f"allowed {', '.join(map(str, SPRING_COUNTS))}")
+            if not (isinstance(z, (int, float)) and math.isfinite(z) and 0 < z < 1):
+                raise DescriptionError(f"rig description: damping_ratios[{n}] must be a ratio in (0, 1), got {z!r}")
+        if self.damping_ratios and self.damping != "per_configuration":
+            raise DescriptionError("rig description: damping_ratios need damping = \"per_configuration\"")
+        if self.static_deflection is not None:
+            n, u = self.static_deflection
+            if n not in SPRING_COUNTS:
+                raise DescriptionError(f"rig description: static_deflection springs {n!r} is not a spring count of "
+                                       f"the rig; allowed {', '.join(map(str, SPRING_COUNTS))}")
+            if not (isinstance(u, (int, float)) and math.isfinite(u) and u > 0):
+                raise DescriptionError(f"rig description: static_deflection deflection must be a positive reading "
+                                       f"[m], got {u!r}")
+            if self.load_force == 0:
+                raise DescriptionError("rig description: static_deflection needs a load_force > 0 (the known load)")
+        if self.unit_travel is not None and not (isinstance(self.unit_travel, (int, float))
+                                                 and math.isfinite(self.unit_travel) and self.unit_travel > 0):
+            raise DescriptionError(f"rig description: unit_travel must be a positive length [m], got "
+                                   f"{self.unit_travel!r}")
         bad = [u for u in self.uncertain if u not in UNCERTAIN]
         if bad:
             raise DescriptionError(f"rig description: uncertain entries {bad} unknown; allowed {list(UNCERTAIN)}")
@@ -121,11 +163,14 @@ class RingingRigDescription:
         d = asdict(self)
         d["spring_rates"] = {str(k): v for k, v in self.spring_rates.items()}
         d["uncertain"] = list(self.uncertain)
+        d["damping_ratios"] = {str(k): v for k, v in self.damping_ratios.items()}
+        d["static_deflection"] = list(self.static_deflection) if self.static_deflection else None
         return d
 
 
 KEYS = {"tool_inertia", "tool_mass", "tool_com", "spring_lever", "sensor_lever", "load_force", "load_arm", "load_depth",
-        "load_mass_rides", "spring_rates", "hit", "uncertain"}
+        "load_mass_rides", "spring_rates", "hit", "uncertain", "damping", "damping_ratios", "static_deflection",
+        "unit_travel"}
 
 
 def parse(data: dict[str, object], source: str = "") -> RingingRigDescription:
@@ -136,18 +181,29 @@ def parse(data: dict[str, object], source: str = "") -> RingingRigDescription:
                                f"{sorted(KEYS)}")
     kw: dict[str, object] = {}
     for k, v in data.items():
-        if k == "spring_rates":
+        if k in ("spring_rates", "damping_ratios"):
+            what = "a rate [N/m]" if k == "spring_rates" else "a damping ratio [-]"
             if not isinstance(v, dict):
-                raise DescriptionError(f"rig description: spring_rates must be a table of spring count = rate, got "
-                                       f"{v!r}")
+                raise DescriptionError(f"rig description: {k} must be a table of spring count = {what}, got {v!r}")
             rates = {}
             for n, r in v.items():
                 try:
                     rates[int(n)] = float(r)
                 except (TypeError, ValueError):
-                    raise DescriptionError(f"rig description: spring_rates entry {n!r} = {r!r}: a spring count and "
-                                           f"a rate [N/m] are needed") from None
+                    raise DescriptionError(f"rig description: {k} entry {n!r} = {r!r}: a spring count and "
+                                           f"{what} are needed") from None
             kw[k] = rates
+        elif k == "static_deflection":
+            if not isinstance(v, dict) or set(v) != {"springs", "deflection"}:
+                raise DescriptionError(f"rig description: static_deflection must be a table with springs and "
+                                       f"deflection [m], got {v!r}")
+            try:
+                kw[k] = (int(v["springs"]), float(v["deflection"]))
+            except (TypeError, ValueError):
+                raise DescriptionError(f"rig description: static_deflection {v!r}: a spring count and a reading "
+                                       f"[m] are needed") from None
+        elif k == "damping":
+            kw[k] = v
         elif k == "uncertain":
             if isinstance(v, str):
                 v = [s.strip() for s in v.split(",") if s.strip()]

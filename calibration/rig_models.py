@@ -214,6 +214,18 @@ BASELINE_GENES = {
 along the springs at the spring lever (one for all configurations), a factor on the rig's inertia about the pivot,
 a factor on every spring rate."""
 UNCERTAIN_GENE = {"damping": "dashpot", "inertia": "inertia_factor", "stiffness": "stiffness_scale"}
+DAMPING_SCALE = Gene("damping_scale", 0.2, 5.0, log=True, unit="-")
+"""with ``damping = "per_configuration"`` the baseline's damping gene: one factor on every configuration's own damping
+ratio (its dashpot set from the ratio by the linear oscillator's closed form), so a mechanism that damps can take
+its share. Each configuration's ratio is an input then (its record's, unless the description states it): its held-out
+``damping`` is not a prediction; ``damping_late`` and the decay's signatures still are."""
+
+
+def build_tool_mass() -> float:
+    """The sweep's mass [kg] (``scenes.sweep``)."""
+    from scenes.sweep import build_sweep
+
+    return float(build_sweep().mass)
 
 
 class RingingRigModel:
@@ -320,6 +332,18 @@ class RingingRigModel:
         genes = dict(BASELINE_GENES)
         if description.tool_inertia or description.spring_lever or description.spring_rates:
             genes["dashpot"] = self._dashpot_gene()
+        self.damping_ratio: np.ndarray | None = None
+        if description.damping == "per_configuration":
+            if "dashpot" in self.fixed:
+                raise InputError("fixed: dashpot and a rig description with damping = \"per_configuration\" "
+                                 "exclude each other")
+            self.damping_ratio = self._damping_ratios()
+            genes["dashpot"] = DAMPING_SCALE
+        self.datum_scale: float | None = None
+        """the rate factor the description's static deflection fixes (None: no datum)."""
+        if description.static_deflection is not None:
+            self.datum_scale = self._datum_scale()
+            wanted = [g for g in wanted if g != "stiffness_scale"]
         self.genes = tuple(genes[g] for g in wanted if g not in self.fixed)
         # with the inertia fitted, the knobs that only change the inertia (extra_mass, load_mass_fraction: the
         # mechanisms extra_mass and load_inertia) would duplicate a baseline gene: the rig does not offer them
@@ -328,8 +352,93 @@ class RingingRigModel:
                                | ({"extra_mass"} if "inertia" not in description.uncertain else set())
                                | ({"load_mass_fraction"} if description.load_mass_rides
                                   and "inertia" not in description.uncertain else set()))
+        if not all(math.isnan(t) for t in self._travel()):
+            self.knobs = self.knobs | {"progressive_factor"}
         self.hit = self._hits()
         self._geometry: dict[str, float] | None = None
+
+    def _statics(self) -> dict[str, float]:
+        """The described rig's small-swing numbers (module ``calibration.rig_description``): spring lever a,
+        sensor lever s [m], the load's moment F l [N m] and the gravity stiffness K_g = F d + m g z_c [N m/rad]
+        (without ``tool_mass``: the sweep's, scaled with the stated inertia)."""
+        d, ref = self.description, self.reference
+        a = d.spring_lever or ref.lever
+        arm = d.load_arm if d.load_arm is not None else ref.load_arm
+        depth = d.load_depth if d.load_depth is not None else ref.load_depth
+        scale = (d.tool_inertia / ref.tool_inertia) if d.tool_inertia else 1.0
+        if d.tool_mass is not None:
+            k_tool, m_tool = d.tool_mass * 9.81 * d.tool_com[1], d.tool_mass * 9.81 * d.tool_com[0]
+        else:
+            k_tool, m_tool = scale * ref.tool_gravity_stiffness, scale * ref.tool_moment
+        return {"a": a, "s": d.sensor_lever or a, "load_moment": d.load_force * arm,
+                "k_grav": d.load_force * depth + k_tool, "moment": d.load_force * arm + m_tool}
+
+    def _datum_scale(self) -> float:
+        """The rate factor that the static deflection fixes, from the linear statics of the described rig: the
+        load's moment F l turns the rig by theta = F l / (sigma k a^2 + K_g), the sensor reads s theta."""
+        n, reading = self.description.static_deflection
+        st = self._statics()
+        rates = self.description.spring_rates
+        from scenes import paper
+
+        k = rates.get(n, paper.ringing_row(n)["stiffness_n_per_m"])
+        sigma = (st["s"] * st["load_moment"] / reading - st["k_grav"]) / (k * st["a"] ** 2)
+        if not sigma > 0:
+            raise InputError(f"rig description: static_deflection {reading!r} m on {n} springs is more than the "
+                             f"load's moment against the rig's gravity stiffness alone gives")
+        return float(sigma)
+
+    def _damping_ratios(self) -> np.ndarray:
+        """Each configuration's damping ratio for ``damping = "per_configuration"``: the description's, else its
+        record's (summary) measured one."""
+        out = []
+        stated = self.description.damping_ratios
+        k = self.observables.index("damping") if "damping" in self.observables else None
+        for j, c in enumerate(self.configs):
+            z = stated.get(c["springs"], self.measured[j, k] if k is not None else math.nan)
+            if not (math.isfinite(z) and z > 0):
+                raise InputError(f"damping = \"per_configuration\": no damping ratio for {c['springs']} springs "
+                                 f"(state it in damping_ratios)")
+            out.append(float(z))
+        return np.array(out)
+
+    def _travel(self) -> list[float]:
+        """Each stack's service travel [m]: unit_travel x units, DIN 2093's with the default rates, else NaN."""
+        from scenes.passive_tool import stack_travel
+
+        d = self.description
+        if d.unit_travel is not None:
+            return [d.unit_travel * c["springs"] for c in self.configs]
+        if not d.spring_rates:
+            return [stack_travel(c["springs"]) for c in self.configs]
+        return [math.nan] * self.n_configs
+
+    def facts(self) -> object:
+        """What the described rig states that bounds the mechanisms (``calibration.mechanisms.RigFacts``)."""
+        from . import mechanisms as mech
+
+        st = self._statics()
+        k = np.array([c["stiffness"] for c in self.configs])
+        theta = np.abs(self.swing) / st["s"]
+        moment = (k * st["a"] ** 2 + st["k_grav"]) * theta
+        d = self.description
+        mass = d.tool_mass if d.tool_mass is not None else (
+            build_tool_mass() * ((d.tool_inertia / self.reference.tool_inertia) if d.tool_inertia else 1.0))
+        return mech.RigFacts("ringing", tuple(c["springs"] for c in self.configs), tuple(map(float, k)),
+                             tuple(self._travel()), tuple(map(float, abs(st["moment"]) / st["a"] / k)),
+                             float(np.min(moment)) if np.all(np.isfinite(moment)) else math.nan, float(mass))
+
+    def baseline_bounds(self) -> dict[str, object]:
+        """The physical ranges of the baseline's first-order factors (``calibration.mechanisms.Bound``): the rates
+        within DIN 2093's tolerance, the inertia within +-10 % of the stated (CAD) one."""
+        from scenes.passive_tool import DIN_RATE_TOLERANCE, INERTIA_TOLERANCE
+
+        from . import mechanisms as mech
+
+        return {"stiffness_scale": mech.Bound(*DIN_RATE_TOLERANCE, "DIN 2093 section 7.1: a stack's rate within "
+                                              "-7.5 % / +25 % of its nominal"),
+                "inertia_factor": mech.Bound(*INERTIA_TOLERANCE, "a CAD estimate of a tool's inertia about its "
+                                             "pivot: +-10 % (scenes.passive_tool.INERTIA_TOLERANCE)")}
 
     @property
     def n_configs(self) -> int:
@@ -389,7 +498,33 @@ class RingingRigModel:
                        "their ratio is determined (a measured static deflection would separate them)")
         if "dashpot" in params:
             out.append(f"a dashpot of {params['dashpot']:.4g} N s/m along the springs")
+        if self.datum_scale is not None:
+            n, u = self.description.static_deflection
+            out.append(f"the static deflection {1e3 * u:.4g} mm on {n} springs fixes the rates at "
+                       f"{self.datum_scale:.3g}x the stated ones")
+        if "damping_scale" in params:
+            z = ", ".join(f"{c['springs']}: {zz:.3g}" for c, zz in zip(self.configs, self.damping_ratio, strict=True))
+            out.append(f"each configuration's own damping ratio ({z}) times {params['damping_scale']:.3g}")
         return out
+
+    def dashpots(self, configs: list[int], params: list[dict[str, float]]) -> list[float]:
+        """The dashpot [N s/m at the spring lever] of each case: ``dashpot``, or with per-configuration damping
+        c_j = damping_scale 2 zeta_j sqrt(K_j J) / a^2, the linear oscillator's (K_j = sigma k_j a^2 + K_g, J the
+        rig's inertia about the pivot with the case's inertia factor)."""
+        if self.damping_ratio is None:
+            return [float(p["dashpot"]) for p in params]
+        st = self._statics()
+        out = []
+        for j, p in zip(configs, params, strict=True):
+            k_rot = self._scale(p) * self.configs[j]["stiffness"] * st["a"] ** 2 + st["k_grav"]
+            inertia = self._equivalent(p.get("inertia_factor", 1.0)).inertia
+            out.append(float(p["damping_scale"] * 2 * self.damping_ratio[j] * math.sqrt(k_rot * inertia)
+                             / st["a"] ** 2))
+        return out
+
+    def _scale(self, p: dict[str, float]) -> float:
+        """The case's factor on every spring rate: fitted, else the datum's, else 1."""
+        return float(p.get("stiffness_scale", self.datum_scale if self.datum_scale is not None else 1.0))
 
     def settings(self) -> dict[str, object]:
         """What the simulations depend on besides the cases (a diagnosis checkpoint must match it)."""
@@ -450,6 +585,12 @@ class RingingRigModel:
                 fields["load_mass_fraction"] = tuple(e.load_mass_fraction * float(p.get("load_mass_fraction", 1.0))
                                                      for e, p in zip(eqs, params, strict=True))
             scale = {"series_stiffness": rate, "progressive": rate * rate}
+            travel = self._travel()
+            for p, c in zip(params, chunk, strict=True):  # a stack's hardening by its own (fitted) rate and travel
+                if "progressive_factor" in p:
+                    k = self._scale(p) * self.configs[c.config]["stiffness"]
+                    p["progressive"] = p.pop("progressive_factor") * k / travel[c.config] ** 2 + p.get("progressive",
+                                                                                                         0.0)
             for knob in ("pivot_friction", "extra_mass", "progressive", "series_stiffness", "free_pose"):
                 if any(knob in p for p in params):
                     fields[knob] = tuple(float(p.get(knob, KNOB_OFF.get(knob, 0.0))) * scale.get(knob, 1.0)
@@ -459,9 +600,10 @@ class RingingRigModel:
             cfg = RingingConfig(
                 springs=tuple(self.configs[c.config]["springs"] for c in chunk), spring_model="linear",
                 load_force=eqs[0].load_force,
-                stiffness=tuple(self.configs[c.config]["stiffness"] * p.get("stiffness_scale", 1.0) * rate
+                stiffness=tuple(self.configs[c.config]["stiffness"] * self._scale(p) * rate
                                 for c, p in zip(chunk, params, strict=True)), load_offset=eqs[0].load_offset,
-                dashpot=tuple(float(p["dashpot"]) * rate for p in params), settle_time=self.settle_time,
+                dashpot=tuple(c * rate for c in self.dashpots([c.config for c in chunk], params)),
+                settle_time=self.settle_time,
                 ring_time=self.ring_time, hit_amplitude=self.hit_amplitude, sample_rate=self.sample_rate, **fields)
             done, size = start, len(chunk)
             res = run_ringing(cfg, device=self.device,
@@ -540,7 +682,7 @@ class SoilBinRigModel:
 
     rig = "soil-bin"
     knobs = frozenset({"pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
-                       "stack_preload", "sensor_offset", "rigid_speed"})
+                       "stack_preload", "sensor_offset", "rigid_speed", "progressive_factor"})
     units = {"reduction": "%", "displacement_mean": "m", "displacement_trend": "m/s", "draught_mean": "N",
              "rigid_draught_mean": "N"}
     genes: tuple[Gene, ...] = ()
@@ -763,13 +905,30 @@ class SoilBinRigModel:
             self._rigid_line = (line.intercept, line.slope)
         return rig["mean"] + self._rigid_line[1] * (rigid_speed - speed), rig["sem"]
 
+    def facts(self) -> object:
+        """What the soil-bin rig states that bounds the mechanisms (``calibration.mechanisms.RigFacts``): the stated
+        rates, each stack's DIN 2093 travel, the sweep's mass."""
+        from scenes.passive_tool import stack_travel
+
+        from . import mechanisms as mech
+
+        return mech.RigFacts("soil-bin", tuple(c["springs"] for c in self.configs),
+                             tuple(float(c["stiffness"]) for c in self.configs),
+                             tuple(stack_travel(c["springs"]) for c in self.configs), tool_mass=build_tool_mass())
+
     def _run_passive(self, keys: list[tuple], keep_series: bool, progress: object | None) -> None:
+        from scenes.passive_tool import stack_travel
+
         todo = [k for k in dict.fromkeys(keys) if k not in self._passive
                 or (keep_series and "series" not in self._passive[k])]
         for start in range(0, len(todo), self.max_worlds):
             chunk = todo[start:start + self.max_worlds]
             cfgs = [self.configs[k[0]] for k in chunk]
             params = [dict(k[1:]) for k in chunk]
+            for p, c in zip(params, cfgs, strict=True):  # a stack's hardening by its own rate and DIN travel
+                if "progressive_factor" in p:
+                    p["progressive"] = (p.pop("progressive_factor") * c["stiffness"] / stack_travel(c["springs"]) ** 2
+                                        + p.get("progressive", 0.0))
             knobs: dict[str, list[float]] = {"stiffness": [c["stiffness"] for c in cfgs]}
             for name in sorted({n for p in params for n in p}):
                 if name == "dashpot" and not all(name in p for p in params):

@@ -253,23 +253,24 @@ class _MassOnSpring:
 @pytest.mark.parametrize("extra", [12.0, 60.0])
 def test_a_fit_at_the_end_of_its_range_is_reported(extra: float, tmp_path: pytest.TempPathFactory) -> None:
     # Closed form (no DEM): the extra-mass gene searches 0-30 kg. A hidden 12 kg is recovered inside the range
-    # (to the 0.3 % frequency noise: 2 x 0.3 % of M + m = 0.2 kg); a hidden 60 kg is still named (it explains
-    # most of the misfit) but sits at 30 kg, and the report must say so rather than present 30 kg as measured.
+    # (to the 0.3 % frequency noise: 2 x 0.3 % of M + m = 0.2 kg) and named; a hidden 60 kg explains most of the
+    # misfit at 30 kg but sits on its bound: it is not named (issue #39, item 1: "at its bound: the cause is likely
+    # outside this mechanism"), and the report says so rather than present 30 kg as measured.
     from calibration import diagnosis_report
 
     d = diagnosis.diagnose(_MassOnSpring(extra))
-    assert d.cause == ("extra_mass",), (d.verdict, d.ranking)
-    bound = d.named.at_bound()
     js = diagnosis_report.to_json(d)
-    assert js["parameters_at_bound"] == bound
     text = diagnosis_report.write(d, tmp_path).read_text()
     if extra < 30.0:
+        assert d.cause == ("extra_mass",), (d.verdict, d.ranking)
         assert d.named.params_all()["extra_mass"] == pytest.approx(extra, abs=0.2)
-        assert bound == [] and "end of its range" not in text
+        assert d.named.at_bound() == [] and d.at_bound == [] and "its bound" not in text
     else:
-        assert [(b["gene"], b["side"]) for b in bound] == [("extra_mass", "high")]
-        assert bound[0]["value"] == pytest.approx(30.0, rel=0.01) and bound[0]["folds"] == 5
-        assert "At the upper end of its range:** extra_mass" in text
+        assert d.cause == () and d.verdict == "unexplained residual", (d.verdict, d.ranking)
+        assert [(b["mechanism"], b["gene"], b["side"]) for b in d.at_bound] == [("extra_mass", "extra_mass", "high")]
+        assert d.at_bound[0]["value"] == pytest.approx(30.0, rel=0.01) and d.at_bound[0]["folds"] == 5
+        assert js["at_bound"] == d.at_bound
+        assert "At its bound: the cause is likely outside this mechanism:** extra_mass" in text
 
 
 class _Counting:
@@ -294,7 +295,9 @@ def test_another_number_of_rounds_refits_from_the_checkpoint(tmp_path: pytest.Te
     # from scratch bit for bit (the fits see only the points they request).
     def fresh(rounds: int, ck: object = None) -> tuple[diagnosis.Diagnosis, int]:
         rig = _Counting(_MassOnSpring(12.0))
-        return diagnosis.diagnose(rig, diagnosis.DiagnosisSettings(rounds=rounds), checkpoint=ck), rig.worlds
+        # the convergence check off: it adds rounds until the loss stops falling, which this test does not count
+        return diagnosis.diagnose(rig, diagnosis.DiagnosisSettings(rounds=rounds, converge_rounds=0),
+                                  checkpoint=ck), rig.worlds
 
     def same(a: diagnosis.Diagnosis, b: diagnosis.Diagnosis) -> None:
         assert (a.verdict, a.cause, a.ranking) == (b.verdict, b.cause, b.ranking)
@@ -318,7 +321,8 @@ def test_another_number_of_rounds_refits_from_the_checkpoint(tmp_path: pytest.Te
         assert three.fits[name].chi2_in <= one.fits[name].chi2_in
     # a checkpoint written while the rounds were part of its key is read under the present key
     saved = json.loads(ck2.read_text())
-    saved["key"] = diagnosis._checkpoint_key(_MassOnSpring(12.0), diagnosis.DiagnosisSettings(rounds=2), 2)
+    saved["key"] = diagnosis._checkpoint_key(_MassOnSpring(12.0),
+                                             diagnosis.DiagnosisSettings(rounds=2, converge_rounds=0), 2)
     ck2.write_text(json.dumps(saved))
     again, n = fresh(2, ck2)
     assert n == 0

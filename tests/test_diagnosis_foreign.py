@@ -43,6 +43,7 @@ J, A, S = 0.30, 0.35, 0.50  # kg m^2 about the pivot, spring lever, sensor lever
 LOAD, ARM, DEPTH = 60.0, 0.20, 0.30  # N (a cable: no mass), horizontal arm [m], depth below the pivot [m]
 TOOL_M, COM = 4.0, (0.02, 0.10)  # the tool's mass [kg] and centre of mass (forward, below the pivot) [m]
 DASHPOT = 6.0  # N s/m at the spring lever: damping ratios 0.017 (4 springs) ... 0.045 (32 springs)
+K_GRAV = LOAD * DEPTH + TOOL_M * 9.81 * COM[1]  # gravity stiffness of the load and the tool [N m/rad]
 RATE = 2400.0
 UNCERTAINTY = {"frequency": 0.015, "damping": 0.05}
 
@@ -52,12 +53,15 @@ def hinged_beam_records(effect: dict[str, float], seed: int, ring_time: float = 
     """The independent model's records (module docstring), one per configuration."""
     rng = np.random.default_rng(seed)
     k = np.array([RATES[n] for n in springs]) * (1.0 + 0.01 * rng.standard_normal(len(springs)))
+    assert np.array_equal(k, true_rates(seed, springs))
     ks = effect.get("series_stiffness", math.inf)
     k_lin = k * ks / (k + ks) if math.isfinite(ks) else k
     k3 = effect.get("progressive", 0.0)
     u0 = np.array([_static((LOAD * ARM + TOOL_M * 9.81 * COM[0]) / A, kk, k3) for kk in k_lin])
-    k_grav = LOAD * DEPTH + TOOL_M * 9.81 * COM[1]
+    k_grav = K_GRAV
     c, tf, b = DASHPOT, effect.get("pivot_friction", 0.0), effect.get("drag", 0.0)
+    if "zeta" in effect:  # each configuration's own damping ratio: c_j = 2 zeta_j sqrt(K_j J) / a^2
+        c = 2 * np.asarray(effect["zeta"]) * np.sqrt((k_lin * A * A + K_GRAV) * J) / (A * A)
     v0 = 0.06 * np.where(np.arange(len(springs)) % 2 == 0, 1.0, -1.0)  # sensor velocity of the hit [m/s]
     om0 = v0 / S
     eps = 1e-3 * np.abs(om0)
@@ -90,6 +94,20 @@ def hinged_beam_records(effect: dict[str, float], seed: int, ring_time: float = 
     return Measured({"springs": np.array(springs, float)}, {"springs": "-"}, series, "hinged beam (test)")
 
 
+def true_rates(seed: int, springs: tuple[int, ...] = SPRINGS) -> np.ndarray:
+    """The hidden rig's actual rate of each configuration [N/m] (the stated ones off by 1 %, 1 sigma): the first
+    draw of :func:`hinged_beam_records`'s generator."""
+    rng = np.random.default_rng(seed)
+    return np.array([RATES[n] for n in springs]) * (1.0 + 0.01 * rng.standard_normal(len(springs)))
+
+
+def static_reading(seed: int, n: int = 4) -> float:
+    """What a user measures once on the hidden rig (linear statics, closed form): the sensor's reading under the
+    60 N load against without it on ``n`` springs, S F l / (k a^2 + F d + m g z) [m]."""
+    k = true_rates(seed)[SPRINGS.index(n)]
+    return S * LOAD * ARM / (k * A * A + K_GRAV)
+
+
 def _static(force: float, k: float, k3: float) -> float:
     roots = np.roots([k3, 0.0, k, -force]) if k3 else np.array([force / k])
     return float(np.real(roots[np.argmin(np.abs(np.imag(roots)))]))
@@ -104,9 +122,9 @@ def description(springs: tuple[int, ...] = SPRINGS, **kw: object) -> RingingRigD
                                  uncertain=("inertia", "stiffness", "damping"), **kw)
 
 
-def run(effect: dict[str, float], seed: int) -> diagnosis.Diagnosis:
+def run(effect: dict[str, float], seed: int, **kw: object) -> diagnosis.Diagnosis:
     rig = RingingRigModel(hinged_beam_records(effect, seed), device=DEVICE, uncertainty=UNCERTAINTY,
-                          description=description())
+                          description=description(**kw))
     return diagnosis.diagnose(rig)
 
 
@@ -142,6 +160,15 @@ def test_rig_file_errors_name_the_entry(tmp_path: pytest.TempPathFactory) -> Non
     f.write_text("[spring_rates]\n-4 = 2.1e5\n")  # a count no configuration has: refused, not kept unused
     with pytest.raises(InputError, match="spring_rates key -4 is not a spring count of the rig; allowed 4, 8, 12"):
         load(f)
+    # issue #39's keys: the baseline's damping, per-configuration ratios, the absolute datum, the stack's travel
+    for text, match in (("damping = 'x'\n", "damping must be one of \\['one_dashpot', 'per_configuration'"),
+                        ("[damping_ratios]\n4 = 0.1\n", "damping_ratios need damping = \"per_configuration\""),
+                        ("[static_deflection]\nsprings = 4\ndeflection = -1e-3\n",
+                         "static_deflection deflection must be a positive reading \\[m\\], got -0.001"),
+                        ("unit_travel = 0\n", "unit_travel must be a positive length \\[m\\], got 0.0")):
+        f.write_text(text)
+        with pytest.raises(InputError, match=match):
+            load(f)
     f.write_text("tool_inertia = 0.3\nspring_lever = 0.35\nload_mass_rides = false\nload_force = 60\n"
                  "uncertain = ['inertia', 'damping']\n[spring_rates]\n4 = 8000\n")
     d = load(f)
@@ -155,7 +182,9 @@ def test_rig_file_errors_name_the_entry(tmp_path: pytest.TempPathFactory) -> Non
 ])
 def test_hidden_effect_in_a_foreign_rig_is_named(effect: str, truth: dict[str, float]) -> None:
     d = run(truth, seed=1)
-    assert d.verdict == "cause" and d.cause[0] == effect, (d.verdict, d.cause, d.steps, d.ranking)
+    # the hidden effect alone: no spurious second name on top of it at the default settings (the convergence check
+    # refines a fit before it is named and before the next step compares with it)
+    assert d.verdict == "cause" and d.cause == (effect,), (d.verdict, d.cause, d.steps, d.ranking)
     # the baseline had to fit the first-order mismatch and says so: the rates relative to the inertia are
     # (1 / 0.9) / (1 / 1.4) = 1.56x the stated ratio (only the ratio is determined by ringing records); a hidden
     # effect pulls on it, so only its direction is asserted
@@ -240,3 +269,53 @@ def test_a_bad_rig_file_ends_the_command_with_one_line(tmp_path: pytest.TempPath
     assert "Traceback" not in err
     assert err.strip().splitlines()[-1] == \
         "warpdem diagnose: error: rig description: spring_lever must be a positive number [SI], got -0.3", err
+
+
+ZETA = (0.04, 0.12, 0.07, 0.15)  # each configuration's own damping ratio, not monotone in the count (Table 2's kind)
+
+
+def test_clean_set_with_per_configuration_damping_gets_no_name() -> None:
+    # Reference: the hidden rig with a dashpot per configuration (c_j = 2 zeta_j sqrt(K_j J) / a^2, the ratios above)
+    # and nothing else. A baseline with damping = "per_configuration" (each record's own ratio, times one fitted
+    # factor) must name nothing. The held-out `damping` is an input of that baseline, not a prediction (each
+    # configuration's ratio comes from its record): what is checked is that no mechanism is named and the
+    # residual is noise. damping_scale near 1 checks the baseline's closed form (ratio -> dashpot) against the hidden
+    # rig's own damping (5 % stated; the rig's factors along the ridge leave sqrt(K J) as in the description).
+    d = run({"zeta": ZETA}, seed=5, damping="per_configuration")
+    assert d.verdict == "no significant discrepancy", (d.verdict, d.cause, d.steps, d.ranking, d.at_bound)
+    assert d.baseline.params_all()["damping_scale"] == pytest.approx(1.0, rel=0.15)
+
+
+def test_a_named_cause_has_its_size_when_the_rig_file_states_one_absolute_datum() -> None:
+    # Reference: a pivot friction torque of 0.012 N m hidden in the foreign rig, and the rig file stating what a
+    # user measures once on it: the sensor's reading under the 60 N load on 4 springs (its closed form,
+    # :func:`static_reading`, on the hidden rig's actual rate). The datum fixes the rates; the frequencies then fix
+    # the inertia (not only the ratio) and the friction torque, which scales with the inertia, comes out at its size:
+    # within 30 % (the issue's threshold; without the datum it was 9x off at the stated inertia).
+    truth = 0.012
+    reading = static_reading(seed=1)
+    d = run({"pivot_friction": truth}, seed=1, static_deflection=(4, reading))
+    assert d.cause == ("pivot_friction",), (d.verdict, d.cause, d.steps, d.ranking)
+    got = d.named.params_all()["pivot_friction"]
+    assert got == pytest.approx(truth, rel=0.3), got
+    size = next(e for e in d.sizes if e["gene"] == "pivot_friction")
+    assert size["low"] == size["high"] == got and "datum" in size["why"]
+    # the stated inertia (40 % high) leaves its +-10 % range: reported as absorbed (truth: 1 / 1.4 = 0.71x)
+    assert d.named.params_all()["inertia_factor"] == pytest.approx(1 / 1.4, rel=0.1)
+    assert any("inertia_factor" in line for line in d.absorbed)
+
+
+def test_a_fit_on_its_physical_bound_is_not_named() -> None:
+    # Closed form, no DEM: a pivot friction needs the springs' moment at the first swing to exceed it, else no decay
+    # could be recorded (Coulomb oscillator). The foreign rig's smallest first-swing moment K theta_1 bounds the
+    # gene: K = k a^2 + K_g on the stated rates, theta_1 = the first swing / the sensor lever.
+    from calibration import mechanisms
+
+    rig = RingingRigModel(hinged_beam_records({}, seed=2), device=DEVICE, uncertainty=UNCERTAINTY,
+                          description=description())
+    facts = rig.facts()
+    k = np.array([0.9 * RATES[n] for n in SPRINGS])
+    expected = np.min((k * A * A + K_GRAV) * np.abs(rig.swing) / S)
+    bound = mechanisms.get("pivot_friction").physical(facts)["pivot_friction"]
+    assert bound.high == pytest.approx(expected, rel=1e-12) and "Coulomb" in bound.source
+    assert mechanisms.get("progressive_stack").physical(facts)["hardening"].high == 0.25
