@@ -230,7 +230,7 @@ class SweepParams:
                 raise InputError(f"{name} must be > 0 deg, got {value!r}")
         if self.shank_width > self.width:
             raise InputError(f"shank_width must be <= width ({self.width}), got {self.shank_width!r}")
-        room = self.wing_chord - self._tip_setback()
+        room = self.wing_chord - self.tip_setback()
         if self.shank_depth >= room:
             raise InputError(
                 f"shank_depth must be < {room:.6g} m (wing_chord minus the leading-edge setback at the shank's "
@@ -249,7 +249,7 @@ class SweepParams:
                     f"top ({high:.6g} m below the pivot), got {self.split_below_pivot!r}"
                 )
 
-    def _tip_setback(self) -> float:
+    def tip_setback(self) -> float:
         """How far (y) the leading edge lies behind the tip at the shank's sides, x = +-shank_width/2 [m]."""
         return 0.5 * self.shank_width / math.tan(math.radians(self.sweep_angle))
 
@@ -434,7 +434,7 @@ def build_sweep(params: SweepParams | None = None, *, pivot: object = (0.0, 0.0,
     p = params or SweepParams()
     pivot = check_vec3("pivot", pivot)
     # shank axis y = the middle of the blade strip under the shank, [tip - wing_chord, tip - tip setback]
-    tip_ahead = 0.5 * (p.wing_chord + p._tip_setback())
+    tip_ahead = 0.5 * (p.wing_chord + p.tip_setback())
     tip = pivot + np.array([0.0, tip_ahead, -p.shank_length])
     split_z = float(pivot[2] - p.split_depth())
     blade = _blade(p, tip)

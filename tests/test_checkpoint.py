@@ -80,10 +80,11 @@ def _resave(path, data: dict, manifest: bool = True) -> None:
     """Write ``data`` as a checkpoint file, with a manifest made for it (a consistent but wrong file) or the old."""
     import json
 
-    from warpdem.checkpoint import _entry
+    from warpdem.checkpoint import manifest_entry
 
     out = {k: v for k, v in data.items() if k != "manifest"}
-    out["manifest"] = np.array(json.dumps({k: _entry(v) for k, v in out.items()})) if manifest else data["manifest"]
+    out["manifest"] = (np.array(json.dumps({k: manifest_entry(v) for k, v in out.items()})) if manifest
+                       else data["manifest"])
     np.savez(path, **out)
 
 

@@ -83,10 +83,10 @@ def test_a_thread_that_raises_releases_the_others_at_once(monkeypatch: object, t
     # Reference: the other threads must not wait BARRIER_TIMEOUT_S (30 s) for a thread that has raised (an error,
     # or Ctrl-C in the calling thread, thread 0): the error reaches the caller within a few seconds. The scene of
     # the threads tests (tests/test_determinism.py) on two threads, one of whose step graphs is made to raise.
-    from test_determinism import _threaded_scene
+    from test_determinism import threaded_scene
 
     monkeypatch.setattr(cpu_threads, "MIN_SPHERES_PER_THREAD", 8)
-    model, state = _threaded_scene().finalize("cpu", n_worlds=2)
+    model, state = threaded_scene().finalize("cpu", n_worlds=2)
     sim = wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True, cpu_threads=2)
     sim.advance(20)
     assert sim.parts == 2 and sim._lane_graphs is not None

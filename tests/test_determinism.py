@@ -105,7 +105,7 @@ def test_a_chaotic_run_repeats_to_the_bit(contact_threads: str) -> None:
     assert np.abs(first[0][:, 2] - 0.03).max() > 1e-3  # the spheres did move
 
 
-def _threaded_scene() -> wd.ModelBuilder:
+def threaded_scene() -> wd.ModelBuilder:
     """The packing of test_worlds with two clumps dropped on it, joined by a spring-dashpot: spheres, clumps, a
     mesh and a spring, every kind of contribution to the force sums."""
     b = packing_scene(np.zeros(3))
@@ -158,7 +158,7 @@ def test_cpu_threads_give_the_same_bits(monkeypatch: object) -> None:
     monkeypatch.setattr(cpu_threads, "MIN_SPHERES_PER_THREAD", 8)
 
     def run(threads: int, direct: bool = False) -> tuple[wd.Simulation, dict]:
-        model, state = _threaded_scene().finalize(DEVICE, n_worlds=2)
+        model, state = threaded_scene().finalize(DEVICE, n_worlds=2)
         sim = wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True, track_energy=True,
                             cpu_threads=threads)
         if direct:
@@ -194,7 +194,7 @@ def test_cpu_threads_resume_from_a_checkpoint_to_the_bit(monkeypatch: object, tm
     monkeypatch.setattr(cpu_threads, "MIN_SPHERES_PER_THREAD", 8)
 
     def make() -> wd.Simulation:
-        model, state = _threaded_scene().finalize(DEVICE, n_worlds=2)
+        model, state = threaded_scene().finalize(DEVICE, n_worlds=2)
         return wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True, track_energy=True, cpu_threads=3)
 
     a = make()
@@ -262,7 +262,7 @@ def test_several_steps_per_graph_give_the_steps_of_one_at_a_time() -> None:
     # On the CPU it is driven directly (there, advance uses one Warp CPU graph per step); the scene (spheres, clumps,
     # a mesh, a spring, falling: 49 rebuilds in 2,500 steps) makes the graphs end early and change length.
     def make(graph_steps: int) -> wd.Simulation:
-        model, state = _threaded_scene().finalize(DEVICE, n_worlds=2)
+        model, state = threaded_scene().finalize(DEVICE, n_worlds=2)
         return wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), cohesion_on_new_contacts=True,
                              graph_steps=graph_steps)
 
@@ -297,7 +297,7 @@ def test_large_scene_motion_gives_the_bits_of_the_fused_one() -> None:
     # of LARGE_STEP_SPHERES spheres or more on CUDA converts its sums in a launch of their own and runs one step per
     # graph: the same arithmetic, so the same bits. Forced here on a small scene (on the CPU too).
     def run(large: bool) -> wd.Simulation:
-        model, state = _threaded_scene().finalize(DEVICE, n_worlds=2)
+        model, state = threaded_scene().finalize(DEVICE, n_worlds=2)
         sim = wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True)
         sim._large = large
         sim.advance(800)
@@ -320,7 +320,7 @@ def test_world_steps_give_the_bits_of_the_staged_step() -> None:
             "damping:soil": np.array([0.1, 0.3, 0.5])}
 
     def run(world_steps: bool) -> wd.Simulation:
-        model, state = _threaded_scene().finalize(DEVICE, n_worlds=3, overrides=over)
+        model, state = threaded_scene().finalize(DEVICE, n_worlds=3, overrides=over)
         sim = wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), graph_steps=1,
                             world_steps=world_steps, contact_threads="sphere", track_energy=True)
         for n in (1200, 1, 57):
@@ -358,7 +358,7 @@ def test_world_steps_by_a_block_of_threads_give_the_bits_of_the_staged_step(stri
             "damping:soil": np.array([0.1, 0.3, 0.5])}
 
     def run(world_steps: bool) -> wd.Simulation:
-        model, state = _threaded_scene().finalize(DEVICE, n_worlds=3, overrides=over)
+        model, state = threaded_scene().finalize(DEVICE, n_worlds=3, overrides=over)
         sim = wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), graph_steps=1,
                             world_steps=world_steps, world_lanes=4 if world_steps else None,
                             world_lane_stride=stride if world_steps else None, contact_threads="sphere",
@@ -400,7 +400,7 @@ def test_pose_records_of_the_world_kernel_give_the_bits_of_host_reads(monkeypatc
             "damping:soil": np.array([0.1, 0.3, 0.5])}
 
     def run(wrap: bool) -> tuple[wd.Simulation, list[dict[str, np.ndarray]]]:
-        model, state = _threaded_scene().finalize(DEVICE, n_worlds=3, overrides=over)
+        model, state = threaded_scene().finalize(DEVICE, n_worlds=3, overrides=over)
         sim = wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), world_steps=True)
         sim.world_stop_others = stop_others and not wrap  # read when the world launches are recorded
         obs = {"a": wd.observers.body_point("clump_a", (-0.003, 0.0, 0.07)),
@@ -432,7 +432,7 @@ def test_pose_records_of_the_world_kernel_give_the_bits_of_host_reads(monkeypatc
 
 
 def test_world_lanes_are_checked_by_name() -> None:
-    model, state = _threaded_scene().finalize(DEVICE, n_worlds=2)
+    model, state = threaded_scene().finalize(DEVICE, n_worlds=2)
     for bad in (0, 2000, 1.5, True):
         with pytest.raises(InputError, match="world_lanes"):
             wd.Simulation(model, state, dt=1e-5, world_steps=True, world_lanes=bad)
@@ -459,7 +459,7 @@ def test_mesh_force_sum_adds_each_steps_mesh_force(world_steps: bool) -> None:
     # of many steps (several CUDA steps per graph; on the CPU, or with world_steps, whole steps per launch) must be
     # that sum to the bit: the same float32 forces, added in step order in float64.
     def run() -> wd.Simulation:
-        model, state = _threaded_scene().finalize(DEVICE, n_worlds=3)
+        model, state = threaded_scene().finalize(DEVICE, n_worlds=3)
         sim = wd.Simulation(model, state, dt=0.5 * wd.pwave_timestep(model), world_steps=world_steps)
         sim.advance(2000)  # the packing falls onto the floor (a mesh) and presses on it
         sim.data.mesh_force_sum.zero_()

@@ -66,11 +66,12 @@ def save(sim: object, path: str | os.PathLike) -> None:
         data[f"{name}/capacity"] = np.array(lst.capacity)
         for k, v in lst.numpy().items():
             data[f"{name}/{k}"] = v
-    data["manifest"] = np.array(json.dumps({k: _entry(v) for k, v in data.items()}))
+    data["manifest"] = np.array(json.dumps({k: manifest_entry(v) for k, v in data.items()}))
     write_atomic(path, lambda tmp: np.savez_compressed(tmp, **data))
 
 
-def _entry(v: np.ndarray) -> list:
+def manifest_entry(v: np.ndarray) -> list:
+    """An array's line of a checkpoint's manifest: [shape, dtype (numpy's str), CRC-32 of its bytes]."""
     return [list(v.shape), v.dtype.str, zlib.crc32(np.ascontiguousarray(v).tobytes())]
 
 
@@ -93,7 +94,7 @@ def _read(path: str | os.PathLike) -> dict[str, np.ndarray]:
     if set(manifest) != set(data):
         raise InputError(f"{where}: fields {sorted(set(manifest) ^ set(data))} are missing or not in its manifest")
     for k, v in data.items():
-        if _entry(v) != manifest[k]:
+        if manifest_entry(v) != manifest[k]:
             shape, dtype, _ = manifest[k]
             what = (f"shape {list(v.shape)}, dtype {v.dtype.str} (manifest {shape}, {dtype})"
                     if [list(v.shape), v.dtype.str] != [shape, dtype] else "checksum differs from its manifest")

@@ -180,7 +180,7 @@ def energy_balance(sim: object) -> dict[str, np.ndarray]:
     return terms
 
 
-def _csr_entries(start: np.ndarray, count: np.ndarray) -> np.ndarray:
+def csr_entries(start: np.ndarray, count: np.ndarray) -> np.ndarray:
     """Indices of every entry of a CSR list (row i holds start[i] .. start[i] + count[i] - 1), row by row."""
     start, count = np.asarray(start, np.int64), np.asarray(count, np.int64)
     first_of_row = np.cumsum(count) - count
@@ -196,7 +196,7 @@ def contact_table(sim: object) -> dict[str, np.ndarray]:
     rows = {k: [] for k in ("body1", "body2", "world", "normal", "radius1", "radius2", "kind", "sphere", "fs",
                             "material1", "material2")}
     owner = np.repeat(np.arange(m.n_spheres), ss["count"])
-    idx = _csr_entries(ss["start"], ss["count"])
+    idx = csr_entries(ss["start"], ss["count"])
     h = ss["hist"][idx] if len(idx) else ss["hist"][:0]
     act = (h["flags"] & ACTIVE) != 0 if len(idx) else np.zeros(0, bool)
     i, j = owner[act], ss["key_a"][idx][act]
@@ -214,7 +214,7 @@ def contact_table(sim: object) -> dict[str, np.ndarray]:
     if m.n_meshes:
         st = sim.contacts.st.numpy()
         owner = np.repeat(np.arange(m.n_spheres), st["count"])
-        idx = _csr_entries(st["start"], st["count"])
+        idx = csr_entries(st["start"], st["count"])
         h = st["hist"][idx]
         act = (h["flags"] & ACTIVE) != 0
         i, mesh = owner[act], st["key_a"][idx][act]

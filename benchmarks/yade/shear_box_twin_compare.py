@@ -44,7 +44,7 @@ wp.config.quiet = True
 import warpdem as wd  # noqa: E402
 from scenes import shear_box as sbx  # noqa: E402
 from warpdem import analysis  # noqa: E402
-from warpdem.observers import _csr_entries  # noqa: E402
+from warpdem.observers import csr_entries  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
@@ -205,7 +205,7 @@ def contact_counts(sim: wd.Simulation) -> np.ndarray:
     sb, sw = m.host["sphere_body"], m.host["sphere_world"]
     ss = sim.contacts.ss.numpy()
     owner = np.repeat(np.arange(m.n_spheres), ss["count"])
-    idx = _csr_entries(ss["start"], ss["count"])
+    idx = csr_entries(ss["start"], ss["count"])
     fl = ss["hist"]["flags"][idx]
     other = ss["key_a"][idx]
     act = ((fl & ACTIVE) != 0) & (sb[owner] != sb[other])
@@ -214,7 +214,7 @@ def contact_counts(sim: wd.Simulation) -> np.ndarray:
     out[:, 1] = np.bincount(sw[owner[act & ((fl & COHESIVE) != 0)]], minlength=m.n_worlds)
     st = sim.contacts.st.numpy()
     owner = np.repeat(np.arange(m.n_spheres), st["count"])
-    idx = _csr_entries(st["start"], st["count"])
+    idx = csr_entries(st["start"], st["count"])
     act = (st["hist"]["flags"][idx] & ACTIVE) != 0
     out[:, 2] = np.bincount(sw[owner[act]], minlength=m.n_worlds)
     return out

@@ -47,7 +47,7 @@ from scenes import soil_bin as sb  # noqa: E402
 from scenes.assemblies import AssemblySpec, Bed  # noqa: E402
 from scenes.sweep import build_sweep  # noqa: E402
 from warpdem import analysis  # noqa: E402
-from warpdem.observers import _csr_entries  # noqa: E402
+from warpdem.observers import csr_entries  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
@@ -125,14 +125,14 @@ class Probe:
         sid = self.layout["sphere_id"]
         ss = sim.contacts.ss.numpy()
         owner = np.repeat(np.arange(ns), ss["count"])
-        idx = _csr_entries(ss["start"], ss["count"])
+        idx = csr_entries(ss["start"], ss["count"])
         fl = ss["hist"]["flags"][idx]
         act = (fl & ACTIVE) != 0
         i, j = owner[act], ss["key_a"][idx][act]
         coh_ss = (fl[act] & COHESIVE) != 0
         st = sim.contacts.st.numpy()
         owner = np.repeat(np.arange(ns), st["count"])
-        idx = _csr_entries(st["start"], st["count"])
+        idx = csr_entries(st["start"], st["count"])
         fl = st["hist"]["flags"][idx]
         act = (fl & ACTIVE) != 0
         si, mesh, face = owner[act], st["key_a"][idx][act], st["key_b"][idx][act]
