@@ -1,6 +1,7 @@
 """warpdem's bond protocols on the bed of bond_protocols_twin.py, beside Yade's (bond_protocols_yade.npz).
 
     python benchmarks/yade/bond_protocols_compare.py [--device cpu]   # -> bond_protocols_report.md
+    python benchmarks/yade/bond_protocols_compare.py --bed A_dense    # -> bond_protocols_report_A_dense.md
 
 The scene is the Yade script's, built from the same spec (soil_bin_twin_spec_A.npz: assembly A's ci bed of 681
 spheres, GA set 11's float32 material values, the bin's 10 facets, warpdem's dt, no tool) with warpdem's public API;
@@ -18,9 +19,17 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-SPEC = HERE / "soil_bin_twin_spec_A.npz"
-YADE = HERE / "bond_protocols_yade.npz"
-REPORT = HERE / "bond_protocols_report.md"
+
+
+def paths(bed: str = "A") -> tuple[Path, Path, Path]:
+    """The spec, Yade's output and the report of a bed ("A": assembly A's ci bed; "A_dense": deposited without
+    friction)."""
+    tail = "" if bed == "A" else "_" + bed
+    return (HERE / f"soil_bin_twin_spec_{bed}.npz", HERE / f"bond_protocols_yade{tail}.npz",
+            HERE / f"bond_protocols_report{tail}.md")
+
+
+SPEC, YADE, REPORT = paths()
 
 
 def load(path: Path) -> dict[str, np.ndarray]:
@@ -124,19 +133,22 @@ def run_all(protocol: str, spec: dict[str, np.ndarray], yade: dict[str, np.ndarr
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--device", default="cpu")
+    p.add_argument("--bed", default="A", help="A (default) or A_dense")
     args = p.parse_args(argv)
-    spec, yade = load(SPEC), load(YADE)
+    spec_path, yade_path, report = paths(args.bed)
+    spec, yade = load(spec_path), load(yade_path)
     nr = int(yade["realizations"])
     lines = ["# Bond protocols: warpdem against Yade 2023.02a on the same bed", "",
-             f"Assembly A's ci bed ({int(yade['n_spheres'])} spheres), GA set 11, the bin's facets, no tool, no "
+             f"Assembly A's ci bed{' deposited without friction' if 'dense' in args.bed else ''} "
+             f"({int(yade['n_spheres'])} spheres), GA set 11, the bin's facets, no tool, no "
              f"local damping after bonding; {int(yade['run_steps'])} steps "
              f"({int(yade['run_steps']) * float(spec['dt']):.3f} s) after the bonding step; settling: "
              f"{int(yade['settle_steps'])} steps with damping {float(yade['settle_damping'])}; distance bonding: "
              f"detection factor {float(yade['detection'])}. {nr} realizations per engine (the bed as exported, and "
              f"{nr - 1} displaced by at most {float(yade['perturb']):.0e} m per sphere, the same in both engines); "
              "counts at the end: mean and standard deviation over them. Written by "
-             f"`python benchmarks/yade/bond_protocols_compare.py --device {args.device}` from "
-             "`bond_protocols_yade.npz` (`yade -n -x benchmarks/yade/bond_protocols_twin.py`).", "",
+             f"`python benchmarks/yade/bond_protocols_compare.py --device {args.device} --bed {args.bed}` from "
+             f"`{yade_path.name}` (`yade -n -x benchmarks/yade/bond_protocols_twin.py`).", "",
              "| protocol | engine | bonds after the bonding step | of them with a gap | largest gap [um] | "
              "bonds at the end | surviving [%] | contacts at the end | kinetic energy at the end [J] |",
              "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
@@ -151,8 +163,8 @@ def main(argv: list[str] | None = None) -> int:
                          f"{surv.std(ddof=1):.1f} | {c[:, -1].mean():.0f} +- {c[:, -1].std(ddof=1):.0f} | "
                          f"{ke[:, -1].mean():.3g} |")
         print(lines[-2], lines[-1], sep="\n", flush=True)
-    REPORT.write_text("\n".join(lines) + "\n")
-    print("wrote", REPORT)
+    report.write_text("\n".join(lines) + "\n")
+    print("wrote", report)
     return 0
 
 

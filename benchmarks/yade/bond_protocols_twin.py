@@ -3,6 +3,12 @@
 Run from the repository root:
 
     yade -n -x benchmarks/yade/bond_protocols_twin.py            # -> bond_protocols_yade.npz / .log
+    BOND_TWIN_BED=A_dense BOND_TWIN_PROTOCOLS=touch,settled,ductile BOND_TWIN_REALIZATIONS=4 \
+        yade -n -x benchmarks/yade/bond_protocols_twin.py        # -> bond_protocols_yade_A_dense.npz / .log
+
+``BOND_TWIN_BED``: the spec ``soil_bin_twin_spec_<BED>.npz`` (default A; A_dense: the bed deposited without
+friction, ``soil_bin_twin_export.py A --deposit-friction 0``); another bed than A runs part 2 only.
+``BOND_TWIN_PROTOCOLS``, ``BOND_TWIN_REALIZATIONS``: a subset of the protocols, fewer realizations.
 
 Two parts:
 
@@ -42,8 +48,10 @@ from yade import utils
 from yade.wrapper import *  # noqa: F401,F403
 
 HERE = os.path.dirname(os.path.abspath(sys.argv[0]))
-OUT = os.path.join(HERE, "bond_protocols_yade.npz")
-LOG = open(os.path.join(HERE, "bond_protocols_yade.log"), "w")
+BED = os.environ.get("BOND_TWIN_BED", "A")
+STEM = "bond_protocols_yade" + ("" if BED == "A" else "_" + BED)
+OUT = os.path.join(HERE, STEM + ".npz")
+LOG = open(os.path.join(HERE, STEM + ".log"), "w")
 DETECTION = 1.5
 RUN_STEPS = 3000
 RECORD = 100
@@ -51,8 +59,9 @@ SETTLE_STEPS = 12000
 SETTLE_DAMPING = 0.4
 PAIR_RADIUS = 0.007
 PAIR_RATIOS = np.array([0.98, 0.999, 1.0005, 1.001, 1.002, 1.01, 1.1, 1.3])
-PROTOCOLS = ("touch", "distance", "new", "settled", "settled_distance", "ductile")
-REALIZATIONS = 8
+PROTOCOLS = tuple(os.environ.get("BOND_TWIN_PROTOCOLS", "touch,distance,new,settled,settled_distance,ductile")
+                  .split(","))
+REALIZATIONS = int(os.environ.get("BOND_TWIN_REALIZATIONS", "8"))
 PERTURB = 1e-9
 """realization 0 is the bed as exported; realization s > 0 displaces every sphere by a uniform random vector in
 [-PERTURB, PERTURB]^3 m (numpy's default_rng(s)): another realization of the same bed, whose chaotic run shows the
@@ -115,7 +124,7 @@ def pairs():
     return out
 
 
-SPEC = {k: v for k, v in np.load(os.path.join(HERE, "soil_bin_twin_spec_A.npz")).items()}
+SPEC = {k: v for k, v in np.load(os.path.join(HERE, f"soil_bin_twin_spec_{BED}.npz")).items()}
 
 
 def soil_material(fragile=True):
@@ -192,7 +201,7 @@ def bed(protocol, seed):
 
 
 log("Yade", yade.config.version)
-res = pairs()
+res = pairs() if BED == "A" else {}
 for proto in PROTOCOLS:
     runs = [bed(proto, seed) for seed in range(REALIZATIONS)]
     recs = np.stack([r for r, _ in runs])  # (realization, record, 4)
@@ -200,6 +209,6 @@ for proto in PROTOCOLS:
                 proto + "_ke": recs[:, :, 3], proto + "_bond_gaps": runs[0][1]})
 res.update(yade_version=np.array(str(yade.config.version)), detection=DETECTION, run_steps=RUN_STEPS,
            record=RECORD, settle_steps=SETTLE_STEPS, settle_damping=SETTLE_DAMPING, n_spheres=len(SPEC["sphere_radius"]),
-           protocols=np.array(PROTOCOLS), realizations=REALIZATIONS, perturb=PERTURB)
+           protocols=np.array(PROTOCOLS), realizations=REALIZATIONS, perturb=PERTURB, bed=np.array(BED))
 np.savez(OUT, **res)
 log("wrote", OUT)

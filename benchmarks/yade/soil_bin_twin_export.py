@@ -5,6 +5,7 @@ Run from the repository root (the project's Python, warpdem installed):
     python benchmarks/yade/soil_bin_twin_export.py A      # -> benchmarks/yade/soil_bin_twin_spec_A.npz
     python benchmarks/yade/soil_bin_twin_export.py C      # -> benchmarks/yade/soil_bin_twin_spec_C.npz
     python benchmarks/yade/soil_bin_twin_export.py C --scale strip   # -> ..._spec_C_strip.npz (paper's members)
+    python benchmarks/yade/soil_bin_twin_export.py A --deposit-friction 0   # -> ..._spec_A_dense.npz (dense bed)
 
 The scene is built exactly as ``scenes.soil_bin.run_soil_bin`` builds it for
 ``SoilBinConfig(scale="ci", assembly=X, springs=(0,), parameter_set=11, speed=(0.62,))`` (same functions, same
@@ -73,18 +74,22 @@ COHESION_NOTE = (
 )
 
 
-def config_for(assembly: str, scale: str = "ci") -> sb.SoilBinConfig:
-    return sb.SoilBinConfig(scale=scale, assembly=assembly, springs=(0,), parameter_set=PARAMETER_SET, speed=(SPEED,))
+def config_for(assembly: str, scale: str = "ci", deposit_friction: float = sb.DEPOSIT_FRICTION) -> sb.SoilBinConfig:
+    return sb.SoilBinConfig(scale=scale, assembly=assembly, springs=(0,), parameter_set=PARAMETER_SET, speed=(SPEED,),
+                            deposit_friction=deposit_friction)
 
 
-def spec_name(assembly: str, scale: str = "ci") -> str:
-    """The spec's file name: ``soil_bin_twin_spec_C.npz`` at ci scale, ``soil_bin_twin_spec_C_strip.npz`` else."""
-    return f"soil_bin_twin_spec_{assembly}{'' if scale == 'ci' else '_' + scale}.npz"
+def spec_name(assembly: str, scale: str = "ci", deposit_friction: float = sb.DEPOSIT_FRICTION) -> str:
+    """The spec's file name: ``soil_bin_twin_spec_C.npz`` at ci scale, ``soil_bin_twin_spec_C_strip.npz`` else;
+    ``..._dense.npz`` for a bed deposited without friction."""
+    dense = "" if deposit_friction == sb.DEPOSIT_FRICTION else ("_dense" if deposit_friction == 0 else
+                                                                 f"_deposit{deposit_friction:g}")
+    return f"soil_bin_twin_spec_{assembly}{'' if scale == 'ci' else '_' + scale}{dense}.npz"
 
 
-def build(assembly: str, device: str = "cpu", scale: str = "ci") -> dict:
+def build(assembly: str, device: str = "cpu", scale: str = "ci", deposit_friction: float = sb.DEPOSIT_FRICTION) -> dict:
     """The scene exactly as run_soil_bin builds it; returns config, bed, tool, keep, model, state, sim, dt."""
-    config = config_for(assembly, scale)
+    config = config_for(assembly, scale, deposit_friction)
     t0 = time.perf_counter()
     bed = sb.bed_for(config, device=device, cache_dir=ROOT / "results" / "beds",
                      progress=lambda phase, t, ke: print(f"  deposit {phase} t={t:.2f} s KE/particle={ke:.2e} J",
@@ -133,9 +138,9 @@ def yade_clump_rule(centres: np.ndarray, radii: np.ndarray, rho: float) -> tuple
     return float(m.sum()), com, np.sort(np.linalg.eigvalsh(it))
 
 
-def export(assembly: str, scale: str = "ci") -> Path:
+def export(assembly: str, scale: str = "ci", deposit_friction: float = sb.DEPOSIT_FRICTION) -> Path:
     t0 = time.perf_counter()
-    s = build(assembly, scale=scale)
+    s = build(assembly, scale=scale, deposit_friction=deposit_friction)
     model, sim, config, tool, bed = s["model"], s["sim"], s["config"], s["tool"], s["bed"]
     h = model.host
     soil_group = model.names["group"]["soil"]
@@ -209,7 +214,7 @@ def export(assembly: str, scale: str = "ci") -> Path:
     data.update(material_keys("tool", tool_m, model, mats["tool"]))
     # the builder's tool material must be the one described here
     assert abs(data["tool_young_f32"] - tool_m.young) < 1e-3 * tool_m.young
-    out = HERE / spec_name(assembly, scale)
+    out = HERE / spec_name(assembly, scale, deposit_friction)
     np.savez_compressed(out, **data)
     print(f"  {assembly}: {n_part} particles, {len(radius)} spheres, {int((n_members > 1).sum())} clumps, "
           f"dt = {s['dt']:.6e} s, record every {s['every']} steps, {s['stop']} steps; bed {s['t_bed']:.1f} s; "
@@ -220,6 +225,9 @@ def export(assembly: str, scale: str = "ci") -> Path:
 if __name__ == "__main__":
     argv = sys.argv[1:]
     scale = argv[argv.index("--scale") + 1] if "--scale" in argv else "ci"
-    names = [a for k, a in enumerate(argv) if not a.startswith("--") and (k == 0 or argv[k - 1] != "--scale")]
+    friction = (float(argv[argv.index("--deposit-friction") + 1]) if "--deposit-friction" in argv
+                else sb.DEPOSIT_FRICTION)
+    names = [a for k, a in enumerate(argv)
+             if not a.startswith("--") and (k == 0 or argv[k - 1] not in ("--scale", "--deposit-friction"))]
     for a in names or ["A"]:
-        export(a.upper(), scale)
+        export(a.upper(), scale, friction)
