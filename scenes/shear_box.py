@@ -504,14 +504,14 @@ class _Probe:
         return wd.observers.body_poses(self.sim, body)[0][:, axis]
 
 
-def _soil_ke_per_particle(sim: wd.Simulation) -> np.ndarray:
+def soil_ke_per_particle(sim: wd.Simulation) -> np.ndarray:
     """Mean kinetic energy of the soil's bodies per world [J] (n_worlds,)."""
     m = sim.model
     n = int(np.sum(m.host["body_group"][: m.bodies_per_world] == m.group_index("soil")))
     return wd.observers.group_kinetic_energy("soil")(sim).sum(axis=1) / max(n, 1)
 
 
-def _soil_weight_above(sim: wd.Simulation, z: float) -> np.ndarray:
+def soil_weight_above(sim: wd.Simulation, z: float) -> np.ndarray:
     """Weight [N] of the soil bodies whose centre of mass is above height z [m], per world (n_worlds,)."""
     m = sim.model
     soil = m.host["body_group"] == m.group_index("soil")
@@ -519,7 +519,7 @@ def _soil_weight_above(sim: wd.Simulation, z: float) -> np.ndarray:
     return np.bincount(m.host["body_world"], weights=m.host["body_mass"] * above, minlength=m.n_worlds) * GRAVITY
 
 
-def _consolidate(sim: wd.Simulation, probe: _Probe, cfg: ShearBoxConfig, rig: _Rig,
+def consolidate(sim: wd.Simulation, probe: _Probe, cfg: ShearBoxConfig, rig: _Rig,
                  progress: Callable[[str, float, float], None] | None) -> float:
     """Bring the plates onto the samples and let them settle under their weights; returns the time taken [s].
 
@@ -546,7 +546,7 @@ def _consolidate(sim: wd.Simulation, probe: _Probe, cfg: ShearBoxConfig, rig: _R
             sim.set_body_velocity("ballast", np.stack([0 * vz, 0 * vz, vz], axis=1))
             servo = not balanced
         else:
-            done = t >= t_min and balanced and bool(np.all(_soil_ke_per_particle(sim) < ke_quiet))
+            done = t >= t_min and balanced and bool(np.all(soil_ke_per_particle(sim) < ke_quiet))
         if progress is not None:
             progress("consolidate", t, t_max)
     if not done:
@@ -555,7 +555,7 @@ def _consolidate(sim: wd.Simulation, probe: _Probe, cfg: ShearBoxConfig, rig: _R
     return t
 
 
-def _moving_average(y: np.ndarray, width: int) -> np.ndarray:
+def moving_average(y: np.ndarray, width: int) -> np.ndarray:
     """Centred moving average over ``width`` samples, the window shrinking at the ends."""
     if width <= 1 or len(y) < 2:
         return y.copy()
@@ -563,7 +563,7 @@ def _moving_average(y: np.ndarray, width: int) -> np.ndarray:
     return np.convolve(y, kernel, mode="same") / np.convolve(np.ones_like(y), kernel, mode="same")
 
 
-def _shear(sim: wd.Simulation, probe: _Probe, cfg: ShearBoxConfig,
+def shear_sample(sim: wd.Simulation, probe: _Probe, cfg: ShearBoxConfig,
            progress: Callable[[str, float, float], None] | None,
            vtk: tuple[VtkWriter, int] | None = None) -> dict[str, np.ndarray]:
     """Move the lower half at the shear rate; interval means of the forces, (k, n_worlds) arrays. ``vtk``: a
@@ -623,12 +623,12 @@ def run_shear_boxes(configs: Sequence[ShearBoxConfig], device: str | None = None
                         cohesion_on_new_contacts=cfg.cohesion_on_new_contacts,
                         bond_detection_factor=cfg.bond_detection_factor)
     probe = _Probe(sim)
-    t_cons = _consolidate(sim, probe, cfg, rig, progress)
-    sigma_plane = (rig.plate_mass * GRAVITY + _soil_weight_above(sim, rig.z_shear)) / cfg.area
+    t_cons = consolidate(sim, probe, cfg, rig, progress)
+    sigma_plane = (rig.plate_mass * GRAVITY + soil_weight_above(sim, rig.z_shear)) / cfg.area
     sim.set_cohesion_now()
     sim.set_local_damping("soil", cfg.shear_damping)
     sim.set_local_damping("plate", cfg.shear_damping)
-    rec = _shear(sim, probe, cfg, progress, vtk)
+    rec = shear_sample(sim, probe, cfg, progress, vtk)
     wall = time.perf_counter() - t0
 
     width = max(1, int(round(cfg.smoothing / cfg.record_every)))
@@ -637,7 +637,7 @@ def run_shear_boxes(configs: Sequence[ShearBoxConfig], device: str | None = None
         curves = []
         for s in c.normal_stresses:
             tau = rec["upper"][:, w] / c.area
-            smooth = _moving_average(tau, width)
+            smooth = moving_average(tau, width)
             i = int(np.argmax(smooth))
             curves.append(ShearCurve(
                 normal_stress=s, normal_stress_plane=float(sigma_plane[w]), displacement=rec["disp"][:, w],

@@ -4,7 +4,7 @@
 Reference: benchmarks/yade/shear_box_twin_yade_ci_w{0,1,2}.npz, written by ``yade -n -x
 benchmarks/yade/shear_box_twin.py ci W`` from benchmarks/yade/shear_box_twin_spec_ci.npz (the sample that
 ``run_shear_boxes`` consolidates, exported by shear_box_twin_export.py with its rig, materials and dt). warpdem is
-rebuilt from the same spec and sheared by ``scenes.shear_box._shear`` (shear_box_twin_compare.run_world): both
+rebuilt from the same spec and sheared by ``scenes.shear_box.shear_sample`` (shear_box_twin_compare.run_world): both
 engines start from the same positions, at rest, with bonds on the first step's soil-soil contacts.
 
 Two warpdem rigs: as ``scenes.shear_box.build`` makes it (one mesh per box half, floor and plate), and "per facet"

@@ -8,8 +8,9 @@ Run from the repository root, after shear_box_twin_export.py and the Yade runs (
 
 warpdem is rebuilt from the spec with its own API (``build_from_spec``: the rig's triangles, the ballast sphere
 carrying the plate, the soil particles at their consolidated places, at rest, fresh contacts, in
-``scenes.shear_box.build``'s order and materials) and sheared by ``scenes.shear_box._shear`` itself (the same probe,
-record interval, displacement and force definitions as ``run_shear_boxes``), after ``sim.set_cohesion_now()``: the
+``scenes.shear_box.build``'s order and materials) and sheared by ``scenes.shear_box.shear_sample`` itself (the
+same probe, record interval, displacement and force definitions as ``run_shear_boxes``), after
+``sim.set_cohesion_now()``: the
 contacts of the first step get bonds, as Yade's ``setCohesionNow`` gives them. Realization k > 0 displaces every
 particle as a whole by RandomState(k).uniform(-1e-9, 1e-9, (n_particles, 3)) m (spec order), as the Yade script's
 ``--perturb 1e-9 --seed k``; realization 0 is the spec as is. One simulation per normal stress, one world per
@@ -20,7 +21,7 @@ Two warpdem rigs: as ``scenes.shear_box.build`` makes it (one mesh per box half,
 runs the 20 kPa stress with only the walls or only the floor and plate split (``..._<scale>_split_w2.npz``).
 
 Statistics (both engines the same code): peak shear stress = maximum of the interval means smoothed by
-``scenes.shear_box._moving_average`` over the spec's ``smooth_width`` records (run_shear_boxes' rule); the normal
+``scenes.shear_box.moving_average`` over the spec's ``smooth_width`` records (run_shear_boxes' rule); the normal
 stress on the plane is the spec's (measured by warpdem after consolidation; the realizations differ by 1e-9 m).
 Per realization a Mohr-Coulomb fit (``warpdem.analysis.mohr_coulomb``) of its three peaks gives c_k, phi_k; the
 ensemble's c and phi are the means over realizations and their standard errors the standard deviation over
@@ -246,7 +247,7 @@ def first_step(spec: dict[str, np.ndarray], world: int, per_facet: bool | tuple[
 
 def run_world(spec: dict[str, np.ndarray], world: int, seeds: list[int], n_records: int | None = None,
               progress: bool = False, per_facet: bool | tuple[str, ...] = False) -> dict[str, np.ndarray]:
-    """Shear normal stress ``world``, one warpdem world per realization; ``_shear``'s records (k, n_seeds) [N, m]
+    """Shear normal stress ``world``, one warpdem world per realization; ``shear_sample``'s records (k, n_seeds) [N, m]
     and the contact counts at every COUNT_EVERY-th record."""
     cfg = spec_config(spec)
     if n_records is not None:
@@ -264,7 +265,7 @@ def run_world(spec: dict[str, np.ndarray], world: int, seeds: list[int], n_recor
                   flush=True)
 
     t0 = time.perf_counter()
-    rec = sbx._shear(sim, probe, cfg, hook)
+    rec = sbx.shear_sample(sim, probe, cfg, hook)
     wall = time.perf_counter() - t0
     expect = int(spec["n_records"]) if n_records is None else n_records
     if len(rec["disp"]) != expect or sim.state.step != expect * int(spec["interval"]):
@@ -277,7 +278,7 @@ def run_world(spec: dict[str, np.ndarray], world: int, seeds: list[int], n_recor
 # ------------------------------------------------------------------------------------------------ statistics
 def peak(force: np.ndarray, spec: dict[str, np.ndarray]) -> tuple[float, int]:
     """Peak shear stress [Pa] of one curve of interval-mean forces [N] (run_shear_boxes' rule) and its record."""
-    smooth = sbx._moving_average(np.asarray(force, float) / float(spec["box_side"]) ** 2, int(spec["smooth_width"]))
+    smooth = sbx.moving_average(np.asarray(force, float) / float(spec["box_side"]) ** 2, int(spec["smooth_width"]))
     i = int(np.argmax(smooth))
     return float(smooth[i]), i
 

@@ -6,7 +6,7 @@ Run from the repository root (the project's Python, warpdem installed):
 
 The sample is made by ``scenes.shear_box.run_shear_boxes`` itself for ``shear_box.preset(SCALE, "C")`` (GA set 11,
 normal stresses 5, 10, 20 kPa, seed 0) on the CPU: ``make_bed`` deposits it, ``build`` makes the rig, the plate is
-brought down and the sample consolidated by ``_consolidate``. The export hooks ``_consolidate`` (a wrapper that calls
+brought down and the sample consolidated by ``consolidate``. The export hooks ``consolidate`` (a wrapper that calls
 the original and then reads the simulation): the state read there is the one ``run_shear_boxes`` gives cohesion to
 (``sim.set_cohesion_now()``) and then shears. ``run_shear_boxes`` then runs on to its end, and its own result (the
 native run, contact histories of the consolidation kept) is stored too. Nothing is re-derived by hand: every array
@@ -95,24 +95,24 @@ def export(scale: str) -> Path:
     print(f"  bed: {bed.n_particles} particles, {len(bed.radii)} spheres, porosity {bed.porosity:.3f}, "
           f"{t_bed:.1f} s", flush=True)
     snap: dict[str, object] = {}
-    original = sbx._consolidate
+    original = sbx.consolidate
 
     def hooked(sim, probe, c, rig, progress):
         t_cons = original(sim, probe, c, rig, progress)
         # copies: on the CPU, a Warp array's numpy() is a view that the shear would overwrite
         state = {k: np.array(v, copy=True) for k, v in sim.state.numpy().items()}
         snap.update(sim=sim, rig=rig, t_cons=t_cons, state=state, step=sim.state.step,
-                    ke=sbx._soil_ke_per_particle(sim), weight_above=sbx._soil_weight_above(sim, rig.z_shear),
+                    ke=sbx.soil_ke_per_particle(sim), weight_above=sbx.soil_weight_above(sim, rig.z_shear),
                     t=time.perf_counter())
         return t_cons
 
-    sbx._consolidate = hooked
+    sbx.consolidate = hooked
     try:
         t1 = time.perf_counter()
         res = sbx.run_shear_boxes([cfg], "cpu", bed=bed)[0]
         t_run = time.perf_counter() - t1
     finally:
-        sbx._consolidate = original
+        sbx.consolidate = original
     sim, rig, st = snap["sim"], snap["rig"], snap["state"]
     model = sim.model
     h = model.host
