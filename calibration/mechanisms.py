@@ -94,7 +94,8 @@ class Mechanism:
     "inertia_high", "inertia_low" (the search tries these mechanisms first when the baseline shows one)."""
     ridge: dict[str, float] = field(default_factory=dict)
     """gene -> p: along the inertia-stiffness ridge of a ringing fit (rates and inertia scaled together) the gene's
-    fitted value scales as J^p (a torque, a force law, a mass: 1; a fraction, a sensor reading: 0, left out)."""
+    fitted value scales as J^p (a torque, a series stiffness, a mass: 1; a cubic spring term, whose stiffening at
+    the static deflection the data hold as k3 / k^3: 3; a fraction, a sensor reading: 0, left out)."""
 
     def __post_init__(self) -> None:
         if not self.name.replace("_", "").isalnum() or not self.name.islower():
@@ -231,7 +232,9 @@ register(Mechanism(
     genes=(Gene("progressive", 1e4, 1e14, log=True, unit="N/m^3"),),
     knobs=lambda p: {"progressive": p["progressive"]},
     signature="soft configurations stiffer than their nominal rate; frequency falling along a decay",
-    bounds=_progressive_bound, produces=("stiffness_high", "inertia_low"), ridge={"progressive": 1.0}))
+    bounds=_progressive_bound, produces=("stiffness_high", "inertia_low"),
+    # its stiffening 3 k3 u0^2 / k at the static deflection u0 ~ 1 / k: held by the data as k3 / k^3, so k3 ~ J^3
+    ridge={"progressive": 3.0}))
 register(Mechanism(
     "series_compliance", "Compliance in series with the springs",
     "Shank, clamps and frame are not rigid: a stiffness ks in series gives the stack k ks/(k+ks), which lowers the "
