@@ -200,12 +200,12 @@ def test_cpu_threads_resume_from_a_checkpoint_to_the_bit(monkeypatch: object, tm
     a = make()
     a.advance(2100)  # by then the spheres' candidates have shifted the cut away from the first build's
     wd.checkpoint.save(a, tmp_path / "ck.npz")
-    at_checkpoint, cut = a.rebuild_count, list(a._contact_cut)
+    at_checkpoint, cut = a.rebuild_count, list(a.layout.contact_cut)
     a.advance(600)
     b = make()
-    assert b._contact_cut != cut
+    assert b.layout.contact_cut != cut
     wd.checkpoint.load(b, tmp_path / "ck.npz")
-    assert b._contact_cut == cut  # not the cut of b's own first build
+    assert b.layout.contact_cut == cut  # not the cut of b's own first build
     b.advance(600)
     assert a.parts == 3 and a.rebuild_count > at_checkpoint  # the lists were rebuilt (and cut again) after it
     for k in a.state.ARRAYS:
@@ -299,7 +299,7 @@ def test_large_scene_motion_gives_the_bits_of_the_fused_one() -> None:
     def run(large: bool) -> wd.Simulation:
         model, state = threaded_scene().finalize(DEVICE, n_worlds=2)
         sim = wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True)
-        sim._large = large
+        sim.large_step = large
         sim.advance(800)
         return sim
 

@@ -269,7 +269,9 @@ class Simulation:
         self.grid = wp.HashGrid(dim, dim, dim, device=dev, dtype=wp.float64) if ns else None
         if self.grid is not None:
             self.grid.reserve(ns, with_groups=True)
-        self._large = not dev.is_cpu and ns >= LARGE_STEP_SPHERES  # see LARGE_STEP_SPHERES
+        # the float sums in a launch of their own and one step per graph (LARGE_STEP_SPHERES; the same bits either
+        # way, so a test may set it before the first step)
+        self.large_step = not dev.is_cpu and ns >= LARGE_STEP_SPHERES
         self._graphs: dict[int, object] = {}  # captured graphs (CUDA, or a CPU thread) by steps per graph
         self._world_ops: list[object] | None = None  # the recorded world_steps launches
         self._step_ops: list[Callable[[], object]] | None = None  # a step's recorded launches (CPU threads)
@@ -346,11 +348,12 @@ class Simulation:
                                            self.parts)
         return self._args
 
-    def _layout(self) -> stages.Layout:
-        """The CPU threads' shares of a step (stages.Layout)."""
+    @property
+    def layout(self) -> stages.Layout:
+        """The CPU threads' shares of a step now (stages.Layout; the contacts' cut changes as the lists do)."""
         return stages.Layout(parts=self.parts, sphere_cut=self._sphere_cut, body_cut=self._body_cut,
                              contact_cut=self._contact_cut, entry_cut=self._entry_cut,
-                             pair_contacts=self.contact_threads == "pair", float_sums=self._large,
+                             pair_contacts=self.contact_threads == "pair", float_sums=self.large_step,
                              fold_energy=self.parts > 1 and self.track_energy)
 
     # ------------------------------------------------------------------ broad phase
@@ -413,7 +416,7 @@ class Simulation:
         ``record``): the step as one list of launches per CPU thread, with barriers between (:meth:`_lanes`).
         The launches are the stage functions' (stages.segments)."""
         segments = stages.segments(self.model, self._kernel_args(), self.contacts, self.data, self.options,
-                                   self.materials, self._layout(), stages.launcher(record))
+                                   self.materials, self.layout, stages.launcher(record))
         if lanes:
             return self._lanes(segments)
         ops: list[Callable[[], object]] = []
@@ -559,7 +562,7 @@ class Simulation:
         if self.world_steps and n_steps >= WORLD_STEPS_MIN:
             self._advance_worlds(n_steps)
             return
-        if not self.device.is_cpu and self.graph_steps > 1 and not self._large:
+        if not self.device.is_cpu and self.graph_steps > 1 and not self.large_step:
             self._advance_graphs(n_steps)
             return
         if self._barrier is not None and _CPU_GRAPHS and self.graph_steps > 1:
