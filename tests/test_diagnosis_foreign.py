@@ -286,19 +286,21 @@ def test_clean_set_with_per_configuration_damping_gets_no_name() -> None:
     assert d.baseline.params_all()["damping_scale"] == pytest.approx(1.0, rel=0.15)
 
 
-def test_a_named_cause_has_its_size_when_the_rig_file_states_one_absolute_datum() -> None:
-    # Reference: a pivot friction torque of 0.012 N m hidden in the foreign rig, and the rig file stating what a
-    # user measures once on it: the sensor's reading under the 60 N load on 4 springs (its closed form,
-    # :func:`static_reading`, on the hidden rig's actual rate). The datum fixes the rates; the frequencies then fix
-    # the inertia (not only the ratio) and the friction torque, which scales with the inertia, comes out at its size:
-    # within 30 % (the threshold; without the datum it was 9x off at the stated inertia).
-    truth = 0.012
-    reading = static_reading(seed=1)
-    d = run({"pivot_friction": truth}, seed=1, static_deflection=(4, reading))
-    assert d.cause == ("pivot_friction",), (d.verdict, d.cause, d.steps, d.ranking)
-    got = d.named.params_all()["pivot_friction"]
+@pytest.mark.parametrize(("effect", "gene", "truth"), [("pivot_friction", "pivot_friction", 0.012),
+                                                      ("progressive_spring", "progressive", 1e5)])
+def test_a_named_cause_has_its_size_when_the_rig_file_states_one_absolute_datum(effect: str, gene: str,
+                                                                                truth: float) -> None:
+    # Reference: an effect of known size hidden in the foreign rig (a pivot friction torque of 0.012 N m; a cubic
+    # spring term of 1e5 N/m^3), and the rig file stating what a user measures once on it: the sensor's reading
+    # under the 60 N load on 4 springs (its closed form, :func:`static_reading`, on the hidden rig's actual rate).
+    # The datum fixes the rates; the frequencies then fix the inertia (not only the ratio), and the named size
+    # (a torque ~ J, a cubic term ~ J^3 along the ridge) must be within 30 % of the hidden one (the threshold;
+    # without the datum the friction came out 9x off at the stated inertia, see docs/case-studies.md).
+    d = run({gene: truth}, seed=1, static_deflection=(4, static_reading(seed=1)))
+    assert d.cause == (effect,), (d.verdict, d.cause, d.steps, d.ranking)
+    got = d.named.params_all()[gene]
     assert got == pytest.approx(truth, rel=0.3), got
-    size = next(e for e in d.sizes if e["gene"] == "pivot_friction")
+    size = next(e for e in d.sizes if e["gene"] == gene)
     assert size["low"] == size["high"] == got and "datum" in size["why"]
     # the stated inertia (40 % high) leaves its +-10 % range: reported as absorbed (truth: 1 / 1.4 = 0.71x)
     assert d.named.params_all()["inertia_factor"] == pytest.approx(1 / 1.4, rel=0.1)
