@@ -375,7 +375,7 @@ def run_workflow(args: argparse.Namespace) -> int:
         config = replace(config, passive_tool=load_toml(args.tool).to_dict())
     budget = Budget(args.budget)
     _claim(args, args.out, adopt="workflow.json")
-    wf = Workflow(args.out, config, device=device, log=lambda m: print(m, flush=True))
+    wf = Workflow(args.out, config, device=device, log=lambda m: print(m, flush=True), progress=_bar)
     t0 = time.perf_counter()
     try:
         summary = wf.run(budget)

@@ -236,11 +236,15 @@ class Workflow:
     """One run folder of the workflow (see the module's docstring). ``log`` receives one line per event."""
 
     def __init__(self, out: str | Path, config: WorkflowConfig | None = None, *, device: str | None = None,
-                 log: Callable[[str], None] | None = None) -> None:
+                 log: Callable[[str], None] | None = None,
+                 progress: Callable[[str, float, float], None] | None = None) -> None:
         self.out = Path(out)
         self.config = config or WorkflowConfig()
         self.device = device
         self.log = log or (lambda m: None)
+        self.progress = progress
+        """``f(stage, done, total)``: the long stages' progress (depositions, soil-bin batches and jobs, shear
+        boxes), besides the ``log`` lines."""
         meta = self.out / "workflow.json"
         spec = {"config": self.config.to_dict()}
         if meta.exists():
@@ -323,7 +327,17 @@ class Workflow:
         dt = min(p.dt for p in problems)
         for p in problems:
             p.dt = dt
-        lock = Lockstep(ringing_batches(problems, self.device), budget, self._timing(f"ringing_{model}_per_world"),
+        run_batches = ringing_batches(problems, self.device)
+        total, done = ga.generations + 1 + ga.refine_iterations, [0]
+        if self.progress is not None:  # a step per lockstep batch: the first population, each generation, refinement
+
+            def counted(batches: list[tuple[int, np.ndarray]], inner: Callable = run_batches) -> list:
+                out = inner(batches)
+                done[0] += 1
+                self.progress(f"ringing calibration ({model})", min(done[0], total), total)
+                return out
+            run_batches = counted
+        lock = Lockstep(run_batches, budget, self._timing(f"ringing_{model}_per_world"),
                         lambda v: self._timed(f"ringing_{model}_per_world", v))
         t0 = time.perf_counter()
         self.log(f"ringing calibration ({model} springs): {len(problems)} GAs in lockstep")
@@ -332,6 +346,8 @@ class Workflow:
             return lambda ev: calibrate(problems[k], ga, out=self.out / f"ringing_{model}" /
                                         str(c.springs[k]), evaluator=ev)
         results = lock.run([job(k) for k in range(len(problems))])
+        if self.progress is not None:  # a refinement that stops early ends the bar too
+            self.progress(f"ringing calibration ({model})", total, total)
         rows = []
         for n, p, res in zip(c.springs, problems, results, strict=True):
             b = res.best
@@ -356,12 +372,12 @@ class Workflow:
         if c.soil_protocol == "bonded":
             return SoilProblem(assembly=c.assembly, scale=CALIBRATION_SCALE[c.scale], box_scale=SCREEN_SCALE[c.scale],
                                travel=c.calibration_travel, settle_time=c.soil_settle_time, fragile=False,
-                               deposit_friction=c.deposit_friction,
+                               deposit_friction=c.deposit_friction, stage_progress=self.progress,
                                box_changes=dict(c.screen_changes) or None, seed=c.seed,
                                cache_dir=str(self.out / "beds"), device=self.device)
         return DraughtProblem(assembly=c.assembly, scale=CALIBRATION_SCALE[c.scale], travel=c.calibration_travel,
                               settle_time=c.settle_time, seed=c.seed, cache_dir=str(self.out / "beds"),
-                              deposit_friction=c.deposit_friction,
+                              deposit_friction=c.deposit_friction, stage_progress=self.progress,
                               device=self.device)
 
     def draught(self, budget: Budget) -> dict:
@@ -406,8 +422,10 @@ class Workflow:
         budget.require(self._timing(key), "the shear-box screening")
         self.log(f"shear-box screening of {len(draught['candidates'])} sets ({SCREEN_SCALE[self.config.scale]})")
         t0 = time.perf_counter()
+        bar = self.progress
         rows = screen([c["genes"] for c in draught["candidates"]], self.config.assembly,
                       SCREEN_SCALE[self.config.scale], device=self.device,
+                      progress=(lambda ph, d, n: bar(f"screening: shear box {ph}", d, n)) if bar else None,
                       **{**self.config.screen_changes, **({} if self.config.fragile else {"fragile": False})})
         for r in rows:
             r["draught_mean_n"] = draught["candidates"][r["set"] - 1]["draught_mean_n"]
@@ -473,7 +491,10 @@ class Workflow:
             if deposits:  # a deposition must fit whole too (at paper scale minutes: it cannot be checkpointed)
                 budget.require(self._timing("deposit"), f"depositing replica {r}'s bed")
             t0 = time.perf_counter()
-            beds[r] = sb.bed_for(cfg, device=self.device, cache_dir=self.out / "beds", replica=rep)
+            bar = self.progress  # a phase at rest early reports the deposition's max_time (3 s) last
+            beds[r] = sb.bed_for(cfg, device=self.device, cache_dir=self.out / "beds", replica=rep,
+                                 progress=(lambda ph, t, ke, r=r, bar=bar: bar(f"replica {r}'s bed: {ph}", t, 3.0))
+                                 if bar else None)
             if deposits:
                 self._timed("deposit", time.perf_counter() - t0)
             fps[r], old = self._bed_fingerprint(f"replica_{r}", beds[r])
@@ -519,8 +540,10 @@ class Workflow:
         self.log(f"soil-bin job {job['name']}: {n} worlds, springs {job['springs']}, speeds {job['speeds']} m/s")
         t0 = time.perf_counter()
         resumed = ckpt.exists()
+        bar = self.progress
         run = sb.run_soil_bin(cfg, list(job["springs"]), bed=bed, device=self.device, speeds=list(job["speeds"]),
                               soil_overrides=overrides, knobs=knobs, checkpoint=ckpt, deadline=budget.deadline,
+                              progress=(lambda d, n: bar(f"soil-bin job {job['name']}", d, n)) if bar else None,
                               tool=tool, place=False, passive_tool=None if job["kind"] == "rigid" else described)
         owners = job["replicas"] if "replicas" in job else [job["replica"]] * n
         first = [w for w, r in enumerate(owners) if r == 0]

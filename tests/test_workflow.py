@@ -317,14 +317,20 @@ def test_replicas_as_worlds_run_in_groups_each_world_on_its_own_bed(tmp_path):
     """ci scale, 16 springs, replica beds: the first group holds replicas 0 and 1, and a target standard error no
     run can reach adds replica 2 as a second group. Reference: replica 0's rigid world run alone on its bed (same
     tool pose, time step and soil): the same draught to the bit, so the workflow wires each world to its own bed
-    and settings. Every reduction averages three replicas, each world's bed is its replica's (beds.json)."""
+    and settings. Every reduction averages three replicas, each world's bed is its replica's (beds.json). Each
+    replica's deposition and each soil-bin job shows its progress, every job's to the end."""
     from scenes import soil_bin as sb
 
     cfg = _config(springs=(16,), replicas_min=2, replicas_max=3, target_sem=1e-6, replica_worlds=True,
                   travel=0.1, steady_travel=0.05, diagnose=False)
-    wf = Workflow(tmp_path, cfg, device="cpu")
+    bars: dict[str, tuple[float, float]] = {}
+    wf = Workflow(tmp_path, cfg, device="cpu", progress=lambda stage, d, n: bars.__setitem__(stage, (d, n)))
     soil = {"friction_angle": 30.0, "normal_cohesion": 500.0, "eta_roll": 0.1}
     st = wf.table3(soil, None, Budget(None))
+    assert {f"replica {r}'s bed: fill" for r in range(3)} <= set(bars)
+    jobs = {k: v for k, v in bars.items() if k.startswith("soil-bin job")}
+    assert len(jobs) == len(wf.group_jobs(0, 2)) + len(wf.group_jobs(2, 3))
+    assert all(d == n > 0 for d, n in jobs.values()), jobs
     assert wf.groups() == [[0, 2], [2, 3]]
     assert wf.replicas_done() == 3
     for variant in VARIANTS:
