@@ -20,10 +20,7 @@ import warp as wp
 from . import accumulate
 from .contacts import N_ENERGY
 from .model import Model
-
-DISP_STRIDE = wp.constant(16)
-"""entries between two threads' slots of ``disp`` and ``fault_parts`` (64 bytes: a cache line each, so that threads
-do not write into one line)."""
+from .types import DISP_STRIDE
 
 NO_FAULT = 2**31 - 1
 """``fault[0]`` while no body has failed (the failing body with the lowest index wins: atomic min)."""

@@ -26,6 +26,10 @@ if TYPE_CHECKING:
 
 wp.set_module_options({"enable_backward": False})
 
+DISP_STRIDE = wp.constant(16)
+"""entries between two threads' slots of ``Contacts.disp`` and ``Data.fault_parts`` (64 bytes: a cache line each,
+so that threads do not write into one line)."""
+
 
 @wp.struct
 class Options:
@@ -111,7 +115,6 @@ class Contacts:
         """Empty lists of ``capacity`` entries (the first build sizes them) and zeroed rebuild state for ``model``
         on its device; ``parts`` (P): CPU threads that share a step."""
         from .broadphase import PairList
-        from .data import DISP_STRIDE
 
         dev = model.device
         ns, nm = model.n_spheres, max(model.n_meshes, 1)
