@@ -730,6 +730,7 @@ class Workflow:
         rig = SoilBinRigModel(data, device=self.device, scale=CALIBRATION_SCALE[c.scale], assembly=c.assembly,
                               seed=c.seed, travel=c.calibration_travel, steady_travel=c.steady_travel,
                               settle_time=c.soil_settle_time, fragile=c.fragile, soil=contact,
+                              deposit_friction=c.deposit_friction,
                               max_worlds=len(c.springs),
                               cache_dir=str(self.out / "beds"), simulator=simulator)
         return rig

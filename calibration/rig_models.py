@@ -671,7 +671,8 @@ class SoilBinRigModel:
     time, and a trend by drift).
 
     ``scale``, ``assembly``, ``parameter_set``, ``seed``, ``working_depth``, ``travel``, ``steady_travel``,
-    ``support_offset``, ``settle_time`` [s], ``fragile``: the ``scenes.soil_bin.SoilBinConfig`` of the simulations;
+    ``support_offset``, ``settle_time`` [s], ``fragile``, ``deposit_friction`` [deg]: the
+    ``scenes.soil_bin.SoilBinConfig`` of the simulations;
     ``soil``: soil contact parameters replacing the GA set's in every run (``friction_angle`` [deg],
     ``normal_cohesion``, ``shear_cohesion`` [Pa], ``eta_roll``, ``eta_twist`` [-]; e.g. a set calibrated at the
     simulation's scale); ``bed``: a deposited bed to use (else made or read from ``cache_dir``); ``max_worlds``:
@@ -691,7 +692,7 @@ class SoilBinRigModel:
                  scale: str = "ci", assembly: str = "C", parameter_set: int | None = None, seed: int = 0,
                  working_depth: float | None = None, travel: float | None = None,
                  steady_travel: float | None = None, support_offset: bool = False, settle_time: float = 0.0,
-                 fragile: bool = True, soil: dict[str, float] | None = None,
+                 fragile: bool = True, deposit_friction: float = 30.0, soil: dict[str, float] | None = None,
                  observables: tuple[str, ...] | None = None,
                  uncertainty: dict[str, float] | None = None, max_worlds: int = 64, bed: object | None = None,
                  cache_dir: str | None = None, measured_steady_travel: float | None = None,
@@ -719,7 +720,7 @@ class SoilBinRigModel:
         self.config = sb.SoilBinConfig(scale=scale, assembly=assembly, springs=tuple(sorted(set(springs))),
                                        spring_model="linear", parameter_set=parameter_set, seed=seed,
                                        travel=travel, steady_travel=steady_travel, support_offset=support_offset,
-                                       settle_time=settle_time, fragile=fragile,
+                                       settle_time=settle_time, fragile=fragile, deposit_friction=deposit_friction,
                                        **({"working_depth": working_depth} if working_depth else {}))
         columns = dict(s)
         start = float(measured_steady_travel or self.config.steady_travel or self.config.preset["steady_travel"])

@@ -77,8 +77,8 @@ class WorkflowConfig:
     with GA set 11 only the second reaches the laboratory's draught and shear box together."""
     deposit_friction: float = 30.0
     """[deg] contact friction of the soil-bin beds' deposition (``SoilBinConfig.deposit_friction``; 0: a dense bed,
-    coordination 8.7 at paper scale against 6.95, the paper's 9.55) in the draught calibration and Table 3; the
-    diagnosis stage's rig model keeps the default bed."""
+    coordination 8.7 at paper scale against 6.95, the paper's 9.55) in the draught calibration, Table 3 and the
+    diagnosis stage's rig model."""
     worlds_per_job: int = 4
     """soil-bin worlds per simulation (at most): smaller jobs fit a shorter budget."""
     travel: float | None = None
