@@ -75,15 +75,9 @@ FIGURE_CAPTIONS = {
 
 
 def figure_captions(names: list[str]) -> list[str]:
-    """The report's lines for the figures ``names``: each image with its caption (what it shows, what it is
-    compared with)."""
-    extra = {"fig17_fft_draught.png": " " + figures.fft_caption("draught"),
-             "fig18_fft_displacement.png": " " + figures.fft_caption("displacement"),
-             "fig19_tool_kinetic_energy.png": " " + figures.FIG19_CAPTION}
-    lines = []
-    for p in names:
-        lines += [f"![{p}]({p})", "", f"*{FIGURE_CAPTIONS.get(p, p)}{extra.get(p, '')}*", ""]
-    return lines
+    """The report's lines for the figures ``names``: each image with its caption (:func:`scenes.figures.figure_captions`
+    with this report's :data:`FIGURE_CAPTIONS`)."""
+    return figures.figure_captions(names, FIGURE_CAPTIONS)
 
 
 def plot_series(out: Path, config: WorkflowConfig, table3: dict) -> list[str]:

@@ -140,3 +140,15 @@ def plot_reductions(rows: Sequence[dict], path: Path, *, assembly: str = "C", ti
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.savefig(path, dpi=110, bbox_inches="tight")
     pyplot.close(fig)
+
+
+def figure_captions(names: Sequence[str], captions: dict[str, str]) -> list[str]:
+    """A report's lines for the figures ``names`` (file names): each image with its caption from ``captions``
+    (what it shows, what it is compared with), the FFT figures (``fig17_*``, ``fig18_*``) followed by the paper's
+    references (:func:`fft_caption`) and Fig. 19's (``fig19_*``) by :data:`FIG19_CAPTION`."""
+    extra = {"fig17_": fft_caption("draught"), "fig18_": fft_caption("displacement"), "fig19_": FIG19_CAPTION}
+    lines: list[str] = []
+    for p in names:
+        more = extra.get(p[:6])
+        lines += [f"![{p}]({p})", "", f"*{captions.get(p, p)}{' ' + more if more else ''}*", ""]
+    return lines
