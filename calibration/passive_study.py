@@ -271,12 +271,14 @@ def moment_arms(rows: list[dict[str, float]], tool: PassiveTool) -> list[dict[st
     return out
 
 
-def quasi_static_sensitivity(tool: PassiveTool, springs: int, draught: float, arm: float) -> float:
+def quasi_static_sensitivity(tool: PassiveTool, springs: int, draught: float, arm: float,
+                             sweep: object | None = None) -> float:
     """d(reading)/d(draught) [m/N]: how far the lab's sensor moves per newton of draught held at rest, the draught
     ``draught`` [N] acting ``arm`` [m] about the pivot (its moment through the stack law, preload and stop included;
     a central difference of :meth:`PassiveTool.lab_reading` over +-1 N m). In the stack's linear range it is
-    arm a / (k a^2 + K_g) (a: the stack's lever, k: its rate, K_g: the tool's pendulum stiffness)."""
-    sweep = tool.sweep()
+    arm a / (k a^2 + K_g) (a: the stack's lever, k: its rate, K_g: the tool's pendulum stiffness). ``sweep``: the
+    tool's ``tool.sweep()``, when the caller has it already."""
+    sweep = sweep or tool.sweep()
     m = draught * arm
     return arm * (tool.lab_reading(springs, m + 1.0, sweep) - tool.lab_reading(springs, m - 1.0, sweep)) / 2.0
 
@@ -307,19 +309,20 @@ def displacement_noise(series: dict[str, np.ndarray], rows: list[dict[str, float
     t = np.asarray(series["time"], dtype=np.float64)
     fs = 1.0 / float(np.median(np.diff(t)))
     t3 = _table3()
+    sweep = tool.sweep()
     out = []
     for w, r in enumerate(rows):
         n = int(r["springs"])
         trav = np.asarray(series["travel"])[:, w]
         steady = (trav >= steady_travel) & (trav < trav.max())
-        f_n = tool.ringing_frequency(n, load_force=0.0)
+        f_n = tool.ringing_frequency(n, sweep, load_force=0.0)
         sos = signal.butter(4, min(f_n, 0.45 * fs), fs=fs, output="sos")
         draught = np.asarray(series["draught"], dtype=np.float64)[:, w]
         slow = signal.sosfiltfilt(sos, draught)[steady]
         disp = 1e3 * np.asarray(series["displacement"], dtype=np.float64)[steady, w]
-        s = 1e3 * quasi_static_sensitivity(tool, n, r["passive_n"], r["arm_m"])
+        s = 1e3 * quasi_static_sensitivity(tool, n, r["passive_n"], r["arm_m"], sweep)
         lab = t3[n]
-        s_lab = 1e3 * quasi_static_sensitivity(tool, n, lab["passive_draught_mean_n"], r["lab_arm_m"])
+        s_lab = 1e3 * quasi_static_sensitivity(tool, n, lab["passive_draught_mean_n"], r["lab_arm_m"], sweep)
         out.append({"springs": n, "f_n": f_n, "draught_std": float(draught[steady].std()),
                     "draught_slow_std": float(slow.std()), "sensitivity_mm_n": s,
                     "predicted_std_mm": s * float(slow.std()), "disp_std_mm": float(disp.std()),
