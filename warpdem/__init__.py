@@ -1,7 +1,8 @@
 """warpdem: discrete element method for soil-tool interaction on NVIDIA Warp (CPU and CUDA).
 
-Yade's cohesive-frictional contact law with rolling and twisting resistance, spheres, clumps and triangle meshes as
-free rigid bodies, springs, many independent worlds in one launch.
+Yade's cohesive-frictional contact law with rolling and twisting resistance (or Yade's Hertz-Mindlin law:
+``warpdem.laws``), spheres, clumps and triangle meshes as free rigid bodies, springs, many independent worlds in one
+launch.
 """
 
 import os
@@ -12,7 +13,7 @@ import warp as wp
 from . import checkpoint, observers
 from .builder import ModelBuilder
 from .errors import InputError, SimulationError
-from .materials import Material
+from .materials import HertzMindlinMaterial, Material
 from .model import Model, State
 from .simulation import Simulation
 from .timestep import check_step_count, critical_timestep, pwave_timestep, stiffness_timestep
@@ -37,6 +38,7 @@ def init_quietly() -> None:
 
 
 __all__ = [
+    "HertzMindlinMaterial",
     "InputError",
     "Material",
     "Model",

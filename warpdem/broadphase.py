@@ -1,7 +1,7 @@
 """Broad phase: candidate lists (with a neighbour skin) for sphere-sphere and sphere-triangle contacts.
 
 A candidate list is stored CSR-style per sphere (``start``, ``count``, then one entry per candidate); every entry
-carries its contact history (:class:`~warpdem.contact_law.Hist`), so contacts persist across rebuilds: a rebuild
+carries its contact history (:class:`~warpdem.laws.Hist`), so contacts persist across rebuilds: a rebuild
 makes the new lists in scratch arrays, copies each surviving pair's history from the old lists, and copies the
 result back (fixed array addresses, so the whole step can live in one CUDA graph).
 
@@ -22,8 +22,9 @@ import warp as wp
 
 from . import cpu_threads
 from . import kernel_args as ka
-from .contact_law import ACTIVE, Hist, closest_point_triangle, empty_hist
+from .geometry import closest_point_triangle
 from .kernel_args import BodyState, Meshes, SphereList, Spheres, TriangleList
+from .laws import ACTIVE, Hist, empty_hist
 
 wp.set_module_options({"enable_backward": False})
 

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
+from . import laws
 from . import mass as massprops
 from .errors import (
     InputError,
@@ -29,7 +30,7 @@ from .errors import (
     check_positive,
     check_vec3,
 )
-from .materials import MATERIAL_FIELDS, Material
+from .laws import MATERIAL_FIELDS
 from .model import ALL_DOFS, FLAG_ASPHERICAL, FLAG_PIVOT, ROT_DOFS, Model, State, dof_mask
 
 
@@ -67,7 +68,7 @@ class ModelBuilder:
 
     def __init__(self, gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)) -> None:
         self.gravity = tuple(check_vec3("gravity", gravity).tolist())
-        self.materials: list[Material] = []
+        self.materials: list[laws.Material | laws.HertzMindlinMaterial] = []
         self.material_names: dict[str, int] = {}
         self.groups: dict[str, int] = {}
         self.group_damping: list[float] = []
@@ -99,12 +100,18 @@ class ModelBuilder:
         return self._cache[key]
 
     # ---------------------------------------------------------------- materials and groups
-    def add_material(self, name: str, material: Material) -> int:
-        """Register a material under a name; returns its index."""
-        if not isinstance(material, Material):
-            raise InputError(f"material must be a warpdem.Material, got {type(material).__name__}")
+    def add_material(self, name: str, material: laws.Material | laws.HertzMindlinMaterial) -> int:
+        """Register a material under a name; returns its index. The materials of one model all follow one contact
+        law (a ``Material``: Yade's cohesive-frictional law; a ``HertzMindlinMaterial``: Hertz-Mindlin)."""
+        if not isinstance(material, tuple(laws.LAWS.values())):
+            raise InputError(f"material must be a warpdem.Material or warpdem.HertzMindlinMaterial, got "
+                             f"{type(material).__name__}")
         if name in self.material_names:
             raise InputError(f"material name {name!r} is already used")
+        if self.materials and material.LAW != laws.law_of(self.materials):
+            law = laws.LAW_NAMES[laws.law_of(self.materials)]
+            raise InputError(f"material {name!r} ({type(material).__name__}) follows another contact law than the "
+                             f"materials already added ({law}); a model's materials all follow one law")
         self.material_names[name] = len(self.materials)
         self.materials.append(material)
         return self.material_names[name]
@@ -541,7 +548,9 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
     nb = b._n_bodies
     t: dict[str, np.ndarray] = {}
     for f in MATERIAL_FIELDS:
-        t[f] = np.tile(np.array([getattr(m, f) for m in b.materials], dtype=np.float64), (n_worlds, 1))
+        # a field that is not the material's law's is 0 in the tables (its law does not read it)
+        t[f] = np.tile(np.array([getattr(m, f) if f in m.FIELDS else 0.0 for m in b.materials], dtype=np.float64),
+                       (n_worlds, 1))
     t["damping"] = np.tile(np.array(b.group_damping, dtype=np.float64), (n_worlds, 1))
     for f in SPRING_FIELDS:
         t["spring_" + f] = np.tile(np.array([getattr(s, f) for s in b.springs], dtype=np.float64), (n_worlds, 1))
@@ -558,7 +567,7 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
         if parts[0] == "material" and len(parts) == 3:
             if parts[1] not in b.material_names:
                 raise InputError(f"override {key!r}: unknown material {parts[1]!r}")
-            check_choice(f"override {key!r} field", parts[2], MATERIAL_FIELDS)
+            check_choice(f"override {key!r} field", parts[2], b.materials[b.material_names[parts[1]]].FIELDS)
             col = _per_world(key, values, n_worlds)
             for v in col:  # validate each world's material like a user-built one
                 b.materials[b.material_names[parts[1]]].replace(**{parts[2]: float(v)})
@@ -761,6 +770,7 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         },
         warp_meshes=warp_meshes,
         max_radius=float(sph_rad.max()) if ns else 0.0,
+        contact_law=laws.law_of(b.materials),
     )
     model.host = {
         "sphere_radius": np.tile(sph_rad, W),
@@ -777,7 +787,6 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         "mesh_faces": [m.faces for m in b.meshes],
         "material_young": mats["young"],
         "material_density": mats["density"],
-        "material_poisson": mats["poisson"],
         "sphere_material": np.tile(sph_mat, W),
         "spring_stiffness": t["spring_stiffness"].reshape(-1),
     }

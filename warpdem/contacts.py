@@ -20,19 +20,20 @@ import warp as wp
 
 from .accumulate import add_wrench
 from .broadphase import sphere_in_body_frame
-from .contact_law import (
+from .geometry import closest_point_triangle
+from .kernel_args import BodyState, Meshes, SphereList, Spheres, SphereState, Sums, TriangleList
+from .laws import (
     ACTIVE,
     Hist,
     Materials,
-    closest_point_triangle,
-    cohfrict_law,
+    contact_law,
     elastic_energy,
     empty_hist,
-    make_phys,
     new_hist,
+    pair_phys,
     set_cohesion,
+    stiffness,
 )
-from .kernel_args import BodyState, Meshes, SphereList, Spheres, SphereState, Sums, TriangleList
 from .types import Options
 
 wp.set_module_options({"enable_backward": False})
@@ -55,9 +56,9 @@ def tan_kernel(angle: wp.array(dtype=float), out: wp.array(dtype=float)):
 
 @wp.func
 def phys_of(mats: Materials, world: int, mi: int, mj: int, r1: float, r2: float):
-    """The contact parameters of materials mi and mj of ``world`` (contact radii r1, r2 [m])."""
+    """The contact parameters of materials mi and mj of ``world`` (contact radii r1, r2 [m]), by their law."""
     off = world * mats.n_materials
-    return make_phys(mats, off + mi, off + mj, r1, r2)
+    return pair_phys(mats, off + mi, off + mj, r1, r2)
 
 
 @wp.struct
@@ -119,7 +120,7 @@ def sphere_pair(
         wj = kin.angvel[j]
         alpha = (r1 + r2) / (r1 + r2 - un)
         v12 = alpha * (kin.vel[j] - vi) - wp.cross(r1 * wi + r2 * wj, n)
-        law = cohfrict_law(h, p, is_new, n, un, v12, wi + wj, wj - wi, float(opts.dt), opts.always_moment, opts.unp_max)
+        law = contact_law(h, p, is_new, n, un, v12, wi + wj, wj - wi, float(opts.dt), opts.always_moment, opts.unp_max)
         hist[k] = law.hist
         if law.alive != 0:
             arm_i = arm_i0 + (r1 - 0.5 * un) * n
@@ -377,7 +378,7 @@ def sphere_triangle_one(
         vm = wp.vec3f(bodies.vel[b])
         wm = wp.vec3f(bodies.angvel[b])
         v12 = (vs + wp.cross(ws, arm_s)) - (vm + wp.cross(wm, arm_m))
-        out = cohfrict_law(h, p, is_new, n, g.un, v12, wm + ws, ws - wm, float(opts.dt), opts.always_moment,
+        out = contact_law(h, p, is_new, n, g.un, v12, wm + ws, ws - wm, float(opts.dt), opts.always_moment,
                            opts.unp_max)
         st.hist[k] = out.hist
         if out.alive == 0:
@@ -460,3 +461,49 @@ def sphere_triangle_elastic_kernel(
                        bodies.pos, bodies.quat)
         p = phys_of(mats, spheres.world[i], meshes.material[st.mesh[k]], spheres.material[i], 2.0 * r, r)
         wp.atomic_add(out, spheres.world[i], wp.float64(elastic_energy(h, p, g.un)))
+
+
+# ----------------------------------------------------------------------------- stiffness (time step, contact table)
+@wp.kernel
+def sphere_sphere_stiffness_kernel(
+    spheres: Spheres, mats: Materials, kin: SphereState, ss: SphereList, out: wp.array(dtype=wp.vec4f)
+):
+    """out[k] = (kn [N/m], ks [N/m], kr [N m/rad], ktw [N m/rad]) of entry k of sphere i's sphere-sphere list, by
+    the contact law (zeros for an entry that is not a contact)."""
+    i = wp.tid()
+    radius = spheres.radius
+    for k in range(ss.start[i], ss.start[i] + ss.count[i]):
+        h = ss.hist[k]
+        out[k] = wp.vec4f(0.0)
+        if (h.flags & ACTIVE) == 0:
+            continue
+        j = ss.other[k]
+        un = float(radius[i] + radius[j] - wp.length(kin.pos[j] - kin.pos[i]))
+        p = phys_of(mats, spheres.world[i], spheres.material[i], spheres.material[j], float(radius[i]),
+                    float(radius[j]))
+        out[k] = stiffness(h, p, un)
+
+
+@wp.kernel
+def sphere_triangle_stiffness_kernel(
+    spheres: Spheres,
+    meshes: Meshes,
+    mats: Materials,
+    kin: SphereState,
+    bodies: BodyState,
+    st: TriangleList,
+    out: wp.array(dtype=wp.vec4f),
+):
+    """out[k] = (kn, ks, kr, ktw) of entry k of sphere i's sphere-triangle list (as sphere_sphere_stiffness_kernel)."""
+    i = wp.tid()
+    rd = spheres.radius[i]
+    r = float(rd)
+    for k in range(st.start[i], st.start[i] + st.count[i]):
+        h = st.hist[k]
+        out[k] = wp.vec4f(0.0)
+        if (h.flags & ACTIVE) == 0:
+            continue
+        g = entry_geom(k, kin.pos[i], rd, st.mesh, st.face, meshes.body, meshes.tri_offset, meshes.tri_vertices,
+                       bodies.pos, bodies.quat)
+        p = phys_of(mats, spheres.world[i], meshes.material[st.mesh[k]], spheres.material[i], 2.0 * r, r)
+        out[k] = stiffness(h, p, g.un)

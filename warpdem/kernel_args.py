@@ -1,5 +1,5 @@
 """Kernel arguments grouped as Warp structs, as MuJoCo Warp groups its Model and Data: what a stage of the step
-reads of the model (bodies, spheres, meshes, springs; the materials are ``contacts.Materials``, the settings
+reads of the model (bodies, spheres, meshes, springs; the materials are ``laws.Materials``, the settings
 ``types.Options``), what it reads and
 writes of the state (body poses and velocities, sphere kinematics, the candidate lists with their history) and the
 sums it adds into (fixed-point wrenches, energies, their float results).
@@ -17,7 +17,7 @@ from __future__ import annotations
 import warp as wp
 
 from .accumulate import vec3l
-from .contact_law import Hist
+from .laws import Hist
 
 wp.set_module_options({"enable_backward": False})
 
@@ -161,7 +161,7 @@ class SphereList:
     owner: wp.array(dtype=int)
     """the sphere of each entry, -1 for a free slot, int32 (capacity,); only with contact_threads "pair"."""
     hist: wp.array(dtype=Hist)
-    """contact history of each entry, contact_law.Hist (capacity,)."""
+    """contact history of each entry, laws.Hist (capacity,)."""
 
 
 @wp.struct
@@ -177,7 +177,7 @@ class TriangleList:
     face: wp.array(dtype=int)
     """the triangle of each entry within its mesh's geometry, int32 (capacity,)."""
     hist: wp.array(dtype=Hist)
-    """contact history of each entry, contact_law.Hist (capacity,)."""
+    """contact history of each entry, laws.Hist (capacity,)."""
 
 
 @wp.struct

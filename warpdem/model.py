@@ -144,6 +144,8 @@ class Model:
     """the warp.Mesh objects (kept alive here)."""
     max_radius: float = 0.0
     """largest sphere radius [m]."""
+    contact_law: int = 0
+    """the contact law of every material: ``laws.COHFRICT`` (0) or ``laws.HERTZ_MINDLIN`` (1)."""
 
     @property
     def n_bodies(self) -> int:

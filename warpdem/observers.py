@@ -12,7 +12,6 @@ import numpy as np
 import warp as wp
 
 from . import kernel_args
-from .contact_law import ACTIVE, COHESIVE, Hist
 from .contacts import (
     E_DAMPING,
     E_DRIVEN,
@@ -20,8 +19,11 @@ from .contacts import (
     E_SLIDING,
     E_SPRING_DAMPER,
     sphere_sphere_elastic_kernel,
+    sphere_sphere_stiffness_kernel,
     sphere_triangle_elastic_kernel,
+    sphere_triangle_stiffness_kernel,
 )
+from .laws import ACTIVE, COHESIVE, Hist
 from .mass import quats_to_matrices
 from .model import ALL_DOFS
 
@@ -194,7 +196,7 @@ def contact_table(sim: object) -> dict[str, np.ndarray]:
     ss = sim.contacts.ss.numpy()
     rad = m.host["sphere_radius"]
     rows = {k: [] for k in ("body1", "body2", "world", "normal", "radius1", "radius2", "kind", "sphere", "fs",
-                            "material1", "material2")}
+                            "material1", "material2", "k")}
     owner = np.repeat(np.arange(m.n_spheres), ss["count"])
     idx = csr_entries(ss["start"], ss["count"])
     h = ss["hist"][idx] if len(idx) else ss["hist"][:0]
@@ -211,6 +213,7 @@ def contact_table(sim: object) -> dict[str, np.ndarray]:
     rows["fs"].append(np.asarray(h["fs"][act]).reshape(-1, 3))
     rows["material1"].append(m.host["sphere_material"][i])
     rows["material2"].append(m.host["sphere_material"][j])
+    rows["k"].append(_stiffness(sim, sphere_sphere_stiffness_kernel, sim.contacts.ss)[idx][act])
     if m.n_meshes:
         st = sim.contacts.st.numpy()
         owner = np.repeat(np.arange(m.n_spheres), st["count"])
@@ -230,28 +233,30 @@ def contact_table(sim: object) -> dict[str, np.ndarray]:
         mesh_mat = sim.model.mesh_material.numpy()
         rows["material1"].append(mesh_mat[mesh])
         rows["material2"].append(m.host["sphere_material"][i])
+        rows["k"].append(_stiffness(sim, sphere_triangle_stiffness_kernel, sim.contacts.st)[idx][act])
     out = {k: np.concatenate(v) if v else np.zeros(0) for k, v in rows.items()}
     out["normal"] = out["normal"].reshape(-1, 3)
-    # stiffnesses, as the kernels compute them
-    off = out["world"] * m.n_materials
-    e1 = m.host["material_young"][off + out["material1"]] * out["radius1"]
-    e2 = m.host["material_young"][off + out["material2"]] * out["radius2"]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        out["kn"] = np.where(e1 + e2 > 0, 2 * e1 * e2 / (e1 + e2), 0.0)
-        p1 = e1 * m.host["material_poisson"][off + out["material1"]]
-        p2 = e2 * m.host["material_poisson"][off + out["material2"]]
-        out["ks"] = np.where(p1 + p2 > 0, 2 * p1 * p2 / (p1 + p2), 0.0)
-    akr = m.mat_alpha_kr.numpy().astype(float)
-    aktw = m.mat_alpha_ktw.numpy().astype(float)
-
-    def hmean(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where((a > 0) & (b > 0), 2 * a * b / (a + b), 0.0)
-
-    rr = out["radius1"] * out["radius2"] * out["ks"]
-    out["kr"] = rr * hmean(akr[off + out["material1"]], akr[off + out["material2"]])
-    out["ktw"] = rr * hmean(aktw[off + out["material1"]], aktw[off + out["material2"]])
+    # the stiffnesses of the contact law (laws.stiffness, on the device, from the float32 tables as the kernels)
+    k = out.pop("k").astype(np.float64).reshape(-1, 4)
+    for col, name in enumerate(("kn", "ks", "kr", "ktw")):
+        out[name] = k[:, col]
     return out
+
+
+def _stiffness(sim: object, kernel: object, pairs: object) -> np.ndarray:
+    """(kn, ks, kr, ktw) of each entry of a candidate list (``kernel``: contacts.sphere_sphere_stiffness_kernel or
+    sphere_triangle_stiffness_kernel), float32 (capacity, 4); zeros where an entry is not a contact."""
+    m, d = sim.model, sim.data
+    out = wp.zeros(max(pairs.key_a.shape[0], 1), dtype=wp.vec4f, device=m.device)
+    if m.n_spheres:
+        spheres, kin = kernel_args.spheres_of(m), kernel_args.sphere_state_of(d)
+        if kernel is sphere_sphere_stiffness_kernel:
+            inputs = [spheres, sim.materials, kin, kernel_args.sphere_list_of(pairs)]
+        else:
+            inputs = [spheres, kernel_args.meshes_of(m, d), sim.materials, kin, kernel_args.body_state_of(sim.state),
+                      kernel_args.triangle_list_of(pairs)]
+        wp.launch(kernel, m.n_spheres, inputs=inputs, outputs=[out], device=m.device)
+    return out.numpy()
 
 
 @wp.kernel

@@ -19,9 +19,9 @@ import numpy as np
 import warp as wp
 
 from . import broadphase as bp
-from . import cpu_threads, stages
+from . import cpu_threads, laws, stages
 from . import world_steps as world_steps_mod
-from .contacts import Materials, tan_kernel
+from .contacts import tan_kernel
 from .cpu_threads import BARRIER_OK, Barrier
 from .data import NO_FAULT, Data
 from .errors import InputError, SimulationError, check_finite, check_positive
@@ -106,6 +106,9 @@ class Simulation:
         skin: neighbour skin [m] (default 0.2 x the mean sphere radius).
         always_use_moment_law: apply rolling/twisting moments on non-cohesive contacts too (Yade's flag).
         cohesion_on_new_contacts: every new contact gets cohesion (Yade's setCohesionOnNewContacts).
+            These two (True) and ``bond_detection_factor`` (other than 1) need cohesive-frictional materials: with
+            Hertz-Mindlin materials (``HertzMindlinMaterial``, no cohesion, no moment law) they raise an InputError
+            naming the parameter and its value.
         unp_max: plastic tensile displacement [m] at which a non-fragile bond is deleted (Yade's unpMax, default 0:
             at its first tensile yield); negative: never.
         bond_detection_factor: distance bonding (Yade's ``interactionDetectionFactor`` and ``aabbEnlargeFactor`` at
@@ -184,6 +187,9 @@ class Simulation:
                              "loops over its spheres)")
         self.contact_threads = contact_threads
         check_positive("max_speed", max_speed)
+        laws.check_settings(model.contact_law, always_use_moment_law=always_use_moment_law,
+                            cohesion_on_new_contacts=cohesion_on_new_contacts,
+                            bond_detection_factor=bond_detection_factor)
         self.model = model
         self.state = state
         self.control = Control.of(model)  # what the setters change (types.py); the model stays as built
@@ -237,7 +243,7 @@ class Simulation:
             self._rec_pos = wp.zeros(1, dtype=wp.vec3d, device=dev)
             self._rec_quat = wp.zeros(1, dtype=wp.quatd, device=dev)
 
-        self.materials = Materials()
+        self.materials = laws.Materials()
         tan_friction = wp.empty_like(model.mat_friction)  # taken once here, not per contact and step
         wp.launch(tan_kernel, tan_friction.shape[0], inputs=[model.mat_friction], outputs=[tan_friction], device=dev)
         for name, arr in (
@@ -248,6 +254,7 @@ class Simulation:
         ):
             setattr(self.materials, name, arr)
         self.materials.n_materials = model.n_materials
+        self.materials.law = model.contact_law  # the one selection of the contact law (laws/__init__.py)
         if not (math.isfinite(bond_detection_factor) and 1.0 <= bond_detection_factor <= 3.0):
             raise InputError(f"bond_detection_factor must be in [1, 3] (a centre distance over the radii's sum), "
                              f"got {bond_detection_factor!r}")
@@ -538,7 +545,11 @@ class Simulation:
     def set_cohesion_now(self) -> None:
         """Give cohesion to every existing contact of cohesive materials at the next step (Yade's setCohesionNow);
         with ``bond_detection_factor`` > 1 also to the sphere pairs within its reach, whose candidates the lists
-        then hold (rebuilt here with a skin that covers the reach)."""
+        then hold (rebuilt here with a skin that covers the reach). Refused (InputError) for Hertz-Mindlin
+        materials, which have no cohesion."""
+        if self.model.contact_law == laws.HERTZ_MINDLIN:
+            raise InputError("set_cohesion_now() needs cohesive-frictional materials: the Hertz-Mindlin law has no "
+                             "cohesion")
         self.data.cohesion_now.fill_(1)
         reach = self.options.bond_gap * 2.0 * self.model.max_radius
         if reach > self.skin:

@@ -84,10 +84,10 @@ class Contacts:
 
     ss: PairList
     """sphere-sphere candidates of the current lists: per sphere its partners of higher index, sorted: ``other``
-    int32 (capacity,) [-], ``hist`` contact_law.Hist (capacity,) [SI per field]."""
+    int32 (capacity,) [-], ``hist`` laws.Hist (capacity,) [SI per field]."""
     st: PairList
     """sphere-triangle candidates of the current lists: per sphere (``mesh``, ``face``) entries, int32
-    (capacity,) [-] each, with their ``hist``, contact_law.Hist (capacity,) [SI per field]."""
+    (capacity,) [-] each, with their ``hist``, laws.Hist (capacity,) [SI per field]."""
     ss_new: PairList
     """the sphere-sphere lists being built at a rebuild (history carried over from ``ss``), as ``ss``: int32 and
     Hist (capacity,) [-]."""

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from .contacts import Materials, sphere_sphere_one, sphere_triangle_one
+from .contacts import sphere_sphere_one, sphere_triangle_one
 from .data import NO_FAULT
 from .integrator import integrate_body, mesh_end_one, spring_one, update_sphere
 from .kernel_args import (
@@ -41,6 +41,7 @@ from .kernel_args import (
     Sums,
     TriangleList,
 )
+from .laws import Materials
 from .types import Options
 
 wp.set_module_options({"enable_backward": False})

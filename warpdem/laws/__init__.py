@@ -1,0 +1,159 @@
+"""The contact laws, and the one place that selects between them.
+
+Adding a contact law: write ``warpdem/laws/<law>.py`` giving (1) its material, a frozen dataclass with the class
+attributes ``LAW`` (a new id in ``base.py``) and ``FIELDS`` (its per-world overridable fields, each a column of the
+Model's material tables: add a new one to :data:`MATERIAL_FIELDS`, to ``Materials`` in ``base.py`` and to the
+builder's packing), a ``flags`` property and a validating ``replace``; (2) the pair physics ``make_phys(mats, mi,
+mj, r1, r2) -> Phys``, which sets ``Phys.law``; (3) the force law, one step of a contact's history giving a
+``LawOut``; (4) ``elastic_energy(h, p, un)`` [J]; (5) ``stiffness(h, p, un)``, the (kn, ks, kr, ktw) the time step
+estimate reads. Then add one branch for the new id to each of :func:`pair_phys`, :func:`contact_law`,
+:func:`elastic_energy` and :func:`stiffness` below, its material class to :data:`LAWS`, and the settings it cannot
+take to :func:`check_settings`. The kernels (``contacts.py``) call only these four functions; a contact's history
+is the shared :class:`Hist` (a law uses the fields it needs).
+
+Every material of a model follows one law (``Model.contact_law``, checked by :func:`law_of`); the kernels read it
+from ``Materials.law`` and branch at run time (Warp compiles a module's functions once, so the branch is an int
+test per contact, the same for every thread).
+
+- ``cohfrict``: Yade's Law2_ScGeom6D_CohFrictPhys_CohesionMoment (``Material``): cohesion, rolling and twisting.
+- ``hertz_mindlin``: Yade's Law2_ScGeom_MindlinPhys_Mindlin without cohesion (``HertzMindlinMaterial``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import warp as wp
+
+from ..errors import InputError
+from . import cohfrict, hertz_mindlin
+from .base import (
+    ACTIVE,
+    COHESIVE,
+    COHFRICT,
+    FRAGILE,
+    HERTZ_MINDLIN,
+    MAT_COHESIVE,
+    MAT_FRAGILE,
+    MAT_MOMENT,
+    Hist,
+    LawOut,
+    Materials,
+    Phys,
+    empty_hist,
+    new_hist,
+    rotate_hist,
+    set_cohesion,
+)
+from .cohfrict import Material
+from .hertz_mindlin import HertzMindlinMaterial
+
+wp.set_module_options({"enable_backward": False})
+
+LAWS: dict[int, type] = {int(COHFRICT): Material, int(HERTZ_MINDLIN): HertzMindlinMaterial}
+"""law id -> its material class."""
+LAW_NAMES: dict[int, str] = {int(COHFRICT): "cohesive-frictional", int(HERTZ_MINDLIN): "Hertz-Mindlin"}
+"""law id -> its name in messages."""
+MATERIAL_FIELDS: tuple[str, ...] = Material.FIELDS
+"""the columns of the Model's material tables: every law's ``FIELDS`` (a law leaves the others 0)."""
+
+
+def law_of(materials: Sequence[object]) -> int:
+    """The law id of a model's materials (``COHFRICT`` without any); InputError if they mix laws."""
+    laws = {int(m.LAW) for m in materials}
+    if len(laws) > 1:
+        names = ", ".join(f"{type(m).__name__}" for m in materials)
+        raise InputError(f"a model's materials must all follow one contact law, got {names}")
+    return laws.pop() if laws else int(COHFRICT)
+
+
+def check_settings(law: int, **settings: object) -> None:
+    """Refuse the simulation settings ``law`` cannot take, naming the parameter and its value: Hertz-Mindlin has no
+    cohesion and no moment law, so ``always_use_moment_law``, ``cohesion_on_new_contacts`` (True) and
+    ``bond_detection_factor`` (other than 1) are refused; the cohesive-frictional law takes them all."""
+    if law != HERTZ_MINDLIN:
+        return
+    refused = {"always_use_moment_law": False, "cohesion_on_new_contacts": False, "bond_detection_factor": 1.0}
+    for name, value in settings.items():
+        if name in refused and value != refused[name]:
+            raise InputError(
+                f"{name}={value!r} needs cohesive-frictional materials: the Hertz-Mindlin law has no "
+                f"cohesion and no moment law (leave {name} at {refused[name]!r})"
+            )
+
+
+@wp.func
+def pair_phys(mats: Materials, mi: int, mj: int, r1: float, r2: float) -> Phys:
+    """The contact parameters of materials mi (contact radius r1 [m]) and mj (r2 [m]), indices into the per-world
+    tables, by the materials' law."""
+    if mats.law == HERTZ_MINDLIN:
+        return hertz_mindlin.make_phys(mats, mi, mj, r1, r2)
+    return cohfrict.make_phys(mats, mi, mj, r1, r2)
+
+
+@wp.func
+def contact_law(
+    h: Hist,
+    p: Phys,
+    is_new: int,
+    n: wp.vec3f,
+    un: float,
+    v12: wp.vec3f,
+    ang_sum: wp.vec3f,
+    rel_angvel: wp.vec3f,
+    dt: float,
+    always_moment: int,
+    unp_max: float,
+) -> LawOut:
+    """One step of the contact's law (``p.law``): see ``cohfrict.law`` for the arguments (Hertz-Mindlin ignores
+    ``rel_angvel``, ``always_moment`` and ``unp_max``)."""
+    if p.law == HERTZ_MINDLIN:
+        return hertz_mindlin.law(h, p, is_new, n, un, v12, ang_sum, dt)
+    return cohfrict.law(h, p, is_new, n, un, v12, ang_sum, rel_angvel, dt, always_moment, unp_max)
+
+
+@wp.func
+def elastic_energy(h: Hist, p: Phys, un: float) -> float:
+    """Elastic energy stored in a contact of overlap un [m] [J], by its law."""
+    if p.law == HERTZ_MINDLIN:
+        return hertz_mindlin.elastic_energy(h, p, un)
+    return cohfrict.elastic_energy(h, p, un)
+
+
+@wp.func
+def stiffness(h: Hist, p: Phys, un: float) -> wp.vec4f:
+    """The contact's (kn [N/m], ks [N/m], kr [N m/rad], ktw [N m/rad]) for the time step, by its law."""
+    if p.law == HERTZ_MINDLIN:
+        return hertz_mindlin.stiffness(h, p, un)
+    return cohfrict.stiffness(h, p, un)
+
+
+__all__ = [
+    "ACTIVE",
+    "COHESIVE",
+    "COHFRICT",
+    "FRAGILE",
+    "HERTZ_MINDLIN",
+    "LAWS",
+    "LAW_NAMES",
+    "MATERIAL_FIELDS",
+    "MAT_COHESIVE",
+    "MAT_FRAGILE",
+    "MAT_MOMENT",
+    "HertzMindlinMaterial",
+    "Hist",
+    "LawOut",
+    "Material",
+    "Materials",
+    "Phys",
+    "check_settings",
+    "contact_law",
+    "elastic_energy",
+    "empty_hist",
+    "law_of",
+    "new_hist",
+    "pair_phys",
+    "rotate_hist",
+    "set_cohesion",
+    "stiffness",
+]
