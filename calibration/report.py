@@ -77,6 +77,89 @@ def convergence_plot(result: CalibrationResult, path: str | Path) -> None:
     plt.close(fig)
 
 
+def pareto_front(costs: np.ndarray) -> np.ndarray:
+    """Indices of the non-dominated rows of ``costs`` (n, m), every column a cost to minimise: a row is dominated
+    when another is no worse in every column and better in one. Rows with a NaN are left out; equal rows all stay."""
+    costs = np.asarray(costs, dtype=np.float64)
+    ok = np.flatnonzero(np.all(np.isfinite(costs), axis=1))
+    keep = [i for i in ok if not np.any(np.all(costs[ok] <= costs[i], axis=1) & np.any(costs[ok] < costs[i], axis=1))]
+    return np.array(keep, dtype=int)
+
+
+SOIL_TRADE = ("re_draught", "re_cohesion", "d_friction_deg")
+"""the soil calibration's three errors, in the order of the trade-off table's columns."""
+
+
+def soil_tradeoff(problem, recs: list[Record]) -> tuple[list[dict[str, object]], list[str]]:  # noqa: ANN001
+    """The soil calibration's trade-off: the individuals no other beats on all three of |draught error|,
+    |shear-box cohesion error| and |friction angle difference| (table rows, by draught error), and what the closest
+    reach of each target is with the other two within tolerance (lines for the report)."""
+    tol = problem.spec()["tolerances"]
+    recs = [r for r in recs if all(k in r.errors for k in SOIL_TRADE)]
+    costs = np.array([[abs(r.errors[k]) for k in SOIL_TRADE] for r in recs]).reshape(-1, 3)
+    front = sorted((recs[i] for i in pareto_front(costs)), key=lambda r: abs(r.errors["re_draught"]))
+    rows = [{"index": r.index, **r.genes, "draught_mean_n": r.observables.get("draught_mean_n", math.nan),
+             "cohesion_kpa": r.observables.get("cohesion_kpa", math.nan),
+             "friction_angle_deg": r.observables.get("friction_angle_deg", math.nan),
+             "re_draught_pct": 100 * r.errors["re_draught"], "re_cohesion_pct": 100 * r.errors["re_cohesion"],
+             "d_friction_deg": r.errors["d_friction_deg"]} for r in front]
+    lines = []
+    names = dict(zip(SOIL_TRADE, ("draught", "shear-box cohesion", "shear-box friction angle"), strict=True))
+    for k, name in names.items():
+        others = [j for j in SOIL_TRADE if j != k]
+        within = [r for r in recs if all(abs(r.errors[j]) <= tol[j] for j in others)]
+        if not within:
+            lines.append(f"- The {name}: no individual has the {' and the '.join(names[o] for o in others)} both "
+                         "within tolerance.")
+            continue
+        best = min(within, key=lambda r: abs(r.errors[k]))
+        unit = "deg" if k.startswith("d_") else "%"
+        size = best.errors[k] if k.startswith("d_") else 100 * best.errors[k]
+        lines.append(f"- The {name}, with the other two within tolerance ({len(within)} individuals): at best "
+                     f"{size:+.1f} {unit} (individual {best.index}).")
+    return rows, lines
+
+
+def tradeoff_plot(problem, recs: list[Record], path: str | Path) -> None:  # noqa: ANN001
+    """Every individual's shear-box cohesion [kPa] against its rigid draught [N], coloured by its shear-box
+    friction angle [deg]; the laboratory's targets and tolerances as a box, the trade-off's individuals ringed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    recs = [r for r in recs if all(k in r.observables for k in ("draught_mean_n", "cohesion_kpa",
+                                                                "friction_angle_deg"))]
+    if not recs:
+        return
+    t, tol = problem.targets, problem.spec()["tolerances"]
+    d = np.array([r.observables["draught_mean_n"] for r in recs])
+    c = np.array([r.observables["cohesion_kpa"] for r in recs])
+    phi = np.array([r.observables["friction_angle_deg"] for r in recs])
+    front = pareto_front(np.array([[abs(r.errors[k]) for k in SOIL_TRADE] for r in recs]))
+    fig, ax = plt.subplots(figsize=(6.5, 4.6))
+    sc = ax.scatter(d, c, c=phi, cmap="viridis", s=18, vmin=t["friction_angle_deg"] - 15,
+                    vmax=t["friction_angle_deg"] + 15)
+    ax.scatter(d[front], c[front], s=70, facecolors="none", edgecolors="k", lw=0.8,
+               label="not beaten on all three errors")
+    dt, ct = t["draught_mean_n"], t["cohesion_kpa"]
+    ax.add_patch(plt.Rectangle((dt * (1 - tol["re_draught"]), ct * (1 - tol["re_cohesion"])),
+                               2 * dt * tol["re_draught"], 2 * ct * tol["re_cohesion"], fill=False, color="r",
+                               lw=1.2, label=f"laboratory: {dt:.0f} N, {ct:g} kPa, with tolerances"))
+    ax.set_xscale("log")
+    ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax.xaxis.set_major_formatter(matplotlib.ticker.ScalarFormatter())
+    ax.set_xticks([x for x in (100, 200, 300, 500, 1000, 2000, 5000, 10000, 20000) if d.min() <= x <= d.max()])
+    ax.set_xlabel("rigid draught, steady mean [N]")
+    ax.set_ylabel("shear-box cohesion [kPa]")
+    fig.colorbar(sc, ax=ax, label="shear-box friction angle [deg]")
+    ax.set_title("Soil calibration: draught against shear-box cohesion, every individual", fontsize=10)
+    ax.legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def write_report(result: CalibrationResult, problem, out: str | Path, *,  # noqa: ANN001
                  screening: list[dict[str, object]] | None = None, extra: dict[str, object] | None = None,
                  top: int = 10) -> Path:
@@ -97,7 +180,8 @@ def write_report(result: CalibrationResult, problem, out: str | Path, *,  # noqa
     md = [f"# {title.get(problem.name, 'Calibration')}\n", f"Problem: `{json.dumps(problem.spec())}`\n",
           f"GA settings: `{json.dumps(result.settings)}`\n",
           f"{result.n_simulated} individuals simulated in {result.archive.n_batches} batched simulations, "
-          f"{result.wall_s:.1f} s wall.\n", "## Best individual\n", markdown_table([best]),
+          f"{sum(h.get('wall_s', 0.0) for h in result.history):.1f} s wall over all generations "
+          f"({result.wall_s:.1f} s in the last call).\n", "## Best individual\n", markdown_table([best]),
           f"## The {min(top, len(rows))} fittest individuals\n", markdown_table(rows[:top])]
     accepted = []
     if problem.name == "draught":
@@ -117,6 +201,12 @@ def write_report(result: CalibrationResult, problem, out: str | Path, *,  # noqa
             md += [f"The best set's normal cohesion, {result.best.genes['normal_cohesion'] / 1e3:.1f} kPa, is "
                    f"{result.best.genes['normal_cohesion'] / top_cn:.1f}x the top of the paper's range (50 kPa): a "
                    "fitted number outside the paper's range, which may stand for a mechanism the model lacks.\n"]
+        front, reach = soil_tradeoff(problem, recs)
+        tradeoff_plot(problem, recs, out / "tradeoff.png")
+        md += ["## The trade-off\n",
+               "The individuals that no other beats on all three errors (|draught error|, |cohesion error|, "
+               "|friction angle difference|), by draught error:\n", markdown_table(front), *reach, "",
+               "![trade-off](tradeoff.png)\n"]
     md += ["## Convergence\n", "![convergence](convergence.png)\n"]
     (out / "report.md").write_text("\n".join(md))
     summary = {"problem": problem.spec(), "settings": result.settings, "best": best, "history": result.history,

@@ -388,3 +388,18 @@ def test_calibrate_budget_stops_between_generations_and_the_same_command_finishe
     assert [x.observables for x in runs[0]] == [x.observables for x in runs[1]]
     best = [json.loads((tmp_path / r / "result.json").read_text())["best"] for r in ("whole", "cut")]
     assert best[0] == best[1]
+
+
+def test_pareto_front_is_the_set_no_row_dominates():
+    """Reference: the definition, by brute force over every pair, on random costs with ties and a NaN row; and a
+    closed case (points on x + y = 1 are all non-dominated; (1, 1) and (0.6, 0.6) are beaten)."""
+    from calibration.report import pareto_front
+
+    rng = np.random.default_rng(3)
+    costs = np.round(rng.random((60, 3)), 1)  # rounding makes ties
+    costs[7] = np.nan
+    ok = [i for i in range(60) if np.all(np.isfinite(costs[i]))]
+    brute = [i for i in ok if not any(np.all(costs[j] <= costs[i]) and np.any(costs[j] < costs[i]) for j in ok)]
+    assert pareto_front(costs).tolist() == brute
+    line = np.array([[0.0, 1.0], [0.25, 0.75], [0.5, 0.5], [1.0, 0.0], [1.0, 1.0], [0.6, 0.6]])
+    assert pareto_front(line).tolist() == [0, 1, 2, 3]
