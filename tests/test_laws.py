@@ -89,6 +89,16 @@ def test_pair_physics_and_tangent_stiffness_match_yade(yade: dict[str, np.ndarra
     assert ct["kr"][0] == 0.0 and ct["ktw"][0] == 0.0
     # the force on the sphere after the step: Fn = kno un^1.5 (its overlap when the law ran)
     assert sim.data.body_force.numpy()[0, 2] == pytest.approx(float(d["facet_fn"]), rel=1e-6)
+    # Yade's GlobalStiffnessTimeStepper (safety 0.8) from that contact's tangent stiffnesses: 1.41044 x 0.8 x
+    # sqrt(min(m / kn, m / ks, I / (ks R^2))) on the sphere, let free here: it moved 2e-9 m in the step, which
+    # changes kn and ks (and so dt) by 1e-5 relative at most
+    free = wd.ModelBuilder(gravity=(0, 0, 0))
+    free.add_material("m", _material(d, "coll_"))
+    free.add_sphere((0, 0, r - float(d["facet_un"])), r, "m")
+    free.add_mesh("facet", np.array([(-1, -1, 0), (1, -1, 0), (0, 1, 0)], float), np.array([[0, 1, 2]]), "m")
+    sim = wd.Simulation(*free.finalize(DEVICE), dt=float(d["coll_dt"]))
+    sim.step()
+    assert wd.stiffness_timestep(sim) == pytest.approx(float(d["facet_gsts_dt"]), rel=1e-5)
     # sphere-sphere: kno from the first contact step of the head-on collision (Fn = kno un^1.5 there)
     first = int(np.argmax(d["head_fn"] > 0))
     kno = float(d["head_fn"][first]) / float(d["head_un"][first]) ** 1.5
@@ -237,6 +247,35 @@ def test_packing_matches_yade_statistically(yade: dict[str, np.ndarray]) -> None
     # one warpdem run of five here and in one Yade run of twelve)
     assert np.median(w["ke"][:, -1]) < 1e-4 * w["ke"].max()
     assert np.median(y["ke"][:, -1]) < 1e-4 * y["ke"].max()
+
+
+def test_hertz_mindlin_in_batched_worlds_and_world_steps(yade: dict[str, np.ndarray]) -> None:
+    # The law is selected once (Materials.law) and reaches every path of the step: a batch of two worlds with
+    # per-world Young's moduli (an override of the material's own field), run stage by stage and a thread per world
+    # (world_steps), gives in world 1 the bits of the same scene built alone with that modulus (worlds never interact
+    # and the force sums are fixed point). 5,000 steps (0.1 s) of the packing: the lowest grains land at 0.02 s.
+    d = yade
+    young = np.array([float(d["pack_young"]), 2.0 * float(d["pack_young"])])
+
+    def run(n_worlds: int, overrides: dict[str, np.ndarray], **kw: object) -> np.ndarray:
+        b = wd.ModelBuilder(gravity=(0, 0, -9.81))
+        b.add_material("m", _material(d, "pack_"))
+        b.add_spheres(d["pack_centres"], d["pack_radii"], "m", group="grains")
+        tri = d["pack_triangles"]
+        b.add_mesh("box", tri.reshape(-1, 3), np.arange(3 * len(tri)).reshape(-1, 3), "m")
+        b.set_local_damping("grains", float(d["pack_damping"]))
+        model, state = b.finalize(DEVICE, n_worlds=n_worlds, overrides=overrides)
+        sim = wd.Simulation(model, state, dt=float(d["pack_dt"]), **kw)
+        sim.advance(5000)
+        assert wd.observers.contact_count(sim).sum() > 0
+        return state.body_pos.numpy().reshape(n_worlds, -1, 3)
+
+    batch = run(2, {"material:m:young": young}, contact_threads="sphere")
+    worlds = run(2, {"material:m:young": young}, world_steps=True)
+    solo = run(1, {"material:m:young": young[1:]}, contact_threads="sphere")
+    np.testing.assert_array_equal(batch[1], solo[0])
+    np.testing.assert_array_equal(worlds, batch)
+    assert not np.array_equal(batch[0], batch[1])  # the moduli reached the kernels
 
 
 # ----------------------------------------------------------------------------- the plug point's checks

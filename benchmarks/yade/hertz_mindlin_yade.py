@@ -147,21 +147,25 @@ def packing(run: int, centres: np.ndarray, radii: np.ndarray) -> dict:
 
 def facet_pair() -> None:
     """One sphere (R = 10 mm) pressed 0.1 mm into a facet (material of the collisions), one step: the pair
-    physics of a sphere-facet contact (Yade's facet radius 2R) and the tangent stiffnesses the law stores."""
+    physics of a sphere-facet contact (Yade's facet radius 2R), the tangent stiffnesses the law stores and the step
+    GlobalStiffnessTimeStepper (safety 0.8) takes from them."""
     O.reset()
     mat = O.materials.append(FrictMat(young=COLL["young"], poisson=COLL["poisson"], density=COLL["density"],
                                       frictionAngle=np.radians(COLL["friction_deg"])))
     f = O.bodies.append(utils.facet([(-1, -1, 0), (1, -1, 0), (0, 1, 0)], material=mat))
     s = O.bodies.append(utils.sphere((0, 0, R - 1e-4), R, material=mat))
     O.engines = engines(0.0, (0, 0, 0))
+    O.engines = O.engines[:-1] + [GlobalStiffnessTimeStepper(timestepSafetyCoefficient=0.8, timeStepUpdateInterval=1,
+                                                              active=True)] + O.engines[-1:]
     O.dt = COLL["dt"]
     O.step()
+    out["facet_gsts_dt"] = np.array(O.dt)  # GlobalStiffnessTimeStepper's step from this step's contact stiffness
     i = O.interactions[f, s]
     for k in ("kno", "kso", "kn", "ks"):
         out[f"facet_{k}"] = np.array(getattr(i.phys, k))
     out["facet_fn"] = np.array(i.phys.normalForce.norm())
     out["facet_un"] = np.array(i.geom.penetrationDepth)
-    print("facet", {k: float(out[f"facet_{k}"]) for k in ("kno", "kso", "kn", "ks", "fn", "un")})
+    print("facet", {k: float(out[f"facet_{k}"]) for k in ("kno", "kso", "kn", "ks", "fn", "un", "gsts_dt")})
 
 
 facet_pair()
