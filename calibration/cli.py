@@ -133,11 +133,22 @@ def run_demo(args: argparse.Namespace) -> int:
     write_text_atomic(out / "config.json", json.dumps(config, indent=2, default=str))
     write_text_atomic(out / "summary.json", json.dumps(summary, indent=2))
     demo.write_report(out, summary, ts, dep, args.speed, args.depth)
-    print(json.dumps(summary, indent=2))
+    print(f"{summary['particles']} particles, porosity {summary['porosity']:.3f}; draught "
+          f"{summary['draught_mean_n']:.2f} ± {summary['draught_sem_n']:.2f} N (standard error; std "
+          f"{summary['draught_std_n']:.2f} N); {summary['wall_time_s']:.0f} s on {device}")
+    print(f"results in {out} (report.md, summary.json)")
     return 0
 
 
 _BAR: dict[str, object] = {"quiet": False}  # the bar being drawn: label, start time, last percentage
+
+
+def _end_bar() -> None:
+    """End a bar's line left open (a command that stops mid-stage), so that the next line starts on its own."""
+    if _BAR.get("label") is not None:
+        sys.stderr.write("\n")
+        sys.stderr.flush()
+        _BAR["label"] = None
 
 
 def _bar(label: str, done: float, total: float) -> None:
@@ -328,7 +339,8 @@ def run_reproduce(args: argparse.Namespace) -> int:
     device = _setup(args)
     _claim(args, args.out)
     summary = reproduce(args.out, scale=args.scale, device=device, assembly=args.assembly,
-                        springs=args.springs or (0, 16, 32), seed=args.seed, progress=_bar, vtk_every=args.vtk)
+                        springs=args.springs or (0, 16, 32), seed=args.seed, progress=_bar, vtk_every=args.vtk,
+                        deposit_progress=_deposit_bar("soil bin: deposition"))
     print(f"results in {args.out} (report.md), wall time {summary['wall_s']:.0f} s on {device}")
     return 0
 
@@ -380,6 +392,7 @@ def run_workflow(args: argparse.Namespace) -> int:
     try:
         summary = wf.run(budget)
     except BudgetExhausted as e:
+        _end_bar()
         report = wf.write_interim_report()
         print(f"warpdem reproduce: stopped: {e}; the report so far is {report}", file=sys.stderr)
         return 3
@@ -396,6 +409,8 @@ def run_ringing_cmd(args: argparse.Namespace) -> int:
     from scenes import ringing
     from scenes.reproduce import write_ringing_report
 
+    if "seed" in getattr(args, "given", ()):
+        raise InputError(f"--seed {args.seed}: the ringing rig has no bed and no other random input; leave it out")
     device = _setup(args)
     out = _claim(args, args.out)
     springs = args.springs or ringing.RingingConfig().springs
@@ -502,6 +517,7 @@ def run_passive_tool_cmd(args: argparse.Namespace) -> int:
     try:
         study.run(args.budget, variants)
     except BudgetExhausted as e:
+        _end_bar()
         print(f"warpdem passive-tool: stopped: {e}; the report so far is {write_report(out)}", file=sys.stderr)
         return 3
     print(f"results in {out} (report.md), this call {time.perf_counter() - t0:.0f} s on {device}")
@@ -666,6 +682,7 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
             **({"stage_progress": _bar} if args.kind != "ringing" else {}),
             screen_progress=lambda ph, d, n: _bar(f"screening: shear box {ph}", int(1e6 * d), int(1e6 * n)), **kw)
     except BudgetExhausted as e:
+        _end_bar()
         print(f"warpdem calibrate: {e}; the generations so far are in {out}", file=sys.stderr)
         return 3
     best = result.best
@@ -862,10 +879,11 @@ def main(argv: list[str] | None = None) -> int:
         parser.add_argument(flag, action="store_true", help=text)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_DefaultsParser)
 
-    def common(p: argparse.ArgumentParser, out: str, scale: bool = True) -> None:
+    def common(p: argparse.ArgumentParser, out: str, scale: bool = True,
+               seed: str = "the bed's deposition seed") -> None:
         p.add_argument("--device", default=None, help="Warp device (default: cuda if available, else cpu)")
         p.add_argument("--out", default=out, help="results folder")
-        p.add_argument("--seed", type=_number(int, ge=0), default=0, help="the bed's deposition seed")
+        p.add_argument("--seed", type=_number(int, ge=0), default=0, help=seed)
         if scale:
             p.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"), help=SCALE_HELP)
             p.add_argument("--assembly", default="C", choices=("A", "B", "C"), help=ASSEMBLY_HELP)
@@ -923,7 +941,7 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--parents", type=_number(int, ge=1), default=7,
                    help="full: GA parents mating (default: the paper's 7)")
     g = sub.add_parser("ringing", help="ringing test of the eight spring configurations")
-    common(g, "results/ringing", scale=False)
+    common(g, "results/ringing", scale=False, seed="not read: the ringing rig has no random input (refused if given)")
     g.add_argument("--springs", type=_springs, default=None,
                    help="spring configurations, e.g. 4,16,32 (default: all eight)")
     g.add_argument("--spring-model", choices=("paper", "linear", "twin"), default=None,
@@ -980,7 +998,7 @@ def main(argv: list[str] | None = None) -> int:
     v.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
                    help="write ParaView (VTK) frames of every speed's world into OUT/vtk/ at every EVERY-th record")
     x = sub.add_parser("shear-box", help="direct shear box: Mohr-Coulomb cohesion and friction angle")
-    common(x, "results/shear_box", scale=False)
+    common(x, "results/shear_box", scale=False, seed="the sample's deposition seed")
     x.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"), help=SHEAR_SCALE_HELP)
     x.add_argument("--assembly", default="C", choices=("A", "B", "C"), help=ASSEMBLY_HELP)
     x.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
@@ -1083,12 +1101,15 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return commands[args.command](args)
     except InputError as e:  # a user's bad input: one line naming it, no traceback
+        _end_bar()
         print(f"warpdem {args.command}: error: {e}", file=sys.stderr)
         return 2
     except SimulationError as e:  # a run that went unstable: where and why, in one line
+        _end_bar()
         print(f"warpdem {args.command}: simulation stopped: {e}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:  # Ctrl-C or SIGINT (a time limit): one line, no traceback
+        _end_bar()
         if args.debug:
             raise
         again = args.command in RESUMABLE and not getattr(args, "no_resume", False)
@@ -1096,6 +1117,7 @@ def main(argv: list[str] | None = None) -> int:
                                                         "checkpoint" if again else ""), file=sys.stderr)
         return 130
     except Exception as e:  # noqa: BLE001 - an internal error: one line, the traceback with --debug
+        _end_bar()
         if args.debug:
             raise
         print(f"warpdem {args.command}: internal error: {type(e).__name__}: {e} (run with --debug for the "

@@ -188,7 +188,8 @@ def plot_soil_bin(study: dict, out: Path, assembly: str = "C") -> list[str]:
         a.set_xlabel("frequency [Hz]")
         a.set_ylabel(f"amplitude [{unit}]")
         a.set_title(f"Spectrum of the steady {what}; resolution {resolution:.2g} Hz", fontsize=10)
-        a.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+        if a.get_legend_handles_labels()[0]:  # fig18 without a passive world: an empty axis, no legend
+            a.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         fig.savefig(out / fname, dpi=110, bbox_inches="tight")
         plt.close(fig)
         names.append(fname)
@@ -504,9 +505,11 @@ def load_ringing(path: Path, config: ringing.RingingConfig) -> ringing.RingingRe
 
 def reproduce(out: str | Path, *, scale: str = "cpu", device: str | None = None, assembly: str = "C",
               springs: tuple[int, ...] = (0, 16, 32), seed: int = 0, progress: object | None = None,
-              soil: bool = True, vtk_every: int | None = None) -> dict:
+              soil: bool = True, vtk_every: int | None = None, deposit_progress: object | None = None) -> dict:
     """Run the study and write the results folder; returns the summary. ``vtk_every``: ParaView frames of the
-    soil-bin runs at every ``vtk_every``-th record, into OUT/vtk/<run>/."""
+    soil-bin runs at every ``vtk_every``-th record, into OUT/vtk/<run>/. ``progress(stage, done, total)``: the
+    ringing runs' and the soil-bin runs' progress; ``deposit_progress``: the bed's deposition's
+    (:func:`scenes.assemblies.deposit`), when the bed is not in ``OUT/beds/`` yet."""
     t0 = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -530,7 +533,7 @@ def reproduce(out: str | Path, *, scale: str = "cpu", device: str | None = None,
     if soil:
         study = sb.run_study(sb_cfg, device=device, cache_dir=out / "beds", checkpoint_dir=out / "checkpoints",
                              progress=progress and (lambda run, d, n: progress(f"soil bin: {run} tool", d, n)),
-                             vtk_every=vtk_every, vtk_dir=out / "vtk")
+                             deposit_progress=deposit_progress, vtk_every=vtk_every, vtk_dir=out / "vtk")
         arrays = {}
         for name, run in study["runs"].items():
             arrays[f"{name}/time"] = run.time

@@ -158,6 +158,18 @@ BAD = [
                                                               "is not UTF-8)"),
     ("diagnose {tmp}/m.csv --rig ringing --rig-file {tmp}/rig.toml --out {tmp}/d",
      "error: rig description: spring_rates key -4 is not a spring count of the rig; allowed 4, 8,"),
+    ("ringing --seed 3", "error: --seed 3: the ringing rig has no bed and no other random input; leave it out"),
+    ("diagnose {tmp}/temperature.csv --rig ringing --out {tmp}/d",
+     "error: {tmp}/temperature.csv: column 'temperature [C]' is not one warpdem reads; accepted: springs, stiffness,"),
+    ("diagnose {tmp}/twice.csv --rig ringing --out {tmp}/d",
+     "error: {tmp}/twice.csv: rows 1 and 3 are one configuration (springs 16) with different values (frequency [Hz]: "
+     "6.09 and 7.5); give one row per configuration"),
+    ("diagnose {tmp}/header.csv --rig ringing --out {tmp}/d",
+     "error: {tmp}/header.csv: a header (springs, frequency [Hz], damping [-]) and no rows; give one row per "
+     "configuration"),
+    ("diagnose {tmp}/semicolon.csv --rig ringing --out {tmp}/d",
+     "error: {tmp}/semicolon.csv: the header 'springs;frequency [Hz];damping [-]' is separated by ';'; the separator "
+     "must be a comma"),
 ]
 
 
@@ -179,6 +191,11 @@ def test_bad_command_lines_get_one_line_naming_the_value(capsys, tmp_path, monke
     (tmp_path / "binary.csv").write_bytes(b"\x7fELF\xd0\x01\x02\x00")
     (tmp_path / "m.csv").write_text("springs,frequency [Hz],damping [-]\n16,6.09,0.2027\n32,7.5,0.2\n")
     (tmp_path / "rig.toml").write_text("[spring_rates]\n-4 = 2.1e5\n")
+    (tmp_path / "temperature.csv").write_text("springs,frequency [Hz],damping [-],temperature [C]\n16,6.09,0.2027,21\n"
+                                              "32,7.5,0.2,22\n")
+    (tmp_path / "twice.csv").write_text("springs,frequency [Hz],damping [-]\n16,6.09,0.2027\n32,7.5,0.2\n16,7.5,0.2\n")
+    (tmp_path / "header.csv").write_text("springs,frequency [Hz],damping [-]\n")
+    (tmp_path / "semicolon.csv").write_text("springs;frequency [Hz];damping [-]\n16;6,09;0,2027\n32;7,5;0,2\n")
     read_only = tmp_path / "read-only"
     read_only.mkdir(mode=0o555)
     if os.geteuid() == 0:  # root writes anywhere: the folder refuses its writes as it would a user's
@@ -200,9 +217,10 @@ def test_bad_command_lines_get_one_line_naming_the_value(capsys, tmp_path, monke
         cmd = line.split()[0]
         assert code == 2, line
         assert len(err) == 1 and err[0].startswith(f"warpdem {cmd}: error: ") and words in err[0], (line, err)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["binary.csv", "file", "in_list.json", "list.json", "m.csv",
-                                                         "read-only", "rig.toml", "soil.json", "typo.json",
-                                                         "word.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["binary.csv", "file", "header.csv", "in_list.json",
+                                                         "list.json", "m.csv", "read-only", "rig.toml",
+                                                         "semicolon.csv", "soil.json", "temperature.csv", "twice.csv",
+                                                         "typo.json", "word.json"]
     assert not any(read_only.iterdir())
 
 
@@ -219,6 +237,23 @@ def test_a_diagnosis_of_one_configuration_is_refused_before_its_folder_is_made(t
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["warpdem diagnose: error: the diagnosis holds each configuration out in turn and fits the rest: "
                    "it needs at least 2 configurations, the data have 1"]
+    assert not out.exists()
+
+
+def test_an_excel_csv_with_a_byte_order_mark_is_read_by_the_command(tmp_path, capsys) -> None:
+    """Excel's "CSV UTF-8" export starts with a byte-order mark (EF BB BF): `warpdem diagnose` reads it as the plain
+    table. Here one configuration, which the diagnosis refuses after reading it (exit 2, before any simulation and
+    before its folder is made): the refusal counts the file's one row, so the header with the mark was read."""
+    from calibration.cli import main
+
+    m = tmp_path / "excel.csv"
+    m.write_bytes(b"\xef\xbb\xbfsprings,frequency [Hz],damping [-]\r\n16,6.09,0.2027\r\n")
+    out = tmp_path / "diag"
+    capsys.readouterr()
+    assert main(["diagnose", str(m), "--rig", "ringing", "--device", "cpu", "--out", str(out)]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        "warpdem diagnose: error: the diagnosis holds each configuration out in turn and fits the rest: it needs at "
+        "least 2 configurations, the data have 1"]
     assert not out.exists()
 
 
@@ -243,6 +278,31 @@ def test_progress_shows_elapsed_and_time_left_and_quiet_silences_it(capsys) -> N
     cli._bar("stage three", 1.0, 2.0)
     assert capsys.readouterr().err == ""
     cli._BAR.update(quiet=False, label=None)
+
+
+def test_a_command_stopped_mid_bar_says_so_on_a_line_of_its_own(monkeypatch, capsys) -> None:
+    """A progress bar's line stays open while its stage runs (it is redrawn with a carriage return); a command that
+    stops there (bad input found late, an interrupt, an internal error) ends that line first, so its one line starts
+    a line of its own."""
+    from calibration import cli
+    from warpdem.errors import InputError
+
+    def late(exc: BaseException):  # noqa: ANN202
+        def command(args):  # noqa: ANN001
+            cli._bar("screening: shear box", 1.0, 4.0)
+            raise exc
+        return command
+
+    for exc, code, line in ((InputError("what was wrong"), 2, "warpdem shear-box: error: what was wrong"),
+                            (KeyboardInterrupt(), 130, "warpdem shear-box: interrupted"),
+                            (ValueError("x"), 1, "warpdem shear-box: internal error: ValueError: x (run with --debug "
+                                                 "for the traceback)")):
+        monkeypatch.setattr(cli, "run_shear_box_cmd", late(exc))
+        capsys.readouterr()
+        assert cli.main(["shear-box", "--out", "unused"]) == code
+        lines = capsys.readouterr().err.split("\n")
+        assert lines[0].startswith("\rscreening: shear box") and " 25 %" in lines[0]
+        assert lines[1:] == [line, ""]
 
 
 def test_internal_errors_are_one_line_unless_debug(monkeypatch, capsys) -> None:
@@ -305,6 +365,10 @@ def test_demo_writes_a_report_with_the_draughts_standard_error(tmp_path) -> None
              "--vtk", "50", "--out", str(out))
     assert r.returncode == 0, r.stderr
     s = json.loads((out / "summary.json").read_text())
+    assert r.stdout.splitlines() == [  # two lines for a person, not the summary's JSON
+        f"{s['particles']} particles, porosity {s['porosity']:.3f}; draught {s['draught_mean_n']:.2f} ± "
+        f"{s['draught_sem_n']:.2f} N (standard error; std {s['draught_std_n']:.2f} N); {s['wall_time_s']:.0f} s on cpu",
+        f"results in {out} (report.md, summary.json)"]
     d = np.load(out / "timeseries.npz")["draught_n"].reshape(-1)
     half = d[len(d) // 2:]
     assert s["draught_mean_n"] == pytest.approx(half.mean(), rel=1e-12)
@@ -461,3 +525,63 @@ def test_cuda_on_a_machine_without_it_is_one_line(tmp_path) -> None:
         "warpdem demo: error: --device cuda: CUDA is not available on this machine (no NVIDIA GPU or driver); use "
         "--device cpu"]
     assert not (tmp_path / "d").exists()
+
+
+def test_a_killed_reproduce_keeps_its_ringing_and_bed_and_resumes_to_the_same_result(tmp_path, monkeypatch,
+                                                                                    capsys) -> None:
+    """Reference: the same command run uninterrupted into another folder. `warpdem reproduce --scale ci` is
+    interrupted (Ctrl-C: KeyboardInterrupt from a progress callback) past half of its soil-bin run, after the
+    ringing and the bed's deposition: one line, exit code 130. The same command again must neither ring nor deposit
+    (both refused here), goes on with the soil-bin run from its checkpoint, and gives the uninterrupted run's
+    tables (to the bit on the CPU). Two of the three spring models (the twin rings for 12 s) and checkpoints at
+    every chance (0.05 s simulated, not every 60 s of wall time); nothing else differs from the command."""
+    import functools
+    import json
+
+    from calibration import cli
+    from scenes import ringing
+    from scenes import soil_bin as sb
+
+    monkeypatch.setattr(ringing, "SPRING_MODELS", ("paper", "linear"))
+    monkeypatch.setattr(sb, "run_soil_bin", functools.partial(sb.run_soil_bin, checkpoint_every=0.0))
+    seen: list[tuple[str, float]] = []
+    out = tmp_path / "killed"
+
+    def bar(kill: bool) -> object:
+        def progress(label: str, done: float, total: float) -> None:
+            seen.append((label, done / total))
+            if kill and label == "soil bin: rigid tool" and done / total > 0.5 and \
+                    (out / "checkpoints" / "rigid" / "latest.json").exists():
+                raise KeyboardInterrupt
+        return progress
+
+    args = ["--quiet", "reproduce", "--scale", "ci", "--springs", "0", "--device", "cpu"]
+    monkeypatch.setattr(cli, "_bar", bar(False))
+    assert cli.main([*args, "--out", str(tmp_path / "whole")]) == 0
+    assert any(label.startswith("soil bin: deposition (fill)") for label, _ in seen)  # the deposition has a bar
+    seen.clear()
+    capsys.readouterr()
+    monkeypatch.setattr(cli, "_bar", bar(True))
+    assert cli.main([*args, "--out", str(out)]) == 130
+    assert [x for x in capsys.readouterr().err.splitlines() if x.strip()] == [
+        "warpdem reproduce: interrupted; the same command run again resumes from its last checkpoint"]
+    assert sorted(p.name for p in out.glob("ringing_*.npz")) == ["ringing_linear.npz", "ringing_paper.npz"]
+    assert len(list((out / "beds").glob("*.npz"))) == 1 and not (out / "summary.json").exists()
+
+    def refuse(*_a: object, **_k: object) -> None:
+        raise AssertionError("ran again")
+
+    monkeypatch.setattr(ringing, "run_ringing", refuse)
+    monkeypatch.setattr(sb, "deposit", refuse)
+    seen.clear()
+    monkeypatch.setattr(cli, "_bar", bar(False))
+    assert cli.main([*args, "--out", str(out)]) == 0
+    soil = [f for label, f in seen if label == "soil bin: rigid tool"]
+    assert {label for label, _ in seen} == {"soil bin: rigid tool"} and soil[0] > 0.4  # went on from its checkpoint
+    whole = json.loads((tmp_path / "whole" / "summary.json").read_text())
+    resumed = json.loads((out / "summary.json").read_text())
+    for key in ("ringing", "soil_bin"):
+        assert resumed[key] == whole[key], key
+    for key in ("particles", "spheres", "porosity", "coordination"):
+        assert resumed["bed"][key] == whole["bed"][key], key
+    assert not (out / "checkpoints").exists()
