@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -34,9 +35,11 @@ def test_engine_quickstart_runs_and_its_checkpoint_continues_the_run(tmp_path) -
 def test_engine_quickstart_as_a_script_prints_its_results_only_and_leaves_no_file(tmp_path) -> None:
     """Run as a newcomer runs it (from their own folder): stdout holds the two result lines, stderr nothing (no Warp
     banner, module loads or CUDA-driver warning), and the folder stays empty (the checkpoint went to a temporary
-    folder)."""
+    folder). The repository is on PYTHONPATH, so that the test does not depend on where `pip install -e .` last
+    pointed."""
+    path = os.pathsep.join(x for x in (str(EXAMPLES.parent), os.environ.get("PYTHONPATH")) if x)
     r = subprocess.run([sys.executable, str(EXAMPLES / "engine_quickstart.py"), "--device", DEVICE], cwd=tmp_path,
-                       capture_output=True, text=True, timeout=600)
+                       capture_output=True, text=True, timeout=600, env={**os.environ, "PYTHONPATH": path})
     assert r.returncode == 0, r.stderr
     lines = r.stdout.strip().splitlines()
     assert len(lines) == 2 and all(x.startswith("friction ") for x in lines), r.stdout
