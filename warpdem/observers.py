@@ -191,7 +191,8 @@ def csr_entries(start: np.ndarray, count: np.ndarray) -> np.ndarray:
 
 def contact_table(sim: object) -> dict[str, np.ndarray]:
     """Active contacts on the host: body1/body2 (body indices), world, normal (k, 3), radius1/radius2 [m],
-    kn/ks [N/m], kr/ktw [N m/rad], kind (0 sphere-sphere, 1 sphere-triangle), sphere indices, shear force [N]."""
+    kn/ks [N/m], kr/ktw [N m/rad] (the contact law's, ``laws.stiffness``: Hertz-Mindlin's tangent stiffnesses at the
+    current overlap), kind (0 sphere-sphere, 1 sphere-triangle), sphere indices, shear force [N]; each (k,)."""
     m = sim.model
     ss = sim.contacts.ss.numpy()
     rad = m.host["sphere_radius"]

@@ -70,7 +70,8 @@ def critical_timestep(model: Model) -> float:
 
 
 def stiffness_timestep(sim: object, safety: float = 0.8) -> float:
-    """Yade's GlobalStiffnessTimeStepper estimate from the current contacts [s].
+    """Yade's GlobalStiffnessTimeStepper estimate from the current contacts [s], with each contact's stiffnesses as
+    its law gives them (``laws.stiffness``, read through ``observers.contact_table``).
 
     Per body: K_i = sum (kn - ks) n_i^2 + ks (translation), K_R,i = sum ks R^2 (1 - n_i^2) + kr (1 - n_i^2) + ktw n_i^2
     (rotation); dt = 1.41044 * safety * min sqrt(m / K_i), sqrt(I / K_R,i).

@@ -1,15 +1,18 @@
 """The contact laws, and the one place that selects between them.
 
-Adding a contact law: write ``warpdem/laws/<law>.py`` giving (1) its material, a frozen dataclass with the class
-attributes ``LAW`` (a new id in ``base.py``) and ``FIELDS`` (its per-world overridable fields, each a column of the
-Model's material tables: add a new one to :data:`MATERIAL_FIELDS`, to ``Materials`` in ``base.py`` and to the
-builder's packing), a ``flags`` property and a validating ``replace``; (2) the pair physics ``make_phys(mats, mi,
-mj, r1, r2) -> Phys``, which sets ``Phys.law``; (3) the force law, one step of a contact's history giving a
-``LawOut``; (4) ``elastic_energy(h, p, un)`` [J]; (5) ``stiffness(h, p, un)``, the (kn, ks, kr, ktw) the time step
-estimate reads. Then add one branch for the new id to each of :func:`pair_phys`, :func:`contact_law`,
-:func:`elastic_energy` and :func:`stiffness` below, its material class to :data:`LAWS`, and the settings it cannot
-take to :func:`check_settings`. The kernels (``contacts.py``) call only these four functions; a contact's history
-is the shared :class:`Hist` (a law uses the fields it needs).
+Adding a contact law: write ``warpdem/laws/<law>.py`` giving
+(1) its material: a frozen dataclass with the class attributes ``LAW`` (a new id in ``base.py``) and ``FIELDS``
+    (its per-world overridable fields, each a column of the Model's material tables), a ``flags`` property and a
+    validating ``replace``. A field no law has yet needs a column: :data:`MATERIAL_FIELDS`, a ``mat_<field>`` array
+    of ``Model``, its packing in ``builder._assemble``, a ``Materials`` field in ``base.py`` set in ``Simulation``;
+(2) the pair physics ``make_phys(mats, mi, mj, r1, r2) -> Phys``, which sets ``Phys.law``;
+(3) the force law: one step of a contact's history, giving a ``LawOut``;
+(4) ``elastic_energy(h, p, un)``, the energy stored in a contact [J];
+(5) ``stiffness(h, p, un)``, the (kn, ks, kr, ktw) the time step estimate reads.
+Then add one branch for the new id to each of :func:`pair_phys`, :func:`contact_law`, :func:`elastic_energy` and
+:func:`stiffness` below, its material class to :data:`LAWS` and its name to :data:`LAW_NAMES`, and the settings it
+cannot take to :func:`check_settings`. The kernels (``contacts.py``) call only these four functions; a contact's
+history is the shared :class:`Hist` (a law uses the fields it needs). ``hertz_mindlin.py`` is the example to copy.
 
 Every material of a model follows one law (``Model.contact_law``, checked by :func:`law_of`); the kernels read it
 from ``Materials.law`` and branch at run time (Warp compiles a module's functions once, so the branch is an int
