@@ -8,7 +8,7 @@ the rig supports all of its knobs.
 
 Built-in mechanisms (rationale in each entry): ``pivot_friction``, ``progressive_spring``, ``series_compliance``,
 ``extra_mass``, ``load_inertia``, ``pose_change``, ``sensor_offset``, ``sensor_drift``, ``stack_preload``,
-``speed_dependence``, ``rigid_reference_speed``, ``progressive_stack``.
+``speed_dependence``, ``rigid_reference_speed``, ``progressive_stack``, ``lever_geometry``, ``sensor_lever``.
 
 Physical bounds (issue #39, item 1): every gene of a mechanism has a physical range, from the rig (its
 :class:`RigFacts`: the stacks' rates and travel, the tool's mass, the first swing) where the rig states one, with its
@@ -56,7 +56,10 @@ class RigFacts:
     rig: "ringing" or "soil-bin"; springs (n_configs,): units per stack; rates (n_configs,) [N/m]: the stated rates;
     travel (n_configs,) [m]: each stack's service travel (DIN 2093: 0.75 h0 per unit); working_deflection
     (n_configs,) [m]: each stack's static deflection under the rig's load (nominal); swing_moment [N m]: the
-    smallest moment of the springs at a configuration's first swing (K theta_1); tool_mass [kg]."""
+    smallest moment of the springs at a configuration's first swing (K theta_1); tool_mass [kg]; lever [m]: the
+    stacks' and the sensor's stated lever about the pivot; seat_radius [m]: how far from its axis a stack's seat may
+    bear on the shank (the discs' outer radius); sensor_tolerance [m]: how far the sensor's contact point may sit
+    from its stated lever."""
 
     rig: str
     springs: tuple[int, ...] = ()
@@ -65,6 +68,9 @@ class RigFacts:
     working_deflection: tuple[float, ...] = ()
     swing_moment: float = math.nan
     tool_mass: float = math.nan
+    lever: float = math.nan
+    seat_radius: float = math.nan
+    sensor_tolerance: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -215,6 +221,24 @@ def _preload_bound(f: RigFacts) -> dict[str, Bound]:
                                    "all stacks: the stiffest stack's travel (scenes.passive_tool.BOUNDS['preload'])")}
 
 
+def _lever_bound(f: RigFacts) -> dict[str, Bound]:
+    if not (math.isfinite(f.lever) and math.isfinite(f.seat_radius)) or f.lever <= 0:
+        return {}
+    r = f.seat_radius / f.lever
+    return {"spring_lever": Bound(1.0 - r, 1.0 + r, f"the stack's seat bears on the shank within the discs' outer "
+                                  f"radius ({1e3 * f.seat_radius:.1f} mm, DIN 2093 series B 25) of its axis at the "
+                                  f"stated {1e3 * f.lever:.0f} mm lever")}
+
+
+def _sensor_lever_bound(f: RigFacts) -> dict[str, Bound]:
+    if not (math.isfinite(f.lever) and math.isfinite(f.sensor_tolerance)) or f.lever <= 0:
+        return {}
+    r = f.sensor_tolerance / f.lever
+    return {"sensor_lever": Bound(1.0 - r, 1.0 + r, f"the sensor's contact point within {1e3 * f.sensor_tolerance:.0f}"
+                                  f" mm of its stated {1e3 * f.lever:.0f} mm lever (scenes.passive_tool."
+                                  "SENSOR_MOUNT_TOLERANCE, an assumption: the paper gives no tolerance)")}
+
+
 register(Mechanism(
     "pivot_friction", "Dry friction at the pivot",
     "The shank turns about a pin in a bore; a dry (Coulomb) friction torque there takes a fixed amount of "
@@ -324,3 +348,24 @@ register(Mechanism(
     signature="frequencies falling along a decay in proportion to (swing / travel)^2; under one load a uniform "
               "stiffening (the stacks' deflection per travel is the same)",
     bounds=_stack_hardening_bound, produces=("stiffness_high", "inertia_low")))
+register(Mechanism(
+    "lever_geometry", "The stacks' load line off the sensor's lever",
+    "A stack pushes on the shank through a seat whose contact can sit anywhere within the discs' outer radius: at "
+    "lambda times the stated lever a its moment about the pivot is k lambda^2 a^2 theta, so every configuration "
+    "turns by 1 / lambda^2 of what the stated geometry gives under the same load, while the sensor still reads "
+    "the rotation at a.",
+    genes=(Gene("spring_lever", 0.7, 1.3, unit="-"),),
+    knobs=lambda p: {"spring_lever": p["spring_lever"]},
+    rigs=("soil-bin",),
+    signature="every configuration's deflection scaled by one factor 1 / lambda^2 (its vibration with it)",
+    bounds=_lever_bound, produces=("stiffness_high", "stiffness_low")))
+register(Mechanism(
+    "sensor_lever", "The sensor's lever",
+    "The displacement sensor reads the tool's rotation at its own contact point: mounted at lambda times the stated "
+    "lever, every reading (mean, vibration, trend) is lambda times the stated geometry's, and the draught and its "
+    "reductions do not change.",
+    genes=(Gene("sensor_lever", 0.7, 1.3, unit="-"),),
+    knobs=lambda p: {"sensor_lever": p["sensor_lever"]},
+    rigs=("soil-bin",),
+    signature="every displacement scaled by one factor, the reductions unchanged",
+    bounds=_sensor_lever_bound))

@@ -55,6 +55,8 @@ class SimOutput:
 
 KNOB_OFF = {"series_stiffness": math.inf, "load_mass_fraction": 1.0}
 """the value of a knob that leaves a rig as it is, where it is not 0 (a case without the knob gets it)."""
+READING_KNOBS = ("sensor_offset", "sensor_drift", "sensor_lever", "rigid_speed")
+"""the soil-bin knobs that change how a run is read or compared, not the simulation."""
 RIGID_SWEEP = (0.45, 0.55, 0.65, 0.75)
 """carriage speeds [m/s] of the rigid runs through which the soil-bin rig model fits the rigid draught's line against
 speed (for the rigid_speed knob), besides the measured speeds."""
@@ -219,6 +221,17 @@ DAMPING_SCALE = Gene("damping_scale", 0.2, 5.0, log=True, unit="-")
 ratio (its dashpot set from the ratio by the linear oscillator's closed form), so a mechanism that damps can take
 its share. Each configuration's ratio is an input then (its record's, unless the description states it): its held-out
 ``damping`` is not a prediction; ``damping_late`` and the decay's signatures still are."""
+
+
+def lever_scaling(ratio: float) -> dict[str, float]:
+    """What a stack bearing on the shank at ``ratio`` times the sensor's lever a is, for a spring at a (the DEM's):
+    the factor on each of its settings that gives the same moment about the pivot at every rotation theta. Closed
+    form: the stack compresses u = ratio a theta and pushes back at ratio a, so a rate k gives k ratio^2 a^2 theta
+    (factor ratio^2), a dashpot c ratio^2, a cubic term k3 u^3 gives k3 ratio^4 a^4 theta^3 (ratio^4), and a preload
+    p (the stack's compression at the stop) the threshold moment k p ratio a (k ratio^2 times p / ratio)."""
+    if not (math.isfinite(ratio) and ratio > 0):
+        raise InputError(f"spring_lever must be a positive ratio, got {ratio}")
+    return {"stiffness": ratio**2, "dashpot": ratio**2, "progressive": ratio**4, "stack_preload": 1.0 / ratio}
 
 
 def build_tool_mass() -> float:
@@ -654,12 +667,16 @@ class SoilBinRigModel:
     paper's final model) are off by default: the paper set them per configuration from the measured rotation of the
     shank, so they are a fit of the displacement this diagnosis criticises (``support_offset=True`` restores them).
     Knobs: pivot_friction, extra_mass, progressive, series_stiffness, soil_viscosity, stack_preload (DEM:
-    ``scenes.soil_bin.KNOBS``),
-    sensor_offset [m] (added to the displacement reading) and rigid_speed [m/s] (every reduction taken against a
-    rigid run at this one speed instead of the configuration's own: the rigid draught at the configuration's speed
-    moved along the rigid draught's line against speed, fitted through rigid runs at :data:`RIGID_SWEEP` and the
-    measured speeds; the rigid runs are simulated once). Rigid runs (one per measured speed) are simulated
-    once; passive runs are cached by their physical parameters, so a sensor-only change costs no simulation.
+    ``scenes.soil_bin.KNOBS``), spring_lever [-] (the stacks bear on the shank at this many times the sensor's
+    lever: the DEM's spring, at the sensor's lever, gets the same moment-rotation law: rate x lambda^2, a given
+    dashpot x lambda^2, progressive x lambda^4, preload / lambda; without a dashpot knob the measured damping ratio
+    is kept), sensor_lever [-] (the sensor reads at this many times its stated lever: every displacement reading
+    scaled by it, before the offset), sensor_offset [m] (added to the displacement reading) and rigid_speed [m/s]
+    (every reduction taken against a rigid run at this one speed instead of the configuration's own: the rigid
+    draught at the configuration's speed moved along the rigid draught's line against speed, fitted through rigid
+    runs at :data:`RIGID_SWEEP` and the measured speeds; the rigid runs are simulated once). Rigid runs (one per
+    measured speed) are simulated once; passive runs are cached by their physical parameters, so a sensor-only
+    change costs no simulation.
 
     Series: with a force (draught) series for every configuration and no ``draught_mean`` column, their steady
     means are ``draught_mean`` (an observable to ask for: by default the draught's level is not compared).
@@ -683,7 +700,8 @@ class SoilBinRigModel:
 
     rig = "soil-bin"
     knobs = frozenset({"pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
-                       "stack_preload", "sensor_offset", "rigid_speed", "progressive_factor"})
+                       "stack_preload", "sensor_offset", "rigid_speed", "progressive_factor", "spring_lever",
+                       "sensor_lever"})
     units = {"reduction": "%", "displacement_mean": "m", "displacement_trend": "m/s", "draught_mean": "N",
              "rigid_draught_mean": "N"}
     genes: tuple[Gene, ...] = ()
@@ -860,7 +878,7 @@ class SoilBinRigModel:
         """The key of a passive run: configuration and the knobs that change the DEM (not the sensor's)."""
         p = {**self.fixed, **case.params}
         return (case.config,) + tuple(sorted((k, float(v)) for k, v in p.items()
-                                             if k not in ("sensor_offset", "sensor_drift", "rigid_speed")))
+                                             if k not in READING_KNOBS))
 
     def _soil(self, n: int) -> dict[str, object] | None:
         return {k: [v] * n for k, v in self.soil.items()} or None
@@ -908,14 +926,19 @@ class SoilBinRigModel:
 
     def facts(self) -> object:
         """What the soil-bin rig states that bounds the mechanisms (``calibration.mechanisms.RigFacts``): the stated
-        rates, each stack's DIN 2093 travel, the sweep's mass."""
-        from scenes.passive_tool import stack_travel
+        rates, each stack's DIN 2093 travel, the sweep's mass, its stacks' and sensor's lever, the discs' radius and
+        the sensor's mounting tolerance."""
+        from scenes.passive_tool import DISC_OUTER_RADIUS, SENSOR_MOUNT_TOLERANCE, lever, stack_travel
+        from scenes.sweep import build_sweep
 
         from . import mechanisms as mech
 
+        tool = build_sweep()
         return mech.RigFacts("soil-bin", tuple(c["springs"] for c in self.configs),
                              tuple(float(c["stiffness"]) for c in self.configs),
-                             tuple(stack_travel(c["springs"]) for c in self.configs), tool_mass=build_tool_mass())
+                             tuple(stack_travel(c["springs"]) for c in self.configs), tool_mass=float(tool.mass),
+                             lever=lever(tool), seat_radius=DISC_OUTER_RADIUS,
+                             sensor_tolerance=SENSOR_MOUNT_TOLERANCE)
 
     def _run_passive(self, keys: list[tuple], keep_series: bool, progress: object | None) -> None:
         from scenes.passive_tool import stack_travel
@@ -930,7 +953,13 @@ class SoilBinRigModel:
                 if "progressive_factor" in p:
                     p["progressive"] = (p.pop("progressive_factor") * c["stiffness"] / stack_travel(c["springs"]) ** 2
                                         + p.get("progressive", 0.0))
-            knobs: dict[str, list[float]] = {"stiffness": [c["stiffness"] for c in cfgs]}
+            scale = [lever_scaling(p.pop("spring_lever", 1.0)) for p in params]
+            for p, sc in zip(params, scale, strict=True):
+                for name in ("dashpot", "progressive", "stack_preload"):
+                    if name in p:
+                        p[name] *= sc[name]
+            knobs: dict[str, list[float]] = {"stiffness": [c["stiffness"] * sc["stiffness"]
+                                                           for c, sc in zip(cfgs, scale, strict=True)]}
             for name in sorted({n for p in params for n in p}):
                 if name == "dashpot" and not all(name in p for p in params):
                     raise ValueError("dashpot must be given for every case or none")
@@ -967,23 +996,23 @@ class SoilBinRigModel:
             rigid, passive = rigid + drag, float(run["draught_mean"])
             reduction, reduction_sem = sb.reduction(passive, float(run["draught_sem"]), rigid, rigid_sem)
             # the sensor: offset + drift x time since the record's start (the measured record's time base)
-            offset, drift = p.get("sensor_offset", 0.0), p.get("sensor_drift", 0.0)
+            offset, drift, gain = p.get("sensor_offset", 0.0), p.get("sensor_drift", 0.0), p.get("sensor_lever", 1.0)
             t_mean = float(run["steady_time_mean"]) if self._drift_time is None else self._drift_time[case.config]
             if _sem:
                 obs = {"reduction": reduction_sem,
-                       "displacement_mean": float(run["displacement_sem"]),
-                       "displacement_trend": float(run["displacement_trend_sem"]),
+                       "displacement_mean": gain * float(run["displacement_sem"]),
+                       "displacement_trend": gain * float(run["displacement_trend_sem"]),
                        "draught_mean": float(run["draught_sem"]), "rigid_draught_mean": rigid_sem}
             else:
                 obs = {"reduction": reduction,
-                       "displacement_mean": float(run["displacement_mean"]) + offset + drift * t_mean,
-                       "displacement_trend": float(run["displacement_trend"]) + drift,
+                       "displacement_mean": gain * float(run["displacement_mean"]) + offset + drift * t_mean,
+                       "displacement_trend": gain * float(run["displacement_trend"]) + drift,
                        "draught_mean": passive, "rigid_draught_mean": rigid}
             values[i] = [obs[k] for k in self.observables]
             static[i] = abs(float(run["displacement_mean"]))  # the tool's deflection under the working load
             if keep_series:
                 t, x = run["series"]
-                series.append((t, x + offset + drift * t))
+                series.append((t, gain * x + offset + drift * t))
         return SimOutput(values, {"static_deflection": static}, series if keep_series else None)
 
 

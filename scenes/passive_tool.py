@@ -53,6 +53,11 @@ DISC_CONE_HEIGHT = 0.7e-3
 """free cone height h0 of a DIN 2093 series B 25 x 12.2 x 0.9 disc [m]."""
 SERVICE_TRAVEL = 0.75
 """DIN 2093's service deflection of a disc as a fraction of h0 (its nominal load is specified there)."""
+DISC_OUTER_RADIUS = 12.5e-3
+"""outer radius of a DIN 2093 series B 25 x 12.2 x 0.9 disc [m]: a stack's seat bears on the shank within it."""
+SENSOR_MOUNT_TOLERANCE = 10e-3
+"""how far the displacement sensor's contact point may sit from the lever the paper gives for it (100 mm, Fig. 4a)
+[m]: warpdem's assumption (the paper states the lever, not its tolerance); it bounds the sensor_lever mechanism."""
 DIN_RATE_TOLERANCE = (0.925, 1.25)
 """DIN 2093 (1992) section 7.1, group 1 (t < 1.25 mm): a disc's load at s = 0.75 h0 within -7.5 % / +25 % of the
 nominal: the bounds of the rate factor of a stack."""

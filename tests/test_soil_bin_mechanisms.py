@@ -1,0 +1,115 @@
+"""Soil-bin mechanisms of the lever geometry (issue #39, item 3): the stacks' load line and the sensor's lever.
+
+References: the moment balance about the pivot (closed form) for the DEM's equivalent spring, and an independent
+quasi-static model of the passive tool in soil (written here, not warpdem's DEM) that carries a hidden geometry the
+rig model's baseline lacks. The diagnosis on that model's data is an inverse of a forward model the test also
+writes, so it shows that the search, its bounds and the knob's wiring work together; the physics of the equivalence
+is the closed-form test's.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from calibration import diagnosis
+from calibration import mechanisms as mech
+from calibration.measured import Measured
+from calibration.rig_models import SoilBinRigModel, lever_scaling
+from scenes import paper
+from scenes import soil_bin as sb
+from scenes.passive_tool import DISC_OUTER_RADIUS, SENSOR_MOUNT_TOLERANCE
+
+A = 0.1
+"""the DEM's lever of the spring and the sensor about the pivot [m] (the paper's sensor lever)."""
+H = 0.25
+"""depth of the draught's line of action below the pivot [m] in the quasi-static model."""
+
+
+def test_a_spring_at_the_sensor_lever_turns_like_the_stack_at_its_own() -> None:
+    """Closed form: a stack of rate k, dashpot c, cubic term k3 and preload p at lever lam a, against the DEM's
+    spring at a with lever_scaling's factors: the same moment about the pivot at every rotation and rate, and the
+    same threshold moment at which the tool leaves its stop."""
+    k, c, k3, p = 1.87e5, 350.0, 4e10, 0.8e-3
+    for lam in (0.875, 1.0, 1.125):
+        f = lever_scaling(lam)
+        for theta, omega in ((1e-3, 0.0), (0.02, 0.3), (-0.01, -1.0)):
+            u = lam * A * theta  # the stack's compression at its own lever
+            true = lam * A * (k * u + k3 * u**3 + c * lam * A * omega)
+            v = A * theta
+            dem = A * (k * f["stiffness"] * v + k3 * f["progressive"] * v**3 + c * f["dashpot"] * A * omega)
+            assert dem == pytest.approx(true, rel=1e-12)
+        assert k * f["stiffness"] * p * f["stack_preload"] * A == pytest.approx(k * p * lam * A, rel=1e-12)
+    with pytest.raises(ValueError, match="spring_lever must be a positive ratio, got -1"):
+        lever_scaling(-1.0)
+
+
+def _quasi_static(seat: float, sensor: float):  # noqa: ANN202
+    """A soil bin whose passive tool is held by a stack bearing at ``seat`` x A and read at ``sensor`` x A: the draught
+    F = 300 N (1 - reduction) at the lever H turns it by F H / (k (seat A)^2) (moment balance, small angles); the
+    reduction grows by 0.2 points per spring. What the rig model runs (the DEM's geometry: seat = sensor = 1) is this
+    with the knobs the model passes (its stiffness already scaled by spring_lever)."""
+
+    def run(config, springs, speeds, knobs, soil):  # noqa: ANN001, ANN202
+        steady = []
+        for w, (n, v) in enumerate(zip(springs, speeds, strict=True)):
+            f = 300.0 * (1 - (0.002 * n if n else 0.0))
+            k = float(knobs["stiffness"][w]) if n else math.inf
+            theta = f * H / (k * (seat * A) ** 2)
+            steady.append({"springs": n, "speed": v, "draught_mean": f, "draught_sem": 0.5,
+                           "displacement_mean": sensor * A * theta, "displacement_sem": 1e-5,
+                           "displacement_trend": 0.0, "displacement_trend_sem": 1e-5, "steady_time_mean": 1.0})
+        t = np.linspace(0.0, 1.0, 5)
+        series = {"displacement": np.tile([r["displacement_mean"] for r in steady], (len(t), 1)),
+                  "draught": np.tile([r["draught_mean"] for r in steady], (len(t), 1))}
+        return sb.SoilBinRun(tuple(springs), tuple(speeds), t, np.outer(t, speeds), series, steady)
+
+    return run
+
+
+def _measured(seat: float, sensor: float, seed: int) -> Measured:
+    """Table 3's configurations with the DIN rates, displacements of the quasi-static tool (1-8 mm) with 0.02 mm of
+    noise."""
+    springs = np.array(paper.SPRING_COUNTS)
+    k = np.array([paper.ringing_row(int(n))["stiffness_n_per_m"] for n in springs])
+    speeds = np.full(len(springs), 0.62)
+    run = _quasi_static(seat, sensor)(None, list(springs), list(speeds), {"stiffness": list(k)}, None)
+    x = np.array([r["displacement_mean"] for r in run.steady])
+    rng = np.random.default_rng(seed)
+    return Measured({"springs": springs.astype(float), "speed": speeds, "stiffness": k,
+                     "displacement_mean": x + 2e-5 * rng.standard_normal(len(x))}, {})
+
+
+def test_the_lever_mechanisms_are_bounded_by_the_rig() -> None:
+    """The stated geometry bounds them: the seat within the 25 mm discs' radius of the stack's axis at the 100 mm
+    lever (0.875-1.125), the sensor within its assumed 10 mm (0.9-1.1)."""
+    rig = SoilBinRigModel(_measured(1.0, 1.0, 0), simulator=_quasi_static(1.0, 1.0))
+    facts = rig.facts()
+    assert facts.lever == pytest.approx(A, rel=0.05)
+    lever = mech.get("lever_geometry").physical(facts)["spring_lever"]
+    sensor = mech.get("sensor_lever").physical(facts)["sensor_lever"]
+    assert (lever.low, lever.high) == pytest.approx((1 - DISC_OUTER_RADIUS / facts.lever,
+                                                     1 + DISC_OUTER_RADIUS / facts.lever))
+    assert (sensor.low, sensor.high) == pytest.approx((1 - SENSOR_MOUNT_TOLERANCE / facts.lever,
+                                                       1 + SENSOR_MOUNT_TOLERANCE / facts.lever))
+    assert "DIN 2093" in lever.source and "assumption" in sensor.source
+
+
+def test_a_stack_seated_off_the_sensor_lever_is_named_and_the_sensor_at_its_bound_is_not() -> None:
+    """Hidden: the stacks bear at 0.9 x the sensor's lever (every deflection 1 / 0.81 = 1.23 x the stated
+    geometry's). lever_geometry explains it inside its bound (0.875-1.125); a sensor lever would need 1.23, beyond
+    its 1.1 bound, so it is not named. The fitted ratio: within 1 % (0.02 mm of noise on eight displacements of
+    1-8 mm fixes the factor 1 / lambda^2 to ~0.1 %)."""
+    data = _measured(0.9, 1.0, seed=2)
+    rig = SoilBinRigModel(data, simulator=_quasi_static(1.0, 1.0), uncertainty={"displacement_mean": 2e-5})
+    settings = diagnosis.DiagnosisSettings(rounds=4, mechanisms=("lever_geometry", "sensor_lever", "sensor_offset",
+                                                                 "stack_preload"))
+    d = diagnosis.diagnose(rig, settings)
+    assert d.cause == ("lever_geometry",), (d.verdict, d.cause, d.at_bound)
+    fit = d.fits["lever_geometry"]
+    assert fit.candidate.values(fit.z_all)["spring_lever"] == pytest.approx(0.9, rel=0.01)
+    bound = [b for b in d.at_bound if b["mechanism"] == "sensor_lever"]
+    assert bound and bound[0]["side"] == "high", d.at_bound
+    assert bound[0]["value"] == pytest.approx(1 + SENSOR_MOUNT_TOLERANCE / rig.facts().lever, rel=1e-3)
