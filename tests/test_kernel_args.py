@@ -1,4 +1,4 @@
-"""The kernels' argument structs (warpdem/kernel_args.py, the settings types.Options, contact_law.Materials):
+"""The kernels' argument structs (warpdem/kernel_args.py, the settings types.Options, laws.Materials):
 every field documented with its dtype, and every array field set by the host builders from a simulation's model,
 state and data (the same arrays, no copies). The host-side types (types.Control, types.Contacts): every field
 documented with its unit, dtype and shape."""
@@ -19,7 +19,7 @@ import warpdem as wd
 from warpdem import kernel_args as ka
 from warpdem import types, world_steps
 from warpdem.accumulate import vec3l
-from warpdem.contact_law import Hist, Materials
+from warpdem.laws import Hist, Materials
 
 DTYPE_WORDS = {
     wp.int32: "int32", wp.float32: "float32", wp.float64: "float64", wp.uint64: "uint64", wp.int64: "int64",

@@ -13,7 +13,7 @@ import warp as wp
 from . import checkpoint, observers
 from .builder import ModelBuilder
 from .errors import InputError, SimulationError
-from .materials import HertzMindlinMaterial, Material
+from .laws import HertzMindlinMaterial, Material
 from .model import Model, State
 from .simulation import Simulation
 from .timestep import check_step_count, critical_timestep, pwave_timestep, stiffness_timestep

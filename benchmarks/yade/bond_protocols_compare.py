@@ -104,7 +104,7 @@ def run(protocol: str, spec: dict[str, np.ndarray], yade: dict[str, np.ndarray],
 
 def _bond_gaps(sim: object) -> np.ndarray:
     """Gaps [m] of the bonded sphere-sphere contacts whose spheres do not touch."""
-    from warpdem.contact_law import ACTIVE, COHESIVE
+    from warpdem.laws import ACTIVE, COHESIVE
 
     ss = sim.contacts.ss
     start, count = ss.start.numpy(), ss.count.numpy()

@@ -109,7 +109,7 @@ def coordination(id1: np.ndarray, id2: np.ndarray, body_pos: np.ndarray, layout:
 
 def closest_point_triangle(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, int]:
     """Closest point of triangle abc to p and its feature (0 face interior, 1 edge, 2 vertex): Ericson's
-    algorithm, as warpdem's ``contact_law.closest_point_triangle``."""
+    algorithm, as warpdem's ``geometry.closest_point_triangle``."""
     ab, ac, ap = b - a, c - a, p - a
     d1, d2 = ab @ ap, ac @ ap
     if d1 <= 0 and d2 <= 0:
