@@ -62,6 +62,9 @@ from yade import utils
 from yade.wrapper import *  # noqa
 
 OUTDIR = os.path.dirname(os.path.abspath(sys.argv[0]))
+sys.path.insert(0, OUTDIR)
+from yade_cohfrict import cohfrict_engines  # noqa: E402
+
 OUTFILE = os.path.join(OUTDIR, 'clump_drop.npz')
 
 MAT = dict(young=1e7, poisson=0.3, density=2700.0, frictionAngle=math.radians(30.0), normalCohesion=0.0,
@@ -123,17 +126,7 @@ def build(damping):
     L0 = Rm @ np.diag(list(c.state.inertia)) @ Rm.T @ W0
     c.state.angMom = tuple(L0)
     c.state.angVel = tuple(W0)
-    O.engines = [
-        ForceResetter(),
-        InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()]),
-        InteractionLoop([Ig2_Sphere_Sphere_ScGeom6D(), Ig2_Facet_Sphere_ScGeom6D()],
-                        [Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(label='ip2', setCohesionNow=False,
-                                                                  setCohesionOnNewContacts=False)],
-                        [Law2_ScGeom6D_CohFrictPhys_CohesionMoment(label='law', useIncrementalForm=True,
-                                                                   always_use_moment_law=False)]),
-        NewtonIntegrator(gravity=GRAV, damping=damping, label='newton'),
-        PyRunner(iterPeriod=PERIOD, firstIterRun=PERIOD - 1, command='record()', label='recorder'),
-    ]
+    O.engines = cohfrict_engines(gravity=GRAV, damping=damping, period=PERIOD)
     O.dt = DT
     return L0
 

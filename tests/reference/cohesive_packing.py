@@ -64,6 +64,9 @@ from yade import utils
 from yade.wrapper import *  # noqa
 
 OUTDIR = os.path.dirname(os.path.abspath(sys.argv[0]))
+sys.path.insert(0, OUTDIR)
+from yade_cohfrict import cohfrict_engines  # noqa: E402
+
 OUTFILE = os.path.join(OUTDIR, 'cohesive_packing.npz')
 
 N_SPH = 40
@@ -117,17 +120,7 @@ for f in FACETS:
     O.bodies.append(utils.facet([tuple(v) for v in f], fixed=True, material=fm))
 ids = [O.bodies.append(utils.sphere(tuple(p), r, material=sm)) for p, r in zip(POS0, RADII)]
 assert ids[0] == FIRST and ids[-1] == FIRST + N_SPH - 1
-O.engines = [
-    ForceResetter(),
-    InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()]),
-    InteractionLoop([Ig2_Sphere_Sphere_ScGeom6D(), Ig2_Facet_Sphere_ScGeom6D()],
-                    [Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(label='ip2', setCohesionNow=False,
-                                                              setCohesionOnNewContacts=True)],
-                    [Law2_ScGeom6D_CohFrictPhys_CohesionMoment(label='law', useIncrementalForm=True,
-                                                               always_use_moment_law=False)]),
-    NewtonIntegrator(gravity=GRAV, damping=DAMP, label='newton'),
-    PyRunner(iterPeriod=PERIOD, firstIterRun=PERIOD - 1, command='record()', label='recorder'),
-]
+O.engines = cohfrict_engines(gravity=GRAV, damping=DAMP, period=PERIOD, cohesion_on_new_contacts=True)
 O.dt = DT
 
 rec = {k: [] for k in ['step', 'time', 'pos', 'vel', 'n_ss', 'n_sf', 'n_ss_cohesive', 'kinetic_energy',

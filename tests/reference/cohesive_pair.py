@@ -88,6 +88,9 @@ from yade import utils
 from yade.wrapper import *  # noqa
 
 OUTDIR = os.path.dirname(os.path.abspath(sys.argv[0]))  # __file__ is /usr/bin/yade under `yade -x`
+sys.path.insert(0, OUTDIR)
+from yade_cohfrict import cohfrict_engines  # noqa: E402
+
 OUTFILE = os.path.join(OUTDIR, 'cohesive_pair.npz')
 
 R = 0.01
@@ -115,18 +118,9 @@ def build(fragile, always):
         b.state.vel = tuple(VEL0[i])
         b.state.angVel = tuple(ANGVEL0[i])
         O.bodies.append(b)
-    O.engines = [
-        ForceResetter(),
-        InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()]),
-        InteractionLoop([Ig2_Sphere_Sphere_ScGeom6D(), Ig2_Facet_Sphere_ScGeom6D()],
-                        [Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(label='ip2', setCohesionNow=True,
-                                                                  setCohesionOnNewContacts=False)],
-                        [Law2_ScGeom6D_CohFrictPhys_CohesionMoment(label='law', useIncrementalForm=True,
-                                                                   always_use_moment_law=always)]),
-        NewtonIntegrator(gravity=(0, 0, 0), damping=0.0, label='newton'),
-        PyRunner(iterPeriod=PERIOD, firstIterRun=PERIOD - 1, command='record()', label='recorder'),
-        PyRunner(iterPeriod=1, command='monitor()', label='monitor'),
-    ]
+    O.engines = cohfrict_engines(gravity=(0, 0, 0), damping=0.0, period=PERIOD, set_cohesion_now=True,
+                                 always_use_moment_law=always,
+                                 extra=[PyRunner(iterPeriod=1, command='monitor()', label='monitor')])
     O.dt = DT
 
 

@@ -60,6 +60,9 @@ from yade import utils
 from yade.wrapper import *  # noqa
 
 OUTDIR = os.path.dirname(os.path.abspath(sys.argv[0]))
+sys.path.insert(0, OUTDIR)
+from yade_cohfrict import cohfrict_engines  # noqa: E402
+
 OUTFILE = os.path.join(OUTDIR, 'facet_slide.npz')
 
 THETA = math.radians(30.0)
@@ -102,17 +105,7 @@ def build(phi):
     s.state.blockedDOFs = 'XYZ'
     sid = O.bodies.append(s)
     assert sid == SID
-    O.engines = [
-        ForceResetter(),
-        InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Facet_Aabb()]),
-        InteractionLoop([Ig2_Sphere_Sphere_ScGeom6D(), Ig2_Facet_Sphere_ScGeom6D()],
-                        [Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(label='ip2', setCohesionNow=False,
-                                                                  setCohesionOnNewContacts=False)],
-                        [Law2_ScGeom6D_CohFrictPhys_CohesionMoment(label='law', useIncrementalForm=True,
-                                                                   always_use_moment_law=False)]),
-        NewtonIntegrator(gravity=GRAV, damping=0.0, label='newton'),
-        PyRunner(iterPeriod=PERIOD, firstIterRun=PERIOD - 1, command='record()', label='recorder'),
-    ]
+    O.engines = cohfrict_engines(gravity=GRAV, damping=0.0, period=PERIOD)
     O.dt = DT
 
 
