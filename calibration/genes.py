@@ -10,6 +10,7 @@ offspring.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -21,6 +22,25 @@ damping (Table 2's 16-spring row: 0.8 % and 5.3 %). "max" asks both errors to be
 PARENT_SELECTIONS = ("sss", "rws", "sus", "rank", "random", "tournament")
 CROSSOVERS = ("single_point", "two_points", "uniform", "scattered")
 MUTATIONS = ("random", "swap", "inversion", "scramble")
+
+
+SHEAR_TO_NORMAL_COHESION = 0.5
+"""the paper's soil sets tie the shear cohesion to the normal one (Tables 4-6: shear = normal / 2)."""
+
+
+def soil_fields(genes: Mapping[str, object]) -> dict[str, object]:
+    """The soil contact material's fields of a GA soil set (``scenes.soil_bin``'s ``soil_overrides``, the shear box's
+    configuration): ``friction_angle`` [deg], ``normal_cohesion`` [Pa], ``shear_cohesion`` = normal / 2 [Pa],
+    ``eta_roll`` = ``eta_twist`` [-], from the genes ``friction_angle``, ``normal_cohesion`` and ``eta_roll``
+    (floats, or arrays (n,) of a population: the fields come out alike). The one place of the paper's rule."""
+    return {"friction_angle": genes["friction_angle"], "normal_cohesion": genes["normal_cohesion"],
+            "shear_cohesion": SHEAR_TO_NORMAL_COHESION * genes["normal_cohesion"], "eta_roll": genes["eta_roll"],
+            "eta_twist": genes["eta_roll"]}
+
+
+def soil_overrides(genes: Mapping[str, float], n: int) -> dict[str, list[float]]:
+    """:func:`soil_fields` of one set for ``n`` worlds: field -> (n,) values."""
+    return {k: [float(v)] * n for k, v in soil_fields(genes).items()}
 
 
 @dataclass(frozen=True)

@@ -61,6 +61,7 @@ from . import diagnosis_report, measured
 from .archive import same_or_extended, write_json_atomic
 from .budget import BatchGuard, Budget
 from .ga import accepted_records, calibrate
+from .genes import soil_fields, soil_overrides
 from .problems import DraughtProblem, RingingProblem, SoilProblem
 from .report import write_report
 from .rig_models import SoilBinRigModel
@@ -518,9 +519,7 @@ class Workflow:
                                settle_time=c.soil_settle_time, fragile=c.fragile,
                                deposit_friction=c.deposit_friction)
         n = len(job["springs"])
-        overrides = {"friction_angle": [soil["friction_angle"]] * n, "normal_cohesion": [soil["normal_cohesion"]] * n,
-                     "shear_cohesion": [0.5 * soil["normal_cohesion"]] * n, "eta_roll": [soil["eta_roll"]] * n,
-                     "eta_twist": [soil["eta_roll"]] * n}
+        overrides = soil_overrides(soil, n)
         knobs, described = None, None
         if c.passive_tool is not None:
             described = replace(from_dict(c.passive_tool), support_offsets=job["kind"] == "offset")
@@ -697,9 +696,7 @@ class Workflow:
         t3 = measured.from_paper("soil-bin")
         keep = np.isin(t3.summary["springs"], c.springs)
         data = measured.Measured({k: v[keep] for k, v in t3.summary.items()}, t3.units, [], t3.source)
-        contact = {"friction_angle": soil["friction_angle"], "normal_cohesion": soil["normal_cohesion"],
-                   "shear_cohesion": 0.5 * soil["normal_cohesion"], "eta_roll": soil["eta_roll"],
-                   "eta_twist": soil["eta_roll"]}  # as run_job gives the Table 3 runs
+        contact = soil_fields(soil)  # as run_job gives the Table 3 runs
 
         runs = self.out / "checkpoints" / "diagnosis_runs"
         bed_key: list[str] = []  # the bed's fingerprint, taken once

@@ -30,6 +30,7 @@ from scenes.passive_tool import PassiveTool, from_dict, lever
 from scenes.sweep import SweepParams, build_sweep
 from warpdem.files import write_atomic
 
+from .genes import soil_overrides
 from .tool_fit import fit_table2, simulate
 
 PITCHES = (-4.0, -2.0, 2.0, 4.0, 6.0, 8.0, 9.0)
@@ -142,9 +143,7 @@ class PassiveStudy:
         bed = sb.bed_for(cfg, device=self.device, cache_dir=self.out / "beds")
         n = len(springs)
         soil = self.soil
-        overrides = {"friction_angle": [soil["friction_angle"]] * n, "normal_cohesion": [soil["normal_cohesion"]] * n,
-                     "shear_cohesion": [0.5 * soil["normal_cohesion"]] * n, "eta_roll": [soil["eta_roll"]] * n,
-                     "eta_twist": [soil["eta_roll"]] * n}
+        overrides = soil_overrides(soil, n)
         self.log(f"{stage}: {n} worlds, springs {springs}, speeds {speeds} m/s" + (f", pitch {pitch}" if pitch else ""))
         t0 = time.perf_counter()
         run = sb.run_soil_bin(cfg, springs, bed=bed, device=self.device, speeds=speeds, soil_overrides=overrides,

@@ -31,7 +31,7 @@ from scenes.ringing import RingingConfig, build_ringing, run_ringing
 from scenes.soil_bin import DEPOSIT_FRICTION, SCALES, SoilBinConfig, bed_for, run_soil_bin
 from warpdem import analysis
 
-from .genes import FITNESS_MODES, Gene, with_ranges
+from .genes import FITNESS_MODES, Gene, soil_fields, with_ranges
 
 FITNESS_CAP = 1e12
 """fitness of an exact match (errors of zero), finite so that archives stay plain JSON."""
@@ -257,10 +257,7 @@ class DraughtProblem:
     def soil_overrides(self, values: np.ndarray) -> dict[str, np.ndarray]:
         """Per-world soil material fields of a population (n, 3): friction angle [deg], normal cohesion [Pa],
         shear cohesion = normal / 2 [Pa], eta_roll = eta_twist [-]."""
-        v = {g.name: values[:, k] for k, g in enumerate(self.gene_list)}
-        return {"friction_angle": v["friction_angle"], "normal_cohesion": v["normal_cohesion"],
-                "shear_cohesion": 0.5 * v["normal_cohesion"], "eta_roll": v["eta_roll"],
-                "eta_twist": v["eta_roll"]}
+        return soil_fields({g.name: values[:, k] for k, g in enumerate(self.gene_list)})
 
     def evaluate(self, values: np.ndarray) -> list[dict[str, float]]:
         """Observables per individual (n, 3) -> [{draught_mean_n, draught_std_n, draught_sem_n}] (the last: the

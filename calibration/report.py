@@ -10,6 +10,7 @@ import numpy as np
 
 from .archive import Record
 from .ga import CalibrationResult
+from .genes import soil_fields
 
 
 def _fmt(v: object) -> str:
@@ -25,7 +26,7 @@ def record_row(problem, r: Record) -> dict[str, object]:  # noqa: ANN001
     row: dict[str, object] = {"index": r.index, "stage": r.stage, "generation": r.generation}
     row.update(r.genes)
     if problem.name in ("draught", "soil"):
-        row["shear_cohesion"] = 0.5 * r.genes["normal_cohesion"]
+        row["shear_cohesion"] = soil_fields(r.genes)["shear_cohesion"]
     row.update(r.observables)
     row.update({f"target_{k}": v for k, v in problem.targets.items()})
     # relative errors in %, differences (d_...) in their own unit

@@ -15,6 +15,8 @@ from collections.abc import Sequence
 from scenes.assemblies import Bed
 from scenes.shear_box import lab_distance, lab_strength, preset, run_shear_boxes
 
+from .genes import soil_fields
+
 
 def distance(cohesion_kpa: float, friction_deg: float, lab: tuple[float, float] | None = None) -> float:
     """(dc / c_lab)^2 + (dphi / phi_lab)^2 [-] (:func:`scenes.shear_box.lab_distance`)."""
@@ -36,10 +38,8 @@ def screen(sets: Sequence[dict[str, float]], assembly: str = "C", scale: str = "
     """
     if not sets:
         raise ValueError("no parameter sets to screen")
-    configs = [preset(scale, assembly, friction_angle=float(s["friction_angle"]),
-                      normal_cohesion=float(s["normal_cohesion"]), shear_cohesion=0.5 * float(s["normal_cohesion"]),
-                      eta_roll=float(s["eta_roll"]), eta_twist=float(s["eta_roll"]), label=f"set {k + 1}", **changes)
-               for k, s in enumerate(sets)]
+    configs = [preset(scale, assembly, **{f: float(v) for f, v in soil_fields(s).items()}, label=f"set {k + 1}",
+                      **changes) for k, s in enumerate(sets)]
     results = run_shear_boxes(configs, device, bed=bed, progress=progress)
     lab = lab_strength()
     rows = []

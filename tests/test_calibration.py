@@ -403,3 +403,19 @@ def test_pareto_front_is_the_set_no_row_dominates():
     assert pareto_front(costs).tolist() == brute
     line = np.array([[0.0, 1.0], [0.25, 0.75], [0.5, 0.5], [1.0, 0.0], [1.0, 1.0], [0.6, 0.6]])
     assert pareto_front(line).tolist() == [0, 1, 2, 3]
+
+
+def test_soil_fields_follow_the_papers_sets():
+    """Reference: the paper's Tables 4-6 (shared/data): every set's shear cohesion is half its normal cohesion (to
+    the tables' 0.01 Pa) and eta_twist = eta_roll; soil_fields gives each set's fields from its three genes."""
+    from calibration.genes import soil_fields, soil_overrides
+    from scenes import paper
+
+    t = paper.table("ga_sets")
+    for k in range(len(t["set"])):
+        genes = {"friction_angle": t["friction_angle_deg"][k], "normal_cohesion": t["normal_cohesion_pa"][k],
+                 "eta_roll": t["eta_roll_twist"][k]}
+        f = soil_fields(genes)
+        assert f["shear_cohesion"] == pytest.approx(t["shear_cohesion_pa"][k], abs=0.01)
+        assert f["eta_twist"] == f["eta_roll"] == t["eta_roll_twist"][k]
+        assert soil_overrides(genes, 3)["shear_cohesion"] == [f["shear_cohesion"]] * 3
