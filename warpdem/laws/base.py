@@ -118,27 +118,6 @@ class Materials:
 
 
 @wp.func
-def new_hist(p: Phys, n: wp.vec3f, give_cohesion: int) -> Hist:
-    """History of a contact created this step; cohesion is given if asked and both materials are cohesive."""
-    h = Hist()
-    h.fs = wp.vec3f(0.0)
-    h.mb = wp.vec3f(0.0)
-    h.mtw = wp.vec3f(0.0)
-    h.normal = n
-    h.unp = 0.0
-    h.an = 0.0
-    h.as_ = 0.0
-    h.flags = ACTIVE | FRAGILE
-    if give_cohesion != 0 and p.cohesive != 0:
-        h.an = p.an
-        h.as_ = p.as_
-        h.flags = ACTIVE | COHESIVE
-        if p.fragile != 0:
-            h.flags = h.flags | FRAGILE
-    return h
-
-
-@wp.func
 def set_cohesion(h: Hist, p: Phys) -> Hist:
     """Yade's setCohesionNow on an existing contact: adhesions reset, cohesion (re)established."""
     out = h
@@ -163,6 +142,51 @@ def empty_hist() -> Hist:
     h.as_ = 0.0
     h.flags = 0
     return h
+
+
+@wp.func
+def new_hist(p: Phys, n: wp.vec3f, give_cohesion: int) -> Hist:
+    """History of a contact created this step; cohesion is given if asked and both materials are cohesive."""
+    h = empty_hist()
+    h.normal = n
+    h.flags = ACTIVE | FRAGILE
+    if give_cohesion != 0:
+        h = set_cohesion(h, p)
+    return h
+
+
+@wp.func
+def law_out(h: Hist) -> LawOut:
+    """A law's output before its step: history h, no force or moment, alive, nothing dissipated."""
+    out = LawOut()
+    out.hist = h
+    out.force = wp.vec3f(0.0)
+    out.moment = wp.vec3f(0.0)
+    out.alive = 1
+    out.dissip_slide = 0.0
+    out.dissip_roll = 0.0
+    return out
+
+
+@wp.func
+def deleted(out: LawOut) -> LawOut:
+    """out for a contact the law deletes this step: not alive, its history cleared (the rest of out kept)."""
+    out.alive = 0
+    out.hist = empty_hist()
+    return out
+
+
+@wp.func
+def transport(h: Hist, n: wp.vec3f, ang_sum: wp.vec3f, dt: float, is_new: int):
+    """The two small rotations that carry the history's tangential vectors from the previous normal h.normal to n
+    (the current unit normal) over dt [s] with ang_sum = omega1 + omega2 [rad/s]: returns (orth, twist) for
+    :func:`rotate_hist`, both zero for a new contact (is_new != 0: nothing to transport)."""
+    orth = wp.vec3f(0.0)
+    twist = wp.vec3f(0.0)
+    if is_new == 0:
+        orth = wp.cross(h.normal, n)
+        twist = (0.5 * dt * wp.dot(h.normal, ang_sum)) * h.normal
+    return orth, twist
 
 
 @wp.func

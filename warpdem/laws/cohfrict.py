@@ -27,8 +27,10 @@ from .base import (
     LawOut,
     Materials,
     Phys,
-    empty_hist,
+    deleted,
+    law_out,
     rotate_hist,
+    transport,
 )
 
 wp.set_module_options({"enable_backward": False})
@@ -144,6 +146,105 @@ def make_phys(mats: Materials, mi: int, mj: int, r1: float, r2: float) -> Phys:
 
 
 @wp.func
+def normal_force(h: Hist, p: Phys, un: float, fragile: bool, unp_max: float):
+    """The normal force fn [N] (positive in compression) of a contact of overlap un [m], with its plastic normal
+    displacement unp [m] (h.unp, or the new one where a non-fragile bond yields in tension); returns (alive, fn,
+    unp), alive 0 where the bond breaks (a fragile one beyond its strength h.an [N], a non-fragile one whose
+    plastic tensile displacement -unp exceeds unp_max [m] where unp_max >= 0)."""
+    fn = p.kn * (un - h.unp)
+    unp = h.unp
+    if -fn > h.an:
+        if fragile:
+            return 0, fn, unp
+        # non-fragile: normal plasticity in tension
+        fn = -h.an
+        unp = un + h.an / p.kn
+        if unp_max >= 0.0 and -unp > unp_max:
+            return 0, fn, unp
+    return 1, fn, unp
+
+
+@wp.func
+def shear_force(out: LawOut, h: Hist, p: Phys, fn: float, fragile: bool, is_new: int, n: wp.vec3f, v12: wp.vec3f,
+                orth: wp.vec3f, twist: wp.vec3f, dt: float):
+    """The shear force: h.fs [N] transported to the current tangent plane (by orth and twist, see
+    :func:`~warpdem.laws.base.rotate_hist`; zero for a new contact), plus -ks times the shear increment of v12
+    [m/s] over dt [s], held to the Coulomb limit with shear adhesion (a fragile cohesive bond loses its cohesion
+    when the limit is exceeded). Sets out.hist.fs, out.hist's cohesion where it breaks and out.dissip_slide [J];
+    returns (out, fn_out), fn_out the normal force [N] the contact transmits (0 for a sliding one in tension)."""
+    fn_out = fn
+    fs = rotate_hist(h.fs, orth, twist)
+    if is_new != 0:
+        fs = wp.vec3f(0.0)
+    dus = (v12 - wp.dot(n, v12) * n) * dt
+    fs = fs - p.ks * dus
+
+    # Coulomb limit with shear adhesion; fragile bonds break when exceeded
+    fs_norm = wp.length(fs)
+    max_fs = wp.max(0.0, out.hist.as_ + fn * p.tan_phi)
+    if fs_norm > max_fs:
+        if fragile and (out.hist.flags & COHESIVE) != 0:
+            out.hist.flags = out.hist.flags & ~COHESIVE
+            out.hist.an = 0.0
+            out.hist.as_ = 0.0
+            max_fs = wp.max(0.0, fn * p.tan_phi)
+        trial = fs
+        fs = fs * (max_fs / fs_norm)
+        if p.ks > 0.0:
+            d = wp.dot(trial - fs, fs) / p.ks
+            if d > 0.0:
+                out.dissip_slide = d
+        if fn < 0.0:
+            fn_out = 0.0
+    out.hist.fs = fs
+    return out, fn_out
+
+
+@wp.func
+def cap_moment(m: wp.vec3f, m_max: float, k: float):
+    """A rolling or twisting moment m [N m] held to its plastic cap m_max [N m] (m_max >= 0); returns (the capped
+    moment, the energy dissipated [J] by the cap at rotational stiffness k [N m/rad], 0 where k is 0 or m is within
+    the cap)."""
+    dissip = 0.0
+    mn = wp.length(m)
+    if mn > m_max:
+        if k > 0.0:
+            dissip = (mn - m_max) * m_max / k
+        if mn > 0.0:
+            m = m * (m_max / mn)
+    return m, dissip
+
+
+@wp.func
+def moments(out: LawOut, h: Hist, p: Phys, fn_out: float, n: wp.vec3f, rel_angvel: wp.vec3f, orth: wp.vec3f,
+            twist: wp.vec3f, dt: float, always_moment: int) -> LawOut:
+    """The rolling and twisting moments, incremental form with plastic caps (eta * R * |fn_out| [N m]): h.mb and
+    h.mtw [N m] transported (orth, twist) and advanced by -kr dt and -ktw dt times the bending and twisting parts
+    of rel_angvel [rad/s], on a contact whose materials both take the moment law and that is cohesive (or any, with
+    always_moment). Sets out.moment, out.hist.mb, out.hist.mtw, out.hist.normal = n and adds the caps' work [J] to
+    out.dissip_roll."""
+    mb = h.mb
+    mtw = h.mtw
+    if p.moment_law != 0 and ((out.hist.flags & COHESIVE) != 0 or always_moment != 0):
+        rel_twist = wp.dot(n, rel_angvel) * n
+        rel_bend = rel_angvel - rel_twist
+        mb = rotate_hist(h.mb, orth, twist) - p.kr * dt * rel_bend
+        mtw = rotate_hist(h.mtw, orth, twist) - p.ktw * dt * rel_twist
+        fabs = wp.abs(fn_out)
+        if p.max_roll >= 0.0:
+            mb, d_roll = cap_moment(mb, p.max_roll * fabs, p.kr)
+            out.dissip_roll += d_roll
+        if p.max_twist >= 0.0:
+            mtw, d_twist = cap_moment(mtw, p.max_twist * fabs, p.ktw)
+            out.dissip_roll += d_twist
+        out.moment = mb + mtw
+    out.hist.mb = mb
+    out.hist.mtw = mtw
+    out.hist.normal = n
+    return out
+
+
+@wp.func
 def law(
     h: Hist,
     p: Phys,
@@ -171,92 +272,16 @@ def law(
         unp_max: a non-fragile contact is deleted when its plastic tensile displacement -unp exceeds this [m]
             (Yade's unpMax: 0 by default, so it breaks at its first tensile yield; < 0 means never).
     """
-    out = LawOut()
-    out.hist = h
-    out.force = wp.vec3f(0.0)
-    out.moment = wp.vec3f(0.0)
-    out.alive = 1
-    out.dissip_slide = 0.0
-    out.dissip_roll = 0.0
-
-    fn = p.kn * (un - h.unp)
+    out = law_out(h)
     fragile = (h.flags & FRAGILE) != 0
-    if -fn > h.an:
-        if fragile:
-            out.alive = 0
-            out.hist = empty_hist()
-            return out
-        # non-fragile: normal plasticity in tension
-        fn = -h.an
-        out.hist.unp = un + h.an / p.kn
-        if unp_max >= 0.0 and -out.hist.unp > unp_max:
-            out.alive = 0
-            out.hist = empty_hist()
-            return out
-    fn_out = fn
-
-    # transport the history to the current tangent plane (nothing to transport for a new contact)
-    orth = wp.vec3f(0.0)
-    twist = wp.vec3f(0.0)
-    if is_new == 0:
-        orth = wp.cross(h.normal, n)
-        twist = (0.5 * dt * wp.dot(h.normal, ang_sum)) * h.normal
-    fs = rotate_hist(h.fs, orth, twist)
-    if is_new != 0:
-        fs = wp.vec3f(0.0)
-    dus = (v12 - wp.dot(n, v12) * n) * dt
-    fs = fs - p.ks * dus
-
-    # Coulomb limit with shear adhesion; fragile bonds break when exceeded
-    fs_norm = wp.length(fs)
-    max_fs = wp.max(0.0, out.hist.as_ + fn * p.tan_phi)
-    if fs_norm > max_fs:
-        if fragile and (out.hist.flags & COHESIVE) != 0:
-            out.hist.flags = out.hist.flags & ~COHESIVE
-            out.hist.an = 0.0
-            out.hist.as_ = 0.0
-            max_fs = wp.max(0.0, fn * p.tan_phi)
-        trial = fs
-        fs = fs * (max_fs / fs_norm)
-        if p.ks > 0.0:
-            d = wp.dot(trial - fs, fs) / p.ks
-            if d > 0.0:
-                out.dissip_slide = d
-        if fn < 0.0:
-            fn_out = 0.0
-    out.hist.fs = fs
-    out.force = -fn_out * n - fs
-
-    # rolling and twisting moments, incremental form, with plastic caps
-    mb = h.mb
-    mtw = h.mtw
-    if p.moment_law != 0 and ((out.hist.flags & COHESIVE) != 0 or always_moment != 0):
-        rel_twist = wp.dot(n, rel_angvel) * n
-        rel_bend = rel_angvel - rel_twist
-        mb = rotate_hist(h.mb, orth, twist) - p.kr * dt * rel_bend
-        mtw = rotate_hist(h.mtw, orth, twist) - p.ktw * dt * rel_twist
-        fabs = wp.abs(fn_out)
-        if p.max_roll >= 0.0:
-            roll_max = p.max_roll * fabs
-            mbn = wp.length(mb)
-            if mbn > roll_max:
-                if p.kr > 0.0:
-                    out.dissip_roll += (mbn - roll_max) * roll_max / p.kr
-                if mbn > 0.0:
-                    mb = mb * (roll_max / mbn)
-        if p.max_twist >= 0.0:
-            tw_max = p.max_twist * fabs
-            mtn = wp.length(mtw)
-            if mtn > tw_max:
-                if p.ktw > 0.0:
-                    out.dissip_roll += (mtn - tw_max) * tw_max / p.ktw
-                if mtn > 0.0:
-                    mtw = mtw * (tw_max / mtn)
-        out.moment = mb + mtw
-    out.hist.mb = mb
-    out.hist.mtw = mtw
-    out.hist.normal = n
-    return out
+    alive, fn, unp = normal_force(h, p, un, fragile, unp_max)
+    if alive == 0:
+        return deleted(out)
+    out.hist.unp = unp
+    orth, twist = transport(h, n, ang_sum, dt, is_new)  # to the current tangent plane
+    out, fn_out = shear_force(out, h, p, fn, fragile, is_new, n, v12, orth, twist, dt)
+    out.force = -fn_out * n - out.hist.fs
+    return moments(out, h, p, fn_out, n, rel_angvel, orth, twist, dt, always_moment)
 
 
 @wp.func

@@ -36,7 +36,7 @@ from typing import ClassVar
 import warp as wp
 
 from ..errors import check_positive, check_range, degrees_to_radians
-from .base import HERTZ_MINDLIN, Hist, LawOut, Materials, Phys, empty_hist, rotate_hist
+from .base import HERTZ_MINDLIN, Hist, LawOut, Materials, Phys, deleted, law_out, rotate_hist, transport
 
 wp.set_module_options({"enable_backward": False})
 
@@ -114,17 +114,9 @@ def law(h: Hist, p: Phys, is_new: int, n: wp.vec3f, un: float, v12: wp.vec3f, an
         ang_sum: omega1 + omega2 [rad/s] (for the twist part of the transport).
         dt: time step [s].
     """
-    out = LawOut()
-    out.hist = h
-    out.force = wp.vec3f(0.0)
-    out.moment = wp.vec3f(0.0)
-    out.alive = 1
-    out.dissip_slide = 0.0
-    out.dissip_roll = 0.0
+    out = law_out(h)
     if un < 0.0:
-        out.alive = 0
-        out.hist = empty_hist()
-        return out
+        return deleted(out)
     root = wp.sqrt(un)
     fn = p.kn * un * root  # kno un^1.5
     ks = p.ks * root  # tangent shear stiffness [N/m]
@@ -132,8 +124,7 @@ def law(h: Hist, p: Phys, is_new: int, n: wp.vec3f, un: float, v12: wp.vec3f, an
     # transport the history to the current tangent plane (nothing to transport for a new contact)
     fs = wp.vec3f(0.0)
     if is_new == 0:
-        orth = wp.cross(h.normal, n)
-        twist = (0.5 * dt * wp.dot(h.normal, ang_sum)) * h.normal
+        orth, twist = transport(h, n, ang_sum, dt, is_new)
         fs = rotate_hist(h.fs, orth, twist)
     dus = (v12 - wp.dot(n, v12) * n) * dt
     fs = fs - ks * dus
