@@ -625,66 +625,84 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
     return t
 
 
-def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.ndarray]) -> tuple[Model, State]:
-    nb = b._n_bodies
-    nm = len(b.materials)
-    ng = len(b.groups)
-    sph_body = np.concatenate(b.sphere_body) if b.sphere_body else np.zeros(0, np.int32)
-    sph_off = np.concatenate(b.sphere_offset) if b.sphere_offset else np.zeros((0, 3))
-    sph_rad = np.concatenate(b.sphere_radius) if b.sphere_radius else np.zeros(0)
-    sph_mat = np.concatenate(b.sphere_material) if b.sphere_material else np.zeros(0, np.int32)
-    ns = len(sph_rad)
+def _sphere_rows(b: ModelBuilder) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One world's spheres, in the order they were added: body (ns,), offset in the body frame [m] (ns, 3), radius
+    [m] (ns,) and material (ns,)."""
+    return (
+        np.concatenate(b.sphere_body) if b.sphere_body else np.zeros(0, np.int32),
+        np.concatenate(b.sphere_offset) if b.sphere_offset else np.zeros((0, 3)),
+        np.concatenate(b.sphere_radius) if b.sphere_radius else np.zeros(0),
+        np.concatenate(b.sphere_material) if b.sphere_material else np.zeros(0, np.int32),
+    )
 
-    # bodies: masses scale with the per-world density of the body's material
+
+def _body_mass(b: ModelBuilder, W: int, t: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Every world's body masses [kg] (W * nb,) and principal moments of inertia [kg m^2] (W * nb, 3): the built
+    ones scaled by the world's density of the body's material over the built density, and by a body:<name>:mass
+    override's ratio to the built mass (mass and inertia together)."""
+    nb = b._n_bodies
     mass0 = b.body_array("mass")
     inertia0 = b.body_array("inertia").reshape(nb, 3)
     dmat = b.body_array("density_material").astype(np.int64)
     base_rho = np.array([m.density for m in b.materials])
     scale = np.ones((W, nb))
     has = dmat >= 0
-    if nm:
+    if len(b.materials):
         scale[:, has] = t["density"][:, dmat[has]] / base_rho[dmat[has]]
-    # a body:<name>:mass override scales mass and inertia together
     scale = scale * np.where(mass0 > 0, t["mass"] / np.where(mass0 > 0, mass0, 1.0), 1.0)
-    mass = (scale * mass0).reshape(-1)
-    inertia = (scale[:, :, None] * inertia0).reshape(-1, 3)
+    return (scale * mass0).reshape(-1), (scale[:, :, None] * inertia0).reshape(-1, 3)
+
+
+def _body_flags(b: ModelBuilder) -> np.ndarray:
+    """One world's body flags (nb,) int32: the blocked DoFs, FLAG_ASPHERICAL, FLAG_PIVOT; InputError for a body
+    without mass that has a free DoF."""
+    nb = b._n_bodies
+    mass0 = b.body_array("mass")
+    inertia0 = b.body_array("inertia").reshape(nb, 3)
     flags = b.body_array("blocked").astype(np.int32)
     iso = np.ptp(inertia0, axis=1) <= 1e-12 * inertia0.max(axis=1)
     flags = flags | np.where(iso, 0, FLAG_ASPHERICAL).astype(np.int32)
-    pivot_world = b.body_array("pivot").reshape(nb, 3)
-    hinged = ~np.isnan(pivot_world[:, 0])
+    hinged = ~np.isnan(b.body_array("pivot").reshape(nb, 3)[:, 0])
     flags = flags | np.where(hinged, FLAG_PIVOT, 0).astype(np.int32)
     blocked_all = (flags & ALL_DOFS) == ALL_DOFS
     if np.any((mass0 <= 0) & ~blocked_all):
         raise InputError(f"body {int(np.argmax((mass0 <= 0) & ~blocked_all))} has no mass but free DoFs")
+    return flags
 
-    pos = np.tile(b.body_array("pos").reshape(nb, 3), (W, 1))
+
+def _body_motion(b: ModelBuilder, W: int, t: dict[str, np.ndarray], flags: np.ndarray, inertia: np.ndarray
+                 ) -> dict[str, np.ndarray]:
+    """Every world's initial body state and pivots (W * nb rows): pos [m], quat (x, y, z, w), vel [m/s] (of the
+    centre of mass), angvel [rad/s], angmom [kg m^2/s] (world frame, 0 for a fully blocked body), pivot_vel [m/s]
+    (the pivot's velocity of a hinged body, else 0) and pivot_local [m] (one world's (nb, 3): the pivot in the body
+    frame, 0 for a body that is not hinged)."""
+    nb = b._n_bodies
+    pos0 = b.body_array("pos").reshape(nb, 3)
+    pivot_world = b.body_array("pivot").reshape(nb, 3)
+    hinged = ~np.isnan(pivot_world[:, 0])
+    blocked_all = (flags & ALL_DOFS) == ALL_DOFS
     quat = np.tile(b.body_array("quat").reshape(nb, 4), (W, 1))
     vel = t["vel"].reshape(-1, 3).copy()
     angvel = t["angvel"].reshape(-1, 3)
     # a hinged body: `velocity` is its pivot's; the centre of mass moves at v_pivot + omega x (com - pivot)
     body_rot0 = massprops.quats_to_matrices(b.body_array("quat").reshape(nb, 4))
-    pivot_local = np.where(hinged[:, None], np.einsum("nji,nj->ni", body_rot0,
-                                                      np.nan_to_num(pivot_world) - b.body_array("pos").reshape(nb, 3)),
+    pivot_local = np.where(hinged[:, None], np.einsum("nji,nj->ni", body_rot0, np.nan_to_num(pivot_world) - pos0),
                            0.0)
     hinged_all = np.tile(hinged, W)
     pivot_vel = np.where(hinged_all[:, None], vel, 0.0)
-    arm = np.tile(np.nan_to_num(pivot_world) - b.body_array("pos").reshape(nb, 3), (W, 1))
+    arm = np.tile(np.nan_to_num(pivot_world) - pos0, (W, 1))
     vel[hinged_all] = pivot_vel[hinged_all] - np.cross(angvel[hinged_all], arm[hinged_all])
     # L = R diag(I) R^T omega, for every body at once
     rot = massprops.quats_to_matrices(quat)
     local = np.einsum("nji,nj->ni", rot, angvel) * inertia
     angmom = np.einsum("nij,nj->ni", rot, local) * np.tile(~blocked_all, W)[:, None]
-    world_of_body = np.repeat(np.arange(W, dtype=np.int32), nb)
+    return {"pos": np.tile(pos0, (W, 1)), "quat": quat, "vel": vel, "angvel": angvel, "angmom": angmom,
+            "pivot_vel": pivot_vel, "pivot_local": pivot_local}
 
-    def arr(a: np.ndarray, dtype: object) -> wp.array:
-        return wp.array(np.ascontiguousarray(a), dtype=dtype, device=dev)
 
-    # spheres
-    sphere_body = (np.tile(sph_body, W) + np.repeat(np.arange(W) * nb, ns)).astype(np.int32)
-    sphere_world = np.repeat(np.arange(W, dtype=np.int32), ns)
-
-    # meshes: one warp.Mesh per distinct geometry, shared by the world replicas
+def _mesh_geometry(b: ModelBuilder, dev: wp.context.Device) -> tuple[list[wp.Mesh], list[int], list[int], np.ndarray]:
+    """One warp.Mesh per mesh of the builder (shared by the world replicas): the meshes, their ids, each mesh's
+    first row in the triangle table, and the table: the triangles' vertices in the body frame [m] (3 * n_tri, 3)."""
     warp_meshes, geom_ids, tri_offsets, tris = [], [], [], []
     n_tri = 0
     for m in b.meshes:
@@ -697,36 +715,72 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         tri_offsets.append(n_tri)
         tris.append(m.vertices_local[m.faces].reshape(-1, 3))
         n_tri += len(m.faces)
+    return warp_meshes, geom_ids, tri_offsets, np.concatenate(tris) if tris else np.zeros((3, 3))
+
+
+_MAT_ARRAYS = {"young": "young", "poisson": "poisson", "friction": "friction_angle",
+               "normal_cohesion": "normal_cohesion", "shear_cohesion": "shear_cohesion", "eta_roll": "eta_roll",
+               "eta_twist": "eta_twist", "alpha_kr": "alpha_kr", "alpha_ktw": "alpha_ktw"}
+"""Model's ``mat_<name>`` array -> the material field it holds (float32; the friction angle in radians)."""
+
+
+def _material_and_spring_arrays(b: ModelBuilder, W: int, t: dict[str, np.ndarray], arr: object
+                                ) -> dict[str, wp.array]:
+    """The Model's per-world material (``mat_*``, (W * n_materials,)), damping (``group_damping``, (W * n_groups,))
+    and spring (``spring_*``, (W * n_springs,)) arrays, float32 but the flags and the spring ends."""
+    out = {}
+    for name, f in _MAT_ARRAYS.items():
+        col = t[f].reshape(-1)
+        out["mat_" + name] = arr((np.radians(col) if f == "friction_angle" else col).astype(np.float32), wp.float32)
+    out["mat_flags"] = arr(np.tile(np.array([m.flags for m in b.materials], dtype=np.int32), W), wp.int32)
+    out["group_damping"] = arr(t["damping"].reshape(-1).astype(np.float32), wp.float32)
+    nb, nk = b._n_bodies, len(b.springs)
+    off = np.repeat(np.arange(W) * nb, nk)
+    for end in ("a", "b"):
+        body = np.array([getattr(s, "body_" + end) for s in b.springs], dtype=np.int64)
+        out["spring_body_" + end] = arr((np.tile(body, W) + off).astype(np.int32), wp.int32)
+        out["spring_point_" + end] = arr(t["spring_point_" + end].reshape(-1, 3), wp.vec3f)
+    for f in SPRING_FIELDS:
+        out["spring_" + f] = arr(t["spring_" + f].reshape(-1).astype(np.float32), wp.float32)
+    return out
+
+
+def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.ndarray]) -> tuple[Model, State]:
+    """The Model and State of W worlds of the builder's scene, with the per-world tables t (_world_tables)."""
+    nb = b._n_bodies
+    sph_body, sph_off, sph_rad, sph_mat = _sphere_rows(b)
+    ns = len(sph_rad)
+    mass, inertia = _body_mass(b, W, t)
+    flags = _body_flags(b)
+    motion = _body_motion(b, W, t, flags, inertia)
+    world_of_body = np.repeat(np.arange(W, dtype=np.int32), nb)
+
+    def arr(a: np.ndarray, dtype: object) -> wp.array:
+        return wp.array(np.ascontiguousarray(a), dtype=dtype, device=dev)
+
+    sphere_body = (np.tile(sph_body, W) + np.repeat(np.arange(W) * nb, ns)).astype(np.int32)
+    sphere_world = np.repeat(np.arange(W, dtype=np.int32), ns)
+    warp_meshes, geom_ids, tri_offsets, tri_vertices = _mesh_geometry(b, dev)
     nmesh = len(b.meshes)
     mesh_body = np.array([m.body for m in b.meshes], dtype=np.int64)
     mesh_body_all = (np.tile(mesh_body, W) + np.repeat(np.arange(W) * nb, nmesh)).astype(np.int32)
-    tri_vertices = np.concatenate(tris) if tris else np.zeros((3, 3))
-
-    # springs
-    ns_ = len(b.springs)
-    sa = np.array([s.body_a for s in b.springs], dtype=np.int64)
-    sb = np.array([s.body_b for s in b.springs], dtype=np.int64)
-    off = np.repeat(np.arange(W) * nb, ns_)
-
-    mats = {f: t[f].reshape(-1) for f in MATERIAL_FIELDS}
-    mat_flags = np.tile(np.array([m.flags for m in b.materials], dtype=np.int32), W)
     model = Model(
         device=dev,
         n_worlds=W,
         bodies_per_world=nb,
         spheres_per_world=ns,
         meshes_per_world=nmesh,
-        springs_per_world=ns_,
-        n_materials=nm,
-        n_groups=ng,
+        springs_per_world=len(b.springs),
+        n_materials=len(b.materials),
+        n_groups=len(b.groups),
         gravity=b.gravity,
         body_world=arr(world_of_body, wp.int32),
         body_group=arr(np.tile(b.body_array("group").astype(np.int32), W), wp.int32),
         body_flags=arr(np.tile(flags, W), wp.int32),
         body_mass=arr(mass, wp.float64),
         body_inertia=arr(inertia, wp.vec3d),
-        body_pivot=arr(np.tile(pivot_local, (W, 1)), wp.vec3d),
-        body_pivot_vel=arr(pivot_vel, wp.vec3d),
+        body_pivot=arr(np.tile(motion["pivot_local"], (W, 1)), wp.vec3d),
+        body_pivot_vel=arr(motion["pivot_vel"], wp.vec3d),
         body_pivot_friction=arr(t["pivot_friction"].reshape(-1), wp.float64),
         sphere_body=arr(sphere_body, wp.int32),
         sphere_world=arr(sphere_world, wp.int32),
@@ -740,27 +794,7 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         mesh_tri_offset=arr(np.tile(np.array(tri_offsets, dtype=np.int32), W), wp.int32),
         tri_vertices=arr(tri_vertices, wp.vec3d),
         world_mesh_start=arr(np.arange(W, dtype=np.int32) * nmesh, wp.int32),
-        mat_young=arr(mats["young"].astype(np.float32), wp.float32),
-        mat_poisson=arr(mats["poisson"].astype(np.float32), wp.float32),
-        mat_friction=arr(np.radians(mats["friction_angle"]).astype(np.float32), wp.float32),
-        mat_normal_cohesion=arr(mats["normal_cohesion"].astype(np.float32), wp.float32),
-        mat_shear_cohesion=arr(mats["shear_cohesion"].astype(np.float32), wp.float32),
-        mat_eta_roll=arr(mats["eta_roll"].astype(np.float32), wp.float32),
-        mat_eta_twist=arr(mats["eta_twist"].astype(np.float32), wp.float32),
-        mat_alpha_kr=arr(mats["alpha_kr"].astype(np.float32), wp.float32),
-        mat_alpha_ktw=arr(mats["alpha_ktw"].astype(np.float32), wp.float32),
-        mat_flags=arr(mat_flags, wp.int32),
-        group_damping=arr(t["damping"].reshape(-1).astype(np.float32), wp.float32),
-        spring_body_a=arr((np.tile(sa, W) + off).astype(np.int32), wp.int32),
-        spring_body_b=arr((np.tile(sb, W) + off).astype(np.int32), wp.int32),
-        spring_point_a=arr(t["spring_point_a"].reshape(-1, 3), wp.vec3f),
-        spring_point_b=arr(t["spring_point_b"].reshape(-1, 3), wp.vec3f),
-        spring_stiffness=arr(t["spring_stiffness"].reshape(-1).astype(np.float32), wp.float32),
-        spring_damping=arr(t["spring_damping"].reshape(-1).astype(np.float32), wp.float32),
-        spring_rest_length=arr(t["spring_rest_length"].reshape(-1).astype(np.float32), wp.float32),
-        spring_preload=arr(t["spring_preload"].reshape(-1).astype(np.float32), wp.float32),
-        spring_progressive=arr(t["spring_progressive"].reshape(-1).astype(np.float32), wp.float32),
-        spring_stop_stiffness=arr(t["spring_stop_stiffness"].reshape(-1).astype(np.float32), wp.float32),
+        **_material_and_spring_arrays(b, W, t, arr),
         names={
             "body": dict(b.body_names),
             "material": dict(b.material_names),
@@ -780,22 +814,22 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         "body_inertia": inertia,
         "body_group": np.tile(b.body_array("group").astype(np.int32), W),
         "body_flags": np.tile(flags, W),
-        "body_pivot": np.tile(pivot_local, (W, 1)),
+        "body_pivot": np.tile(motion["pivot_local"], (W, 1)),
         "body_world": world_of_body,
         "mesh_body": mesh_body_all,
         "mesh_vertices_local": [m.vertices_local for m in b.meshes],
         "mesh_faces": [m.faces for m in b.meshes],
-        "material_young": mats["young"],
-        "material_density": mats["density"],
+        "material_young": t["young"].reshape(-1),
+        "material_density": t["density"].reshape(-1),
         "sphere_material": np.tile(sph_mat, W),
         "spring_stiffness": t["spring_stiffness"].reshape(-1),
     }
     state = State(
-        body_pos=arr(pos, wp.vec3d),
-        body_quat=arr(quat, wp.quatd),
-        body_vel=arr(vel, wp.vec3d),
-        body_angvel=arr(angvel, wp.vec3d),
-        body_angmom=arr(angmom, wp.vec3d),
+        body_pos=arr(motion["pos"], wp.vec3d),
+        body_quat=arr(motion["quat"], wp.quatd),
+        body_vel=arr(motion["vel"], wp.vec3d),
+        body_angvel=arr(motion["angvel"], wp.vec3d),
+        body_angmom=arr(motion["angmom"], wp.vec3d),
     )
     return model, state
 
