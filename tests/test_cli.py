@@ -585,3 +585,43 @@ def test_a_killed_reproduce_keeps_its_ringing_and_bed_and_resumes_to_the_same_re
     for key in ("particles", "spheres", "porosity", "coordination"):
         assert resumed["bed"][key] == whole["bed"][key], key
     assert not (out / "checkpoints").exists()
+
+
+def test_a_killed_full_workflow_keeps_its_ringing_calibrations_and_bed(tmp_path, monkeypatch, capsys) -> None:
+    """`warpdem reproduce --workflow full --scale ci` (a small GA) interrupted (Ctrl-C) in the draught calibration's
+    first batch, after the ringing calibrations and the calibration bed's deposition: exit 130, one line; the same
+    command again neither calibrates the ringing rig again nor deposits (both refused here; it is interrupted again
+    in the draught calibration). That a resumed workflow gives the uninterrupted result is
+    tests/test_workflow.py's (stopped in every kind of piece)."""
+    from calibration import cli
+    from calibration import paper_workflow as pw
+    from scenes import soil_bin as sb
+
+    seen: list[str] = []
+
+    def bar(label: str, done: float, total: float) -> None:
+        seen.append(label)
+        if label.startswith("soil bin:"):  # a soil-bin batch: the draught calibration's
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_bar", bar)
+    args = ["reproduce", "--workflow", "full", "--scale", "ci", "--assembly", "A", "--springs", "16",
+            "--generations", "1", "--population", "2", "--parents", "1", "--device", "cpu", "--out",
+            str(tmp_path / "wf")]
+    capsys.readouterr()
+    assert cli.main(args) == 130
+    assert capsys.readouterr().err.splitlines()[-1] == ("warpdem reproduce: interrupted; the same command run again "
+                                                        "resumes from its last checkpoint")
+    assert any(x.startswith("ringing calibration") for x in seen) and any(x.startswith("deposition") for x in seen)
+    assert sorted(p.name for p in (tmp_path / "wf").glob("ringing_*.json")) == ["ringing_linear.json",
+                                                                              "ringing_paper.json"]
+
+    def refuse(*_a: object, **_k: object) -> None:
+        raise AssertionError("ran again")
+
+    monkeypatch.setattr(pw, "run_ringing", refuse)
+    monkeypatch.setattr(sb, "deposit", refuse)
+    seen.clear()
+    assert cli.main(args) == 130
+    assert capsys.readouterr().err.splitlines()[-1].startswith("warpdem reproduce: interrupted")
+    assert seen and all(x.startswith("soil bin:") for x in seen), seen
