@@ -208,6 +208,197 @@ def check_body(
             fault[base + 2] = step
 
 
+@wp.func(inline=True)
+def add_energy(sums: Sums, w: int, term: int, e: wp.float64):
+    """Add e [J] to world w's energy term ``term`` (E_DAMPING, E_DRIVEN, ...) in sums.energy."""
+    wp.atomic_add(sums.energy, w * N_ENERGY + term, e)
+
+
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
+def body_wrench(b: int, sums: Sums, parts: int, float_sums: int):
+    """Body b's summed force [N] and torque about its centre of mass [N m] (float32) this step: read from
+    ``sums.body_force``, ``sums.body_torque`` where ``float_sums`` != 0 (converted by
+    accumulate.wrench_to_float_kernel), else from the fixed-point accumulators of ``parts`` CPU threads."""
+    if float_sums != 0:
+        return sums.body_force[b], sums.body_torque[b]
+    n = sums.body_force.shape[0]
+    return read_float(sums.force_acc, sums.force_scale, b, n, parts), read_float(sums.torque_acc, sums.torque_scale,
+                                                                                 b, n, parts)
+
+
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
+def move_driven(b: int, w: int, inertia: wp.vec3d, dt: wp.float64, track_energy: int, f: wp.vec3d, t: wp.vec3d,
+                x: wp.vec3d, q: wp.quatd, v: wp.vec3d, omega: wp.vec3d, state: BodyState, sums: Sums) -> wp.vec3d:
+    """A body whose every DoF is blocked: it moves at its imposed velocity v [m/s] and angular velocity omega
+    [rad/s]; writes its position and orientation and returns the new position [m]. The driver's work [J]: against
+    the contact and spring forces f [N] and torques t [N m], plus the change of the body's own rotational kinetic
+    energy (gravity on such a body is not in the balance)."""
+    q_new = quat_integrate(q, omega, dt)
+    if track_energy != 0:
+        work = -(wp.dot(f, v) + wp.dot(t, omega)) * dt
+        work += rotational_energy(inertia, q_new, omega) - rotational_energy(inertia, q, omega)
+        add_energy(sums, w, E_DRIVEN, work)
+    x = x + dt * v
+    state.pos[b] = x
+    state.quat[b] = q_new
+    return x
+
+
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
+def move_hinged(b: int, w: int, flags: int, m: wp.float64, inertia: wp.vec3d, lam: wp.float64, gravity: wp.vec3d,
+                dt: wp.float64, track_energy: int, f: wp.vec3d, t: wp.vec3d, x: wp.vec3d, q: wp.quatd, v: wp.vec3d,
+                omega: wp.vec3d, bodies: Bodies, state: BodyState, sums: Sums):
+    """A hinged body (FLAG_PIVOT; :func:`integrate_hinged`): writes its state and returns its new (position [m],
+    velocity [m/s], angular velocity [rad/s]); the work of local damping and pivot friction and the carriage's
+    work (the pivot reaction m a - f - m g times the pivot's velocity) go to the energy terms [J]."""
+    friction = bodies.pivot_friction[b]
+    pivot_vel = bodies.pivot_vel[b]
+    x, v_new, omega, q_new, l_new, work = integrate_hinged(flags, m, inertia, bodies.pivot[b], pivot_vel, friction,
+                                                           gravity, dt, lam, f, t, x, q, omega)
+    state.pos[b] = x
+    state.vel[b] = v_new
+    state.angvel[b] = omega
+    state.angmom[b] = l_new
+    state.quat[b] = q_new
+    if track_energy != 0:
+        if lam > wp.float64(0.0) or friction > wp.float64(0.0):
+            add_energy(sums, w, E_DAMPING, work)
+        reaction = m * (v_new - v) - (f + m * gravity) * dt
+        add_energy(sums, w, E_DRIVEN, wp.dot(reaction, pivot_vel))
+    return x, v_new, omega
+
+
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
+def rotate_constrained(b: int, w: int, flags: int, inertia: wp.vec3d, lam: wp.float64, dt: wp.float64,
+                       track_energy: int, t: wp.vec3d, q: wp.quatd, omega: wp.vec3d, state: BodyState,
+                       sums: Sums) -> wp.vec3d:
+    """A body with some (not all) rotations blocked: the free components solve I_ff alpha_f = (t - omega x I
+    omega)_f with the world-frame inertia [kg m^2], blocked ones keep omega [rad/s]; the driver's torque on the
+    blocked axes times their velocity and local damping's work go to the energy terms [J]. Writes the rotation
+    state; returns the new angular velocity [rad/s]."""
+    iw = inertia[0] * wp.identity(n=3, dtype=wp.float64)  # isotropic: the same in every frame
+    if (flags & FLAG_ASPHERICAL) != 0:
+        r = wp.quat_to_matrix(q)
+        iw = r * wp.diag(inertia) * wp.transpose(r)
+    alpha = solve_free_rotations(iw, t - wp.cross(omega, iw * omega), flags)
+    if track_energy != 0:
+        # the driver's torque on the blocked axes, iw alpha - (t - omega x iw omega), times their velocity
+        c = iw * alpha - (t - wp.cross(omega, iw * omega))
+        e = wp.float64(0.0)
+        for k in range(3):
+            if (flags & (1 << (k + 3))) != 0:
+                e += c[k] * omega[k] * dt
+        add_energy(sums, w, E_DRIVEN, e)
+    alpha_d = damp(alpha, omega, dt, lam)
+    if track_energy != 0 and lam > wp.float64(0.0):
+        add_energy(sums, w, E_DAMPING, wp.abs(wp.dot(iw * (alpha - alpha_d), omega)) * dt)
+    omega = omega + dt * alpha_d
+    state.angvel[b] = omega
+    state.angmom[b] = iw * omega
+    state.quat[b] = quat_integrate(q, omega, dt)
+    return omega
+
+
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
+def rotate_spherical(b: int, w: int, inertia: wp.vec3d, lam: wp.float64, dt: wp.float64, track_energy: int,
+                     t: wp.vec3d, q: wp.quatd, omega: wp.vec3d, state: BodyState, sums: Sums) -> wp.vec3d:
+    """A free body of spherical inertia inertia[0] [kg m^2]: alpha = t / I, damped like a; writes the rotation
+    state and returns the new angular velocity [rad/s]."""
+    alpha = damp(t / inertia[0], omega, dt, lam)
+    if track_energy != 0 and lam > wp.float64(0.0):
+        e = wp.float64(0.0)
+        for k in range(3):
+            e += inertia[0] * wp.abs(alpha[k] - t[k] / inertia[0]) * wp.abs(omega[k]) * dt
+        add_energy(sums, w, E_DAMPING, e)
+    omega = omega + dt * alpha
+    state.angvel[b] = omega
+    state.angmom[b] = inertia[0] * omega
+    state.quat[b] = quat_integrate(q, omega, dt)
+    return omega
+
+
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
+def rotate_aspherical(b: int, w: int, inertia: wp.vec3d, lam: wp.float64, dt: wp.float64, track_energy: int,
+                      t: wp.vec3d, q: wp.quatd, omega: wp.vec3d, state: BodyState, sums: Sums) -> wp.vec3d:
+    """A free aspherical body (principal moments inertia [kg m^2]): Yade's leapfrogAsphericalRotate on the world
+    angular momentum state.angmom[b] [kg m^2/s], with the torque t [N m] damped first (cundallDamp1st); writes the
+    rotation state and returns the new angular velocity [rad/s]."""
+    t_d = t
+    for k in range(3):
+        s = t[k] * omega[k]
+        if s > wp.float64(0.0):
+            t_d[k] = t[k] * (wp.float64(1.0) - lam)
+        elif s < wp.float64(0.0):
+            t_d[k] = t[k] * (wp.float64(1.0) + lam)
+    if track_energy != 0 and lam > wp.float64(0.0):
+        add_energy(sums, w, E_DAMPING, wp.abs(wp.dot(t - t_d, omega)) * dt)
+    l_mom = state.angmom[b]
+    l_n = l_mom + wp.float64(0.5) * dt * t_d
+    w_b_n = cw_div(wp.quat_rotate_inv(q, l_n), inertia)
+    q_half = q + wp.float64(0.5) * dt * dot_q(w_b_n, q)
+    l_mom = l_mom + dt * t_d
+    w_b_half = cw_div(wp.quat_rotate_inv(q, l_mom), inertia)
+    q_new = wp.normalize(q + dt * dot_q(w_b_half, q_half))
+    omega = wp.quat_rotate(q_new, w_b_half)
+    state.angmom[b] = l_mom
+    state.angvel[b] = omega
+    state.quat[b] = q_new
+    return omega
+
+
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
+def rotate_free(b: int, w: int, flags: int, inertia: wp.vec3d, lam: wp.float64, dt: wp.float64, track_energy: int,
+                t: wp.vec3d, q: wp.quatd, omega: wp.vec3d, driven: wp.float64, state: BodyState,
+                sums: Sums) -> wp.vec3d:
+    """The rotation of a body that is neither fully blocked nor hinged (see the module docstring), after its
+    translation, whose driver's work [J] is ``driven`` (added to E_DRIVEN here, with the blocked rotation's where all
+    rotations are blocked); returns the new angular velocity [rad/s]."""
+    rot_blocked = flags & ROT_DOFS
+    if rot_blocked == ROT_DOFS:
+        q_new = quat_integrate(q, omega, dt)
+        if track_energy != 0:
+            driven += -wp.dot(t, omega) * dt + rotational_energy(inertia, q_new, omega) - rotational_energy(
+                inertia, q, omega)
+            add_energy(sums, w, E_DRIVEN, driven)
+        state.quat[b] = q_new
+        return omega
+    if track_energy != 0 and (flags & 7) != 0:  # a blocked translation
+        add_energy(sums, w, E_DRIVEN, driven)
+    if rot_blocked != 0:
+        return rotate_constrained(b, w, flags, inertia, lam, dt, track_energy, t, q, omega, state, sums)
+    if (flags & FLAG_ASPHERICAL) == 0:
+        return rotate_spherical(b, w, inertia, lam, dt, track_energy, t, q, omega, state, sums)
+    return rotate_aspherical(b, w, inertia, lam, dt, track_energy, t, q, omega, state, sums)
+
+
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
+def move_free(b: int, w: int, flags: int, m: wp.float64, inertia: wp.vec3d, lam: wp.float64, gravity: wp.vec3d,
+              dt: wp.float64, track_energy: int, f: wp.vec3d, t: wp.vec3d, x: wp.vec3d, q: wp.quatd, v: wp.vec3d,
+              omega: wp.vec3d, state: BodyState, sums: Sums):
+    """A body that is neither fully blocked nor hinged: a = f / m + g on the free axes (the driver holds the
+    imposed velocity on the blocked ones), Cundall local damping, v += dt a, x += dt v, then its rotation
+    (:func:`rotate_free`); writes its state and returns its new (position [m], velocity [m/s], angular velocity
+    [rad/s])."""
+    a = f / m + gravity
+    driven = wp.float64(0.0)
+    for k in range(3):
+        if (flags & (1 << k)) != 0:
+            a[k] = wp.float64(0.0)
+            driven -= (f[k] + m * gravity[k]) * v[k] * dt  # the driver holds the imposed velocity
+    a_d = damp(a, v, dt, lam)
+    if track_energy != 0 and lam > wp.float64(0.0):
+        e = wp.float64(0.0)
+        for k in range(3):
+            e += m * wp.abs(a_d[k] - a[k]) * wp.abs(v[k] + wp.float64(0.5) * dt * a[k]) * dt
+        add_energy(sums, w, E_DAMPING, e)
+    v = v + dt * a_d
+    x = x + dt * v
+    omega = rotate_free(b, w, flags, inertia, lam, dt, track_energy, t, q, omega, driven, state, sums)
+    state.vel[b] = v
+    state.pos[b] = x
+    return x, v, omega
+
+
 @wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def integrate_body(
     b: int,
@@ -225,8 +416,6 @@ def integrate_body(
     being completed, for a fault record. Each path reads what it needs before it writes anything, and the force
     sums are cleared last (Warp's arrays may alias, so a load after a store waits for it)."""
     dt = opts.dt
-    gravity = bodies.gravity
-    track_energy = opts.track_energy
     flags = bodies.flags[b]
     w = bodies.world[b]
     m = bodies.mass[b]
@@ -236,131 +425,17 @@ def integrate_body(
     q = state.quat[b]
     v = state.vel[b]
     omega = state.angvel[b]
-    force = wp.vec3f()
-    torque = wp.vec3f()
-    if float_sums != 0:  # converted by accumulate.wrench_to_float_kernel
-        force = sums.body_force[b]
-        torque = sums.body_torque[b]
-    else:
-        n = sums.body_force.shape[0]
-        force = read_float(sums.force_acc, sums.force_scale, b, n, parts)
-        torque = read_float(sums.torque_acc, sums.torque_scale, b, n, parts)
+    force, torque = body_wrench(b, sums, parts, float_sums)
     f = wp.vec3d(force)
     t = wp.vec3d(torque)
-    if (flags & ALL_DOFS) == ALL_DOFS:
-        # fully prescribed motion; the driver's work: against the contact and spring forces, plus the change of
-        # the body's own rotational kinetic energy (gravity on such a body is not in the balance)
-        q_new = quat_integrate(q, omega, dt)
-        if track_energy != 0:
-            work = -(wp.dot(f, v) + wp.dot(t, omega)) * dt
-            work += rotational_energy(inertia, q_new, omega) - rotational_energy(inertia, q, omega)
-            wp.atomic_add(sums.energy, w * N_ENERGY + E_DRIVEN, work)
-        x = x + dt * v
-        state.pos[b] = x
-        state.quat[b] = q_new
+    if (flags & ALL_DOFS) == ALL_DOFS:  # fully prescribed motion
+        x = move_driven(b, w, inertia, dt, opts.track_energy, f, t, x, q, v, omega, state, sums)
     elif (flags & FLAG_PIVOT) != 0:
-        friction = bodies.pivot_friction[b]
-        pivot_vel = bodies.pivot_vel[b]
-        x, v_new, omega, q_new, l_new, work = integrate_hinged(flags, m, inertia, bodies.pivot[b], pivot_vel, friction,
-                                                               gravity, dt, lam, f, t, x, q, omega)
-        state.pos[b] = x
-        state.vel[b] = v_new
-        state.angvel[b] = omega
-        state.angmom[b] = l_new
-        state.quat[b] = q_new
-        if track_energy != 0:
-            if lam > wp.float64(0.0) or friction > wp.float64(0.0):
-                wp.atomic_add(sums.energy, w * N_ENERGY + E_DAMPING, work)
-            # the carriage's work: the pivot reaction m a - f - m g times the pivot's velocity
-            reaction = m * (v_new - v) - (f + m * gravity) * dt
-            wp.atomic_add(sums.energy, w * N_ENERGY + E_DRIVEN, wp.dot(reaction, pivot_vel))
-        v = v_new
+        x, v, omega = move_hinged(b, w, flags, m, inertia, lam, bodies.gravity, dt, opts.track_energy, f, t, x, q, v,
+                                  omega, bodies, state, sums)
     else:
-        a = f / m + gravity
-        driven = wp.float64(0.0)
-        for k in range(3):
-            if (flags & (1 << k)) != 0:
-                a[k] = wp.float64(0.0)
-                driven -= (f[k] + m * gravity[k]) * v[k] * dt  # the driver holds the imposed velocity
-        a_d = damp(a, v, dt, lam)
-        if track_energy != 0 and lam > wp.float64(0.0):
-            e = wp.float64(0.0)
-            for k in range(3):
-                e += m * wp.abs(a_d[k] - a[k]) * wp.abs(v[k] + wp.float64(0.5) * dt * a[k]) * dt
-            wp.atomic_add(sums.energy, w * N_ENERGY + E_DAMPING, e)
-        v = v + dt * a_d
-        x = x + dt * v
-
-        rot_blocked = flags & ROT_DOFS
-        if rot_blocked == ROT_DOFS:
-            q_new = quat_integrate(q, omega, dt)
-            if track_energy != 0:
-                driven += -wp.dot(t, omega) * dt + rotational_energy(inertia, q_new, omega) - rotational_energy(
-                    inertia, q, omega)
-                wp.atomic_add(sums.energy, w * N_ENERGY + E_DRIVEN, driven)
-            state.quat[b] = q_new
-        else:
-            if track_energy != 0 and (flags & 7) != 0:  # a blocked translation
-                wp.atomic_add(sums.energy, w * N_ENERGY + E_DRIVEN, driven)
-            if rot_blocked != 0:
-                # constrained rotation about the free world axes
-                iw = inertia[0] * wp.identity(n=3, dtype=wp.float64)  # isotropic: the same in every frame
-                if (flags & FLAG_ASPHERICAL) != 0:
-                    r = wp.quat_to_matrix(q)
-                    iw = r * wp.diag(inertia) * wp.transpose(r)
-                alpha = solve_free_rotations(iw, t - wp.cross(omega, iw * omega), flags)
-                if track_energy != 0:
-                    # the driver's torque on the blocked axes, iw alpha - (t - omega x iw omega), times their
-                    # velocity
-                    c = iw * alpha - (t - wp.cross(omega, iw * omega))
-                    e = wp.float64(0.0)
-                    for k in range(3):
-                        if (flags & (1 << (k + 3))) != 0:
-                            e += c[k] * omega[k] * dt
-                    wp.atomic_add(sums.energy, w * N_ENERGY + E_DRIVEN, e)
-                alpha_d = damp(alpha, omega, dt, lam)
-                if track_energy != 0 and lam > wp.float64(0.0):
-                    e = wp.abs(wp.dot(iw * (alpha - alpha_d), omega)) * dt
-                    wp.atomic_add(sums.energy, w * N_ENERGY + E_DAMPING, e)
-                omega = omega + dt * alpha_d
-                state.angvel[b] = omega
-                state.angmom[b] = iw * omega
-                state.quat[b] = quat_integrate(q, omega, dt)
-            elif (flags & FLAG_ASPHERICAL) == 0:
-                alpha = damp(t / inertia[0], omega, dt, lam)
-                if track_energy != 0 and lam > wp.float64(0.0):
-                    e = wp.float64(0.0)
-                    for k in range(3):
-                        e += inertia[0] * wp.abs(alpha[k] - t[k] / inertia[0]) * wp.abs(omega[k]) * dt
-                    wp.atomic_add(sums.energy, w * N_ENERGY + E_DAMPING, e)
-                omega = omega + dt * alpha
-                state.angvel[b] = omega
-                state.angmom[b] = inertia[0] * omega
-                state.quat[b] = quat_integrate(q, omega, dt)
-            else:
-                # aspherical, free: Yade's leapfrogAsphericalRotate with the torque damped first (cundallDamp1st)
-                t_d = t
-                for k in range(3):
-                    s = t[k] * omega[k]
-                    if s > wp.float64(0.0):
-                        t_d[k] = t[k] * (wp.float64(1.0) - lam)
-                    elif s < wp.float64(0.0):
-                        t_d[k] = t[k] * (wp.float64(1.0) + lam)
-                if track_energy != 0 and lam > wp.float64(0.0):
-                    wp.atomic_add(sums.energy, w * N_ENERGY + E_DAMPING, wp.abs(wp.dot(t - t_d, omega)) * dt)
-                l_mom = state.angmom[b]
-                l_n = l_mom + wp.float64(0.5) * dt * t_d
-                w_b_n = cw_div(wp.quat_rotate_inv(q, l_n), inertia)
-                q_half = q + wp.float64(0.5) * dt * dot_q(w_b_n, q)
-                l_mom = l_mom + dt * t_d
-                w_b_half = cw_div(wp.quat_rotate_inv(q, l_mom), inertia)
-                q_new = wp.normalize(q + dt * dot_q(w_b_half, q_half))
-                omega = wp.quat_rotate(q_new, w_b_half)
-                state.angmom[b] = l_mom
-                state.angvel[b] = omega
-                state.quat[b] = q_new
-        state.vel[b] = v
-        state.pos[b] = x
+        x, v, omega = move_free(b, w, flags, m, inertia, lam, bodies.gravity, dt, opts.track_energy, f, t, x, q, v,
+                                omega, state, sums)
     if float_sums == 0:
         n = sums.body_force.shape[0]
         clear_slots(sums.force_acc, b, n, parts)
