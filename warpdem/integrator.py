@@ -23,11 +23,14 @@ import warp as wp
 from .accumulate import add_wrench, clear_slots, read_float
 from .broadphase import mesh_displacement
 from .contacts import E_DAMPING, E_DRIVEN, E_SPRING_DAMPER, N_ENERGY
+from .data import NO_FAULT
 from .kernel_args import Bodies, BodyState, Meshes, Spheres, SphereState, Springs, Sums
 from .model import ALL_DOFS, FLAG_ASPHERICAL, FLAG_PIVOT, ROT_DOFS
 from .types import Options
 
 wp.set_module_options({"enable_backward": False})
+
+NO_FAULT_I = wp.constant(NO_FAULT)
 
 
 @wp.func
@@ -206,6 +209,16 @@ def check_body(
         if b < old:
             fault[base + 1] = cause
             fault[base + 2] = step
+
+
+@wp.func
+def keep_first_fault(src: wp.array(dtype=int), s: int, dst: wp.array(dtype=int), d: int):
+    """Copy the fault record (body, cause, step) src[s:s + 3] to dst[d:d + 3] unless dst already holds one (dst[d]
+    is not NO_FAULT): the first fault is kept."""
+    if dst[d] == NO_FAULT_I:
+        dst[d] = src[s]
+        dst[d + 1] = src[s + 1]
+        dst[d + 2] = src[s + 2]
 
 
 @wp.func(inline=True)

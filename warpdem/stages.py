@@ -22,7 +22,13 @@ from . import accumulate
 from . import kernel_args as ka
 from .contacts import sphere_pair_kernel, sphere_sphere_kernel, sphere_triangle_kernel
 from .data import DISP_STRIDE, NO_FAULT, Data
-from .integrator import integrate_bodies_kernel, mesh_end_one, spring_kernel, update_spheres_kernel
+from .integrator import (
+    integrate_bodies_kernel,
+    keep_first_fault,
+    mesh_end_one,
+    spring_kernel,
+    update_spheres_kernel,
+)
 from .laws import Materials
 from .model import Model, State
 from .types import Contacts, Control, Options
@@ -57,10 +63,7 @@ def _end_step_kernel(
     DISP_STRIDE entries in both."""
     for base in range(0, fault_parts.shape[0], DISP_STRIDE):
         if fault_parts[base] != NO_FAULT_C:
-            if fault[0] == NO_FAULT_C:
-                fault[0] = fault_parts[base]
-                fault[1] = fault_parts[base + 1]
-                fault[2] = fault_parts[base + 2]
+            keep_first_fault(fault_parts, base, fault, 0)
             fault_parts[base] = NO_FAULT_C
     ds = float(0.0)
     for p in range(DISP_STRIDE, disp.shape[0], DISP_STRIDE):

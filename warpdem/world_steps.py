@@ -29,7 +29,7 @@ import warp as wp
 
 from .contacts import sphere_sphere_one, sphere_triangle_one
 from .data import NO_FAULT
-from .integrator import integrate_body, mesh_end_one, spring_one, update_sphere
+from .integrator import integrate_body, keep_first_fault, mesh_end_one, spring_one, update_sphere
 from .kernel_args import (
     Bodies,
     BodyState,
@@ -162,6 +162,108 @@ class Worlds:
     """recorded orientations (x, y, z, w), quatd (records * n_worlds * rec_nb,)."""
 
 
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
+def contact_stage(
+    w: int,
+    slot: int,
+    slots: int,
+    ws: Worlds,
+    spheres: Spheres,
+    meshes: Meshes,
+    springs: Springs,
+    bodies: Bodies,
+    mats: Materials,
+    opts: Options,
+    kin: SphereState,
+    state: BodyState,
+    ss: SphereList,
+    st: TriangleList,
+    no_cohesion: wp.array(dtype=int),
+    sums: Sums,
+):
+    """World w's contacts and springs, items slot, slot + slots, ...: its spheres' sphere-sphere candidates, then
+    (with meshes) their sphere-triangle candidates, then its springs. They only add to the fixed-point sums, whose
+    order does not matter."""
+    spw = ws.spw
+    s0 = w * spw
+    contact_items = spw
+    if ws.mpw > 0:
+        contact_items = 2 * spw
+    for q in range(slot, contact_items + ws.kpw, slots):
+        if q >= contact_items:
+            spring_one(w * ws.kpw + q - contact_items, springs, bodies, opts, state, sums)
+        elif q < spw:
+            sphere_sphere_one(s0 + q, spheres, mats, opts, kin, ss, no_cohesion, sums)
+        else:
+            sphere_triangle_one(s0 + q - spw, spheres, meshes, mats, opts, kin, state, st, no_cohesion, sums)
+
+
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
+def sphere_stage(
+    w: int,
+    slot: int,
+    slots: int,
+    ws: Worlds,
+    spheres: Spheres,
+    meshes: Meshes,
+    state: BodyState,
+    kin: SphereState,
+    sums: Sums,
+    build_pos: wp.array(dtype=wp.vec3d),
+    mesh_build_pos: wp.array(dtype=wp.vec3d),
+    mesh_build_quat: wp.array(dtype=wp.quatd),
+):
+    """World w's sphere kinematics and its meshes' end of step, items slot, slot + slots, ...: the spheres'
+    largest displacement since the list build [m] into ws.disp[w * DISP_SLOTS + 1], the meshes' into
+    ws.disp[w * DISP_SLOTS]."""
+    spw = ws.spw
+    dm = w * DISP_SLOTS
+    for q in range(slot, spw + ws.mpw, slots):
+        if q < spw:
+            update_sphere(w * spw + q, spheres, state, kin, build_pos, dm + 1, ws.disp)
+        else:
+            mesh_end_one(w * ws.mpw + q - spw, dm, meshes, 1, state, mesh_build_pos, mesh_build_quat, sums, ws.disp)
+
+
+@wp.func(inline=True)  # inlined: no copies of its array arguments per call
+def record_poses(w: int, slot: int, slots: int, j: int, adv: Advance, ws: Worlds, state: BodyState):
+    """After step j of the recording (a multiple of adv.rec_every), world w's recorded bodies' poses (position
+    [m], orientation) into record j / rec_every - 1 of ws.rec_pos and ws.rec_quat, items slot, slot + slots, ..."""
+    b0 = w * ws.bpw
+    r0 = ((j // adv.rec_every - 1) * ws.n_worlds + w) * adv.rec_nb
+    for q in range(slot, adv.rec_nb, slots):
+        ws.rec_pos[r0 + q] = state.pos[b0 + ws.rec_bodies[q]]
+        ws.rec_quat[r0 + q] = state.quat[b0 + ws.rec_bodies[q]]
+
+
+@wp.func(inline=True)
+def needs_rebuild(w: int, ws: Worlds, opts: Options):
+    """World w at the end of its step (stages._end_step_kernel, for one world): returns (rebuild, stopped):
+    whether its candidate lists need a rebuild (its spheres' and meshes' displacements against opts.skin; no
+    spheres, no lists) and whether another world has stopped for one (``stop_others``)."""
+    dm = w * DISP_SLOTS
+    ds = ws.disp[dm + 1]
+    rebuild = ws.spw > 0 and ds + wp.max(ds, ws.disp[dm]) > opts.skin
+    return rebuild, ws.disp[dm + 2] != 0.0
+
+
+@wp.func(inline=True)
+def file_step_end(w: int, rebuild: bool, ws: Worlds):
+    """World w's end of step, by one thread: the step's fault kept as the world's first unless it has one, the
+    displacements reset, the rebuild flagged (and, with ``stop_others``, the other worlds stopped)."""
+    fb = w * FAULT_SLOTS
+    dm = w * DISP_SLOTS
+    if ws.fault[fb] != NO_FAULT_W:
+        keep_first_fault(ws.fault, fb, ws.fault, fb + 3)
+        ws.fault[fb] = NO_FAULT_W
+    ws.disp[dm] = 0.0
+    ws.disp[dm + 1] = 0.0
+    if rebuild:
+        ws.flag[w] = 1
+        if ws.stop_others != 0:
+            wp.atomic_max(ws.stop, 0, 1)
+
+
 @wp.kernel
 def world_steps_kernel(
     adv: Advance,
@@ -204,81 +306,41 @@ def world_steps_kernel(
     afterwards). Only where all the launch's blocks run at once: a block that starts late would see the flag at its
     first step. A rebuild changes only the order of candidates, so this changes no bits."""
     t, lane = wp.tid()
-    spw = ws.spw
-    bpw = ws.bpw
-    mpw = ws.mpw
-    kpw = ws.kpw
-    target = adv.target
-    rec_every = adv.rec_every
     w = t + first_world
     k = ws.step[w]
-    s0 = w * spw
-    b0 = w * bpw
-    m0 = w * mpw
-    c0 = w * kpw
-    fb = w * FAULT_SLOTS
-    dm = w * DISP_SLOTS
-    contact_items = spw
-    if mpw > 0:
-        contact_items = 2 * spw
+    b0 = w * ws.bpw
     slot = lane // ws.stride  # a thread that takes items: slot ``slot`` of ``slots``
     slots = ws.lanes // ws.stride
     if lane % ws.stride != 0:
         slot = 1 << 29  # takes none
     wall = vec4l()  # cycles per stage with its barrier (lane 0's are kept)
-    while k < target:
+    while k < adv.target:
         c_0 = cycle_count()
-        # contacts and springs: they only add to the fixed-point sums, whose order does not matter
-        for q in range(slot, contact_items + kpw, slots):
-            if q >= contact_items:
-                spring_one(c0 + q - contact_items, springs, bodies, opts, state, sums)
-            elif q < spw:
-                sphere_sphere_one(s0 + q, spheres, mats, opts, kin, ss, no_cohesion, sums)
-            else:
-                sphere_triangle_one(s0 + q - spw, spheres, meshes, mats, opts, kin, state, st, no_cohesion, sums)
+        contact_stage(w, slot, slots, ws, spheres, meshes, springs, bodies, mats, opts, kin, state, ss, st,
+                      no_cohesion, sums)
         block_sync()
         c_2 = cycle_count()
         step = adv.first_step + k + 1
-        for b in range(b0 + slot, b0 + bpw, slots):
-            integrate_body(b, bodies, opts, 1, 0, step, fb, state, sums, ws.fault)
+        for b in range(b0 + slot, b0 + ws.bpw, slots):
+            integrate_body(b, bodies, opts, 1, 0, step, w * FAULT_SLOTS, state, sums, ws.fault)
         block_sync()
         c_4 = cycle_count()
-        for q in range(slot, spw + mpw, slots):
-            if q < spw:
-                update_sphere(s0 + q, spheres, state, kin, build_pos, dm + 1, ws.disp)
-            else:
-                mesh_end_one(m0 + q - spw, dm, meshes, 1, state, mesh_build_pos, mesh_build_quat, sums, ws.disp)
+        sphere_stage(w, slot, slots, ws, spheres, meshes, state, kin, sums, build_pos, mesh_build_pos,
+                     mesh_build_quat)
         if ws.stop_others != 0 and lane == 0:  # another world's stop, read coherently (an atomic) for the block
-            ws.disp[dm + 2] = float(wp.atomic_add(ws.stop, 0, 0))
-        if rec_every > 0:  # the poses are final once the body stage's barrier has passed
+            ws.disp[w * DISP_SLOTS + 2] = float(wp.atomic_add(ws.stop, 0, 0))
+        if adv.rec_every > 0:  # the poses are final once the body stage's barrier has passed
             j = k + 1 + adv.rec_shift
-            if j % rec_every == 0:
-                r0 = ((j // rec_every - 1) * ws.n_worlds + w) * adv.rec_nb
-                for q in range(slot, adv.rec_nb, slots):
-                    ws.rec_pos[r0 + q] = state.pos[b0 + ws.rec_bodies[q]]
-                    ws.rec_quat[r0 + q] = state.quat[b0 + ws.rec_bodies[q]]
+            if j % adv.rec_every == 0:
+                record_poses(w, slot, slots, j, adv, ws, state)
         k += 1
         block_sync()
         c_6 = cycle_count()
-        # the end of the step, for this world (stages._end_step_kernel): every lane reads the displacements
-        # and takes the same decision; then lane 0 resets them and files the step's fault
-        ds = ws.disp[dm + 1]
-        rebuild = spw > 0 and ds + wp.max(ds, ws.disp[dm]) > opts.skin  # no spheres: no lists to rebuild
-        stopped = ws.disp[dm + 2] != 0.0
+        # the end of the step: every lane takes the same decision; then lane 0 files it
+        rebuild, stopped = needs_rebuild(w, ws, opts)
         block_sync()
         if lane == 0:
-            if ws.fault[fb] != NO_FAULT_W:
-                if ws.fault[fb + 3] == NO_FAULT_W:
-                    ws.fault[fb + 3] = ws.fault[fb]
-                    ws.fault[fb + 4] = ws.fault[fb + 1]
-                    ws.fault[fb + 5] = ws.fault[fb + 2]
-                ws.fault[fb] = NO_FAULT_W
-            ws.disp[dm] = 0.0
-            ws.disp[dm + 1] = 0.0
-            if rebuild:
-                ws.flag[w] = 1
-                if ws.stop_others != 0:
-                    wp.atomic_max(ws.stop, 0, 1)
+            file_step_end(w, rebuild, ws)
         c_7 = cycle_count()
         wall += vec4l(c_2 - c_0, c_4 - c_2, c_6 - c_4, c_7 - c_6)
         if rebuild or stopped:
@@ -317,7 +379,5 @@ def world_end_kernel(
     counters[0] = counters[0] + n_steps
     counters[1] = counters[1] + rebuilds + last
     rebuild_flag[0] = last
-    if best >= 0 and fault[0] == NO_FAULT_W:
-        fault[0] = world_fault[best]
-        fault[1] = world_fault[best + 1]
-        fault[2] = world_fault[best + 2]
+    if best >= 0:
+        keep_first_fault(world_fault, best, fault, 0)
