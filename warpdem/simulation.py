@@ -81,6 +81,38 @@ def _thread_count(threads: object) -> int:
     return int(threads)
 
 
+def _contact_threads(contact_threads: str | None, world_steps: bool) -> str:
+    """How the sphere-sphere contacts are shared out (Simulation's ``contact_threads``): the choice, checked, or the
+    default ("sphere" with ``world_steps``, else "pair")."""
+    if contact_threads is None:
+        contact_threads = "sphere" if world_steps else "pair"
+    if contact_threads not in Simulation.CONTACT_THREADS:
+        raise InputError(f"contact_threads must be one of {Simulation.CONTACT_THREADS}, got {contact_threads!r}")
+    if contact_threads != "sphere" and world_steps:
+        raise InputError(f"contact_threads={contact_threads!r} needs world_steps=False (a world's thread "
+                         "loops over its spheres)")
+    return contact_threads
+
+
+def _materials_of(model: Model) -> laws.Materials:
+    """The kernels' material tables (laws.Materials) on the model's arrays, with tan(friction angle) taken once
+    here (not per contact and step) and the model's contact law."""
+    materials = laws.Materials()
+    tan_friction = wp.empty_like(model.mat_friction)
+    wp.launch(tan_kernel, tan_friction.shape[0], inputs=[model.mat_friction], outputs=[tan_friction],
+              device=model.device)
+    for name, arr in (
+        ("young", model.mat_young), ("poisson", model.mat_poisson), ("tan_friction", tan_friction),
+        ("normal_coh", model.mat_normal_cohesion), ("shear_coh", model.mat_shear_cohesion),
+        ("eta_roll", model.mat_eta_roll), ("eta_twist", model.mat_eta_twist),
+        ("alpha_kr", model.mat_alpha_kr), ("alpha_ktw", model.mat_alpha_ktw), ("flags", model.mat_flags),
+    ):
+        setattr(materials, name, arr)
+    materials.n_materials = model.n_materials
+    materials.law = model.contact_law  # the one selection of the contact law (laws/__init__.py)
+    return materials
+
+
 def _cpu_graph(ops: list[Callable[[], object]]) -> Callable[[], object]:
     """Recorded CPU launches captured as one Warp CPU graph; returns its replay."""
     with wp.ScopedCapture(device="cpu", force_module_load=False) as capture:
@@ -178,14 +210,7 @@ class Simulation:
         contact_threads: str | None = None,
     ) -> None:
         check_positive("dt", dt)
-        if contact_threads is None:
-            contact_threads = "sphere" if world_steps else "pair"
-        if contact_threads not in self.CONTACT_THREADS:
-            raise InputError(f"contact_threads must be one of {self.CONTACT_THREADS}, got {contact_threads!r}")
-        if contact_threads != "sphere" and world_steps:
-            raise InputError(f"contact_threads={contact_threads!r} needs world_steps=False (a world's thread "
-                             "loops over its spheres)")
-        self.contact_threads = contact_threads
+        self.contact_threads = _contact_threads(contact_threads, world_steps)
         check_positive("max_speed", max_speed)
         laws.check_settings(model.contact_law, always_use_moment_law=always_use_moment_law,
                             cohesion_on_new_contacts=cohesion_on_new_contacts,
@@ -211,50 +236,18 @@ class Simulation:
         self.graph_steps = int(graph_steps)
         self._capacity_factor = float(capacity_factor)
         dev = self.device
-        ns = model.n_spheres
         self.world_steps = bool(world_steps)
         self.world_lanes, self.world_lane_stride = _lane_layout(world_lanes, world_lane_stride, model)
         threads = _thread_count(cpu_threads) if dev.is_cpu else 1
         self._share_out(1 if self.world_steps else threads)
         self.data = Data.zeros(model, self.parts)  # the per-step arrays (data.py)
         self.contacts = Contacts.zeros(model, self.parts)  # the candidate lists and their rebuild state (types.py)
-        if contact_threads == "pair":
+        if self.contact_threads == "pair":
             self.contacts.ss.enable_owners()
-        if self.world_steps:  # each world's step count, rebuild request, displacements and faults (world_steps.py)
+        if self.world_steps:
             self._share_worlds(threads)
-            nw = model.n_worlds
-            self._world_step = wp.zeros(nw, dtype=int, device=dev)
-            self._world_flag = wp.zeros(nw, dtype=int, device=dev)
-            self._world_disp = wp.zeros(nw * world_steps_mod.DISP_SLOTS, dtype=float, device=dev)
-            self._world_fault = wp.array(np.full(nw * world_steps_mod.FAULT_SLOTS, NO_FAULT, np.int32), dtype=int,
-                                         device=dev)
-            self._no_cohesion = wp.zeros(1, dtype=int, device=dev)
-            # a world that needs a rebuild stops the others (world_steps_kernel's stop_others) where the launch's
-            # blocks all run at once: on CUDA, a block per SM at most (a world's block holds up to 256 threads of
-            # up to 255 registers). On the CPU the worlds of a thread run one after another.
-            self._world_stop = wp.zeros(1, dtype=int, device=dev)
-            self.world_stop_others = bool(dev.is_cuda and nw <= dev.sm_count)
-            # CUDA clock cycles per world and stage of world_steps.STAGES with its barrier, summed over advances
-            # (zeros on the CPU): shape (n_worlds, 4) flattened (world_steps_kernel)
-            self.world_stage_cycles = wp.zeros(nw * len(world_steps_mod.STAGES), dtype=wp.int64, device=dev)
-            # poses recorded inside world_steps_kernel for Simulation.run's pose observers (grown on demand)
-            self._rec_bodies = wp.zeros(1, dtype=int, device=dev)
-            self._rec_bodies_host = np.zeros(0, dtype=np.int32)
-            self._rec_pos = wp.zeros(1, dtype=wp.vec3d, device=dev)
-            self._rec_quat = wp.zeros(1, dtype=wp.quatd, device=dev)
-
-        self.materials = laws.Materials()
-        tan_friction = wp.empty_like(model.mat_friction)  # taken once here, not per contact and step
-        wp.launch(tan_kernel, tan_friction.shape[0], inputs=[model.mat_friction], outputs=[tan_friction], device=dev)
-        for name, arr in (
-            ("young", model.mat_young), ("poisson", model.mat_poisson), ("tan_friction", tan_friction),
-            ("normal_coh", model.mat_normal_cohesion), ("shear_coh", model.mat_shear_cohesion),
-            ("eta_roll", model.mat_eta_roll), ("eta_twist", model.mat_eta_twist),
-            ("alpha_kr", model.mat_alpha_kr), ("alpha_ktw", model.mat_alpha_ktw), ("flags", model.mat_flags),
-        ):
-            setattr(self.materials, name, arr)
-        self.materials.n_materials = model.n_materials
-        self.materials.law = model.contact_law  # the one selection of the contact law (laws/__init__.py)
+            self._make_world_arrays()
+        self.materials = _materials_of(model)
         if not (math.isfinite(bond_detection_factor) and 1.0 <= bond_detection_factor <= 3.0):
             raise InputError(f"bond_detection_factor must be in [1, 3] (a centre distance over the radii's sum), "
                              f"got {bond_detection_factor!r}")
@@ -263,22 +256,11 @@ class Simulation:
         self._args: stages.KernelArgs | None = None  # the kernels' argument structs (made when first needed)
         stages.update_spheres(self.model, self._kernel_args(), self.contacts)
         self._set_bounds(bounds)
-        self.options = Options()  # the settings the kernels read (types.py)
-        o = self.options
-        o.dt, o.skin, o.track_energy = wp.float64(self.dt), self.skin, int(self.track_energy)
-        o.always_moment, o.cohesion_on_new = int(self.always_use_moment_law), int(self.cohesion_on_new_contacts)
-        o.unp_max, o.bond_gap = float(unp_max), self.bond_detection_factor - 1.0
-        o.max_speed, o.lower, o.upper = wp.float64(self.max_speed), wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1])
-        # broad phase structures; the first build sizes the candidate lists
-        cell = 2.0 * model.max_radius + self.skin if ns else 1.0
-        self._cell = cell
-        dim = int(min(256, max(8, round((max(ns, 1) / max(model.n_worlds, 1)) ** (1 / 3) * 2))))
-        self.grid = wp.HashGrid(dim, dim, dim, device=dev, dtype=wp.float64) if ns else None
-        if self.grid is not None:
-            self.grid.reserve(ns, with_groups=True)
+        self.options = self._make_options(unp_max)  # the settings the kernels read (types.py)
+        self._make_grid()
         # the float sums in a launch of their own and one step per graph (LARGE_STEP_SPHERES; the same bits either
         # way, so a test may set it before the first step)
-        self.large_step = not dev.is_cpu and ns >= LARGE_STEP_SPHERES
+        self.large_step = not dev.is_cpu and model.n_spheres >= LARGE_STEP_SPHERES
         self._graphs: dict[int, object] = {}  # captured graphs (CUDA, or a CPU thread) by steps per graph
         self._world_ops: list[object] | None = None  # the recorded world_steps launches
         self._step_ops: list[Callable[[], object]] | None = None  # a step's recorded launches (CPU threads)
@@ -287,6 +269,51 @@ class Simulation:
         self._lane_graphs: list[Callable[[], object]] | None = None
         self._chunk = 1 << 30  # steps in the next captured graph (capped; see advance)
         self._rebuild_checked()
+
+    def _make_world_arrays(self) -> None:
+        """With ``world_steps``: each world's step count, rebuild request, displacements and faults, the stop
+        flag, the stage clocks and the pose records of world_steps_kernel (world_steps.py)."""
+        dev = self.device
+        nw = self.model.n_worlds
+        self._world_step = wp.zeros(nw, dtype=int, device=dev)
+        self._world_flag = wp.zeros(nw, dtype=int, device=dev)
+        self._world_disp = wp.zeros(nw * world_steps_mod.DISP_SLOTS, dtype=float, device=dev)
+        self._world_fault = wp.array(np.full(nw * world_steps_mod.FAULT_SLOTS, NO_FAULT, np.int32), dtype=int,
+                                     device=dev)
+        self._no_cohesion = wp.zeros(1, dtype=int, device=dev)
+        # a world that needs a rebuild stops the others (world_steps_kernel's stop_others) where the launch's
+        # blocks all run at once: on CUDA, a block per SM at most (a world's block holds up to 256 threads of
+        # up to 255 registers). On the CPU the worlds of a thread run one after another.
+        self._world_stop = wp.zeros(1, dtype=int, device=dev)
+        self.world_stop_others = bool(dev.is_cuda and nw <= dev.sm_count)
+        # CUDA clock cycles per world and stage of world_steps.STAGES with its barrier, summed over advances
+        # (zeros on the CPU): shape (n_worlds, 4) flattened (world_steps_kernel)
+        self.world_stage_cycles = wp.zeros(nw * len(world_steps_mod.STAGES), dtype=wp.int64, device=dev)
+        # poses recorded inside world_steps_kernel for Simulation.run's pose observers (grown on demand)
+        self._rec_bodies = wp.zeros(1, dtype=int, device=dev)
+        self._rec_bodies_host = np.zeros(0, dtype=np.int32)
+        self._rec_pos = wp.zeros(1, dtype=wp.vec3d, device=dev)
+        self._rec_quat = wp.zeros(1, dtype=wp.quatd, device=dev)
+
+    def _make_options(self, unp_max: float) -> Options:
+        """The settings the kernels read (types.Options), from this simulation's (bounds set before)."""
+        o = Options()
+        o.dt, o.skin, o.track_energy = wp.float64(self.dt), self.skin, int(self.track_energy)
+        o.always_moment, o.cohesion_on_new = int(self.always_use_moment_law), int(self.cohesion_on_new_contacts)
+        o.unp_max, o.bond_gap = float(unp_max), self.bond_detection_factor - 1.0
+        o.max_speed, o.lower, o.upper = wp.float64(self.max_speed), wp.vec3d(*self.bounds[0]), wp.vec3d(*self.bounds[1])
+        return o
+
+    def _make_grid(self) -> None:
+        """The broad phase's hash grid (None without spheres) and its cell size [m] (the largest sphere diameter
+        plus the skin); the first build sizes the candidate lists."""
+        model = self.model
+        ns = model.n_spheres
+        self._cell = 2.0 * model.max_radius + self.skin if ns else 1.0
+        dim = int(min(256, max(8, round((max(ns, 1) / max(model.n_worlds, 1)) ** (1 / 3) * 2))))
+        self.grid = wp.HashGrid(dim, dim, dim, device=self.device, dtype=wp.float64) if ns else None
+        if self.grid is not None:
+            self.grid.reserve(ns, with_groups=True)
 
     # ------------------------------------------------------------------ helpers
     def _share_out(self, threads: int) -> None:
