@@ -420,50 +420,53 @@ def sphere_triangle_kernel(
     sphere_triangle_one(wp.tid() + first, spheres, meshes, mats, opts, kin, bodies, st, cohesion_now, sums)
 
 
-# ----------------------------------------------------------------------------- elastic energy (observer)
+# ----------------------------------------------------------------------------- per contact: energy, stiffness
+@wp.func
+def sphere_entry(i: int, k: int, spheres: Spheres, mats: Materials, kin: SphereState, ss: SphereList):
+    """Entry k of sphere i's sphere-sphere list: returns (the contact's parameters by its law, its overlap un
+    [m])."""
+    radius = spheres.radius
+    j = ss.other[k]
+    un = float(radius[i] + radius[j] - wp.length(kin.pos[j] - kin.pos[i]))
+    return phys_of(mats, spheres.world[i], spheres.material[i], spheres.material[j], float(radius[i]),
+                   float(radius[j])), un
+
+
+@wp.func
+def triangle_entry(i: int, k: int, spheres: Spheres, meshes: Meshes, mats: Materials, kin: SphereState,
+                   bodies: BodyState, st: TriangleList):
+    """Entry k of sphere i's sphere-triangle list: returns (the contact's parameters by its law, its overlap un
+    [m])."""
+    rd = spheres.radius[i]
+    r = float(rd)
+    g = entry_geom(k, kin.pos[i], rd, st.mesh, st.face, meshes.body, meshes.tri_offset, meshes.tri_vertices,
+                   bodies.pos, bodies.quat)
+    return phys_of(mats, spheres.world[i], meshes.material[st.mesh[k]], spheres.material[i], 2.0 * r, r), g.un
+
+
 @wp.kernel
 def sphere_sphere_elastic_kernel(
     spheres: Spheres, mats: Materials, kin: SphereState, ss: SphereList, out: wp.array(dtype=wp.float64)
 ):
     """The elastic energy of sphere i's active sphere-sphere contacts [J] added into out[its world]."""
     i = wp.tid()
-    radius = spheres.radius
     for k in range(ss.start[i], ss.start[i] + ss.count[i]):
-        h = ss.hist[k]
-        if (h.flags & ACTIVE) == 0:
-            continue
-        j = ss.other[k]
-        un = float(radius[i] + radius[j] - wp.length(kin.pos[j] - kin.pos[i]))
-        p = phys_of(mats, spheres.world[i], spheres.material[i], spheres.material[j], float(radius[i]),
-                    float(radius[j]))
-        wp.atomic_add(out, spheres.world[i], wp.float64(elastic_energy(h, p, un)))
+        if (ss.hist[k].flags & ACTIVE) != 0:
+            p, un = sphere_entry(i, k, spheres, mats, kin, ss)
+            wp.atomic_add(out, spheres.world[i], wp.float64(elastic_energy(ss.hist[k], p, un)))
 
 
 @wp.kernel
-def sphere_triangle_elastic_kernel(
-    spheres: Spheres,
-    meshes: Meshes,
-    mats: Materials,
-    kin: SphereState,
-    bodies: BodyState,
-    st: TriangleList,
-    out: wp.array(dtype=wp.float64),
-):
+def sphere_triangle_elastic_kernel(spheres: Spheres, meshes: Meshes, mats: Materials, kin: SphereState,
+                                   bodies: BodyState, st: TriangleList, out: wp.array(dtype=wp.float64)):
     """The elastic energy of sphere i's active sphere-triangle contacts [J] added into out[its world]."""
     i = wp.tid()
-    rd = spheres.radius[i]
-    r = float(rd)
     for k in range(st.start[i], st.start[i] + st.count[i]):
-        h = st.hist[k]
-        if (h.flags & ACTIVE) == 0:
-            continue
-        g = entry_geom(k, kin.pos[i], rd, st.mesh, st.face, meshes.body, meshes.tri_offset, meshes.tri_vertices,
-                       bodies.pos, bodies.quat)
-        p = phys_of(mats, spheres.world[i], meshes.material[st.mesh[k]], spheres.material[i], 2.0 * r, r)
-        wp.atomic_add(out, spheres.world[i], wp.float64(elastic_energy(h, p, g.un)))
+        if (st.hist[k].flags & ACTIVE) != 0:
+            p, un = triangle_entry(i, k, spheres, meshes, mats, kin, bodies, st)
+            wp.atomic_add(out, spheres.world[i], wp.float64(elastic_energy(st.hist[k], p, un)))
 
 
-# ----------------------------------------------------------------------------- stiffness (time step, contact table)
 @wp.kernel
 def sphere_sphere_stiffness_kernel(
     spheres: Spheres, mats: Materials, kin: SphereState, ss: SphereList, out: wp.array(dtype=wp.vec4f)
@@ -471,39 +474,20 @@ def sphere_sphere_stiffness_kernel(
     """out[k] = (kn [N/m], ks [N/m], kr [N m/rad], ktw [N m/rad]) of entry k of sphere i's sphere-sphere list, by
     the contact law (zeros for an entry that is not a contact)."""
     i = wp.tid()
-    radius = spheres.radius
     for k in range(ss.start[i], ss.start[i] + ss.count[i]):
-        h = ss.hist[k]
         out[k] = wp.vec4f(0.0)
-        if (h.flags & ACTIVE) == 0:
-            continue
-        j = ss.other[k]
-        un = float(radius[i] + radius[j] - wp.length(kin.pos[j] - kin.pos[i]))
-        p = phys_of(mats, spheres.world[i], spheres.material[i], spheres.material[j], float(radius[i]),
-                    float(radius[j]))
-        out[k] = stiffness(h, p, un)
+        if (ss.hist[k].flags & ACTIVE) != 0:
+            p, un = sphere_entry(i, k, spheres, mats, kin, ss)
+            out[k] = stiffness(ss.hist[k], p, un)
 
 
 @wp.kernel
-def sphere_triangle_stiffness_kernel(
-    spheres: Spheres,
-    meshes: Meshes,
-    mats: Materials,
-    kin: SphereState,
-    bodies: BodyState,
-    st: TriangleList,
-    out: wp.array(dtype=wp.vec4f),
-):
+def sphere_triangle_stiffness_kernel(spheres: Spheres, meshes: Meshes, mats: Materials, kin: SphereState,
+                                     bodies: BodyState, st: TriangleList, out: wp.array(dtype=wp.vec4f)):
     """out[k] = (kn, ks, kr, ktw) of entry k of sphere i's sphere-triangle list (as sphere_sphere_stiffness_kernel)."""
     i = wp.tid()
-    rd = spheres.radius[i]
-    r = float(rd)
     for k in range(st.start[i], st.start[i] + st.count[i]):
-        h = st.hist[k]
         out[k] = wp.vec4f(0.0)
-        if (h.flags & ACTIVE) == 0:
-            continue
-        g = entry_geom(k, kin.pos[i], rd, st.mesh, st.face, meshes.body, meshes.tri_offset, meshes.tri_vertices,
-                       bodies.pos, bodies.quat)
-        p = phys_of(mats, spheres.world[i], meshes.material[st.mesh[k]], spheres.material[i], 2.0 * r, r)
-        out[k] = stiffness(h, p, g.un)
+        if (st.hist[k].flags & ACTIVE) != 0:
+            p, un = triangle_entry(i, k, spheres, meshes, mats, kin, bodies, st)
+            out[k] = stiffness(st.hist[k], p, un)

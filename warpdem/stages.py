@@ -22,13 +22,7 @@ from . import accumulate
 from . import kernel_args as ka
 from .contacts import sphere_pair_kernel, sphere_sphere_kernel, sphere_triangle_kernel
 from .data import DISP_STRIDE, NO_FAULT, Data
-from .integrator import (
-    integrate_bodies_kernel,
-    keep_first_fault,
-    mesh_end_one,
-    spring_kernel,
-    update_spheres_kernel,
-)
+from .integrator import integrate_bodies_kernel, keep_first_fault, mesh_end_one, spring_kernel, update_spheres_kernel
 from .laws import Materials
 from .model import Model, State
 from .types import Contacts, Control, Options

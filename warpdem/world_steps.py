@@ -163,24 +163,9 @@ class Worlds:
 
 
 @wp.func(inline=True)  # inlined: no copies of its array arguments per call
-def contact_stage(
-    w: int,
-    slot: int,
-    slots: int,
-    ws: Worlds,
-    spheres: Spheres,
-    meshes: Meshes,
-    springs: Springs,
-    bodies: Bodies,
-    mats: Materials,
-    opts: Options,
-    kin: SphereState,
-    state: BodyState,
-    ss: SphereList,
-    st: TriangleList,
-    no_cohesion: wp.array(dtype=int),
-    sums: Sums,
-):
+def contact_stage(w: int, slot: int, slots: int, ws: Worlds, spheres: Spheres, meshes: Meshes, springs: Springs,
+                  bodies: Bodies, mats: Materials, opts: Options, kin: SphereState, state: BodyState, ss: SphereList,
+                  st: TriangleList, no_cohesion: wp.array(dtype=int), sums: Sums):
     """World w's contacts and springs, items slot, slot + slots, ...: its spheres' sphere-sphere candidates, then
     (with meshes) their sphere-triangle candidates, then its springs. They only add to the fixed-point sums, whose
     order does not matter."""
@@ -199,20 +184,9 @@ def contact_stage(
 
 
 @wp.func(inline=True)  # inlined: no copies of its array arguments per call
-def sphere_stage(
-    w: int,
-    slot: int,
-    slots: int,
-    ws: Worlds,
-    spheres: Spheres,
-    meshes: Meshes,
-    state: BodyState,
-    kin: SphereState,
-    sums: Sums,
-    build_pos: wp.array(dtype=wp.vec3d),
-    mesh_build_pos: wp.array(dtype=wp.vec3d),
-    mesh_build_quat: wp.array(dtype=wp.quatd),
-):
+def sphere_stage(w: int, slot: int, slots: int, ws: Worlds, spheres: Spheres, meshes: Meshes, state: BodyState,
+                 kin: SphereState, sums: Sums, build_pos: wp.array(dtype=wp.vec3d),
+                 mesh_build_pos: wp.array(dtype=wp.vec3d), mesh_build_quat: wp.array(dtype=wp.quatd)):
     """World w's sphere kinematics and its meshes' end of step, items slot, slot + slots, ...: the spheres'
     largest displacement since the list build [m] into ws.disp[w * DISP_SLOTS + 1], the meshes' into
     ws.disp[w * DISP_SLOTS]."""
