@@ -45,7 +45,7 @@ def main() -> None:
     lines = ["# Ringing twin: warpdem against Yade 2023.02a", "",
              f"Both engines from `ringing_twin_spec.npz` (scenes/ringing_twin.py); dt {float(spec['dt']):.4g} s, "
              f"settling {float(spec['settle_time'])} s, ringing {float(spec['ring_time'])} s; f and zeta by "
-             f"`warpdem.analysis.ringdown` after a {rt.LOWPASS_HZ:g} Hz low-pass, the same for both records. "
+             f"`scenes.analysis.ringdown` after a {rt.LOWPASS_HZ:g} Hz low-pass, the same for both records. "
              f"warpdem on `{a.device}`: " + ", ".join(f"{r} {w:.0f} s" for r, w in walls.items()) + ".", "",
              "| reading | springs | Yade f [Hz] | warpdem f [Hz] | diff f | Yade zeta | warpdem zeta | diff zeta | "
              "Table 2 f [Hz] | Table 2 zeta |", "|---" * 10 + "|"]

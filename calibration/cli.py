@@ -67,8 +67,7 @@ def run_demo(args: argparse.Namespace) -> int:
     import warp as wp
 
     import warpdem as wd
-    from scenes import demo
-    from warpdem import analysis
+    from scenes import analysis, demo
 
     device = _setup(args)
     out = _claim(args, args.out)

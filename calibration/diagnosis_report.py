@@ -76,7 +76,7 @@ def decay_curve(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Damping ratio of each cycle of a decay against its amplitude: from consecutive peaks A_i, A_i+1 (above the
     fitted offset), zeta_i = d / sqrt(4 pi^2 + d^2) with d = ln(A_i / A_i+1); (amplitudes A_i, zeta_i), each (k,).
     Viscous damping gives a flat curve, dry friction one that rises as the amplitude falls. Empty without a decay."""
-    from warpdem import analysis
+    from scenes import analysis
 
     try:
         fit = analysis.ringdown(t, x)

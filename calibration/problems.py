@@ -26,10 +26,9 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 import warpdem as wd
-from scenes import paper, shear_box
+from scenes import analysis, paper, shear_box
 from scenes.ringing import RingingConfig, build_ringing, run_ringing
 from scenes.soil_bin import DEPOSIT_FRICTION, SCALES, SoilBinConfig, bed_for, run_soil_bin
-from warpdem import analysis
 
 from .genes import FITNESS_MODES, Gene, soil_fields, with_ranges
 

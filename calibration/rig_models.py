@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from warpdem import analysis
+from scenes import analysis
 from warpdem.errors import InputError
 
 from .genes import Gene
@@ -118,7 +118,7 @@ def envelope_fit(times: np.ndarray, amps: np.ndarray) -> tuple[float, float, flo
 
 
 def decay_signatures(fit: object) -> dict[str, float]:
-    """Within-record signatures of a decay from its successive maxima (a ``warpdem.analysis.RingDown``):
+    """Within-record signatures of a decay from its successive maxima (a ``scenes.analysis.RingDown``):
 
     - ``damping_exponent`` p of the envelope law (:func:`envelope_fit`): how the damping per cycle changes with
       amplitude, d ln(decrement) / d ln(amplitude): -1 dry friction, 0 viscous, +1 quadratic drag;
@@ -165,7 +165,7 @@ def hit_velocity(amplitude: float, frequency: float, damping: float) -> float:
 
 
 def ringdown_observables(t: np.ndarray, x: np.ndarray, late: bool) -> dict[str, float]:
-    """Frequency [Hz] and damping ratio of a decay by eqs. (3)-(5) (``warpdem.analysis.ringdown``); with ``late``,
+    """Frequency [Hz] and damping ratio of a decay by eqs. (3)-(5) (``scenes.analysis.ringdown``); with ``late``,
     also of its second half (from a quarter period before its middle peak on): the amplitude dependence that
     separates viscous damping (constant) from dry friction (rising) and a progressive spring (frequency falling),
     the signatures of :func:`decay_signatures` and ``first_swing`` (signed, :func:`first_swing`).

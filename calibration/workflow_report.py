@@ -84,7 +84,7 @@ def plot_series(out: Path, config: WorkflowConfig, table3: dict) -> list[str]:
     """Figs. 16-19-like plots from replica 0's series: draught and displacement against travel with the
     means over the beds and the laboratory's, FFTs of the steady draught and displacement, the tool's kinetic
     energy; each cut at its carriage's stop."""
-    from warpdem import analysis
+    from scenes import analysis
 
     plt = _plt()
     t3, t7 = paper.table("soil_bin_measured"), paper.table("soil_bin_dem")

@@ -18,10 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from warpdem import analysis
 from warpdem.files import write_atomic, write_text_atomic
 
-from . import figures, paper, ringing, speed_sweep
+from . import analysis, figures, paper, ringing, speed_sweep
 from . import soil_bin as sb
 
 

@@ -27,10 +27,9 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 import warpdem as wd
-from warpdem import analysis
 from warpdem.mass import quats_to_matrices
 
-from . import paper
+from . import analysis, paper
 from .sweep import SweepTool, add_sweep, build_sweep
 
 SPRING_MODELS = ("paper", "linear", "twin")

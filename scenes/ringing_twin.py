@@ -304,8 +304,8 @@ LOWPASS_HZ = 30.0
 
 def frequency_damping(t: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     """Damped frequency [Hz] and damping ratio [-] of a ringing record (time [s] (k,), sensor y [m] (k,)) after a
-    LOWPASS_HZ low-pass, by ``warpdem.analysis.ringdown``'s fit; NaN where no free vibration is found."""
-    from warpdem import analysis
+    LOWPASS_HZ low-pass, by ``scenes.analysis.ringdown``'s fit; NaN where no free vibration is found."""
+    from . import analysis
 
     fs = 1.0 / float(np.mean(np.diff(t)))
     try:

@@ -81,11 +81,11 @@ from pathlib import Path
 import numpy as np
 
 import warpdem as wd
-from warpdem.analysis import MohrCoulomb, mohr_coulomb
 from warpdem.files import write_text_atomic
 from warpdem.vtk import VtkWriter
 
 from . import paper
+from .analysis import MohrCoulomb, mohr_coulomb
 from .assemblies import AssemblySpec, Bed, deposit
 
 GRAVITY = 9.81

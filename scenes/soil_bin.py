@@ -34,13 +34,12 @@ from pathlib import Path
 import numpy as np
 
 import warpdem as wd
-from warpdem import analysis
 from warpdem import mass as massprops
 from warpdem.errors import BudgetExhausted, InputError
 from warpdem.files import write_atomic
 from warpdem.vtk import VtkWriter
 
-from . import paper, replica_beds
+from . import analysis, paper, replica_beds
 from .assemblies import AssemblySpec, Bed, bin_mesh, deposit
 from .passive_tool import PassiveTool
 from .ringing import check_per_world, series_rate
@@ -392,7 +391,7 @@ class SoilBinRun:
     [-]; each (k, n_worlds[, 2])."""
     steady: list[dict[str, float]] = field(default_factory=list)
     """per world, over the steady part of its travel: draught_/displacement_ mean, std, sem, trend [unit/s],
-    trend_sem (see ``warpdem.analysis.steady_state``), steady_time_mean [s], ke_tool_/ke_soil_ mean and std,
+    trend_sem (see ``scenes.analysis.steady_state``), steady_time_mean [s], ke_tool_/ke_soil_ mean and std,
     coordination_start/_end, bonds_start/_end (unbroken cohesive soil-soil contacts at the first record after the
     bonds are set and at the end)."""
     n_particles: int | list[int] = 0

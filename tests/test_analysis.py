@@ -1,4 +1,4 @@
-"""Tests of warpdem.analysis: ringing test eqs. (3)-(5), calibration errors and fitness eqs. (7)-(11), the FFT
+"""Tests of scenes.analysis: ringing test eqs. (3)-(5), calibration errors and fitness eqs. (7)-(11), the FFT
 analysis of section 2.4, the steady state after 0.5 m of travel and the Mohr-Coulomb fit.
 
 Reference paper: shared/paper/000_f83b7bc97235a7fb.txt; Table 2 values from shared/data/ringing_test_table2.csv.
@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from warpdem import analysis
+from scenes import analysis
 
 FS = 2400.0  # Hz, the paper's sampling rate (section 2.1.1)
 

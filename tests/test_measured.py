@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from calibration import measured
-from warpdem import analysis
+from scenes import analysis
 from warpdem.errors import InputError
 
 

@@ -9,10 +9,9 @@ import pytest
 from conftest import DEVICE
 
 import warpdem as wd
-from scenes import ringing
+from scenes import analysis, ringing
 from scenes import soil_bin as sb
 from scenes.passive_tool import PassiveTool
-from warpdem import analysis
 
 
 def test_ringing_linear_model_matches_the_analytic_rig() -> None:

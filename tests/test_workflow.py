@@ -22,8 +22,7 @@ from scipy import stats
 
 from calibration.genes import GASettings
 from calibration.paper_workflow import VARIANTS, Budget, Workflow, WorkflowConfig, compare, ensemble, replicas_needed
-from scenes import paper
-from warpdem import analysis
+from scenes import analysis, paper
 from warpdem.errors import BudgetExhausted, InputError
 
 

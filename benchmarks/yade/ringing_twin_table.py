@@ -7,7 +7,7 @@ Run with the project's Python (warpdem installed), from the repository root:
 (a file name is looked up next to this script; the table is written next to the npz and printed.)
 
 Signal: the y coordinate of the tool's sensor point (key f"{reading}/{springs}/sensor_y"), time since the hit.
-Columns: f and zeta from :func:`warpdem.analysis.ringdown` (least-squares fit of a damped sinusoid over the picked
+Columns: f and zeta from :func:`scenes.analysis.ringdown` (least-squares fit of a damped sinusoid over the picked
 run of peaks), zeta by the paper's eq. (4)-(5) on the first n+1 picked peaks (n = 3 and n = 10; "-" where fewer peaks
 were found), the number of maxima picked; once on the raw record and once on the record low-passed at LOWPASS_HZ
 (analysis.lowpass, zero-phase Butterworth): the records carry small ~20 Hz and ~50 Hz components (the load sphere
@@ -25,7 +25,7 @@ import sys
 
 import numpy as np
 
-from warpdem import analysis
+from scenes import analysis
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 LOWPASS_HZ = 30.0
@@ -61,7 +61,7 @@ def main(argv: list[str]) -> str:
         f"Sensor point y after the hit, sampled every {int(d['record_every'])} steps "
         f"({1 / float(d['record_dt']):.1f} Hz), "
         f"ring time {float(d['ring_time_used']):.3f} s, dt {float(d['dt']):.4g} s. f, zeta: fit of "
-        "`warpdem.analysis.ringdown`; zeta n=3, n=10: the paper's peak formula (eq. 4-5) on the first n+1 "
+        "`scenes.analysis.ringdown`; zeta n=3, n=10: the paper's peak formula (eq. 4-5) on the first n+1 "
         "maxima ('-': fewer maxima found); max: maxima picked. Left block: raw record; right block (LP): record "
         f"low-passed at {LOWPASS_HZ:g} Hz (`analysis.lowpass`), which removes the ~20 Hz and ~50 Hz wiggles that "
         "break the peak picker's rhythm test on the raw record. Table 2: measured f, calibrated f and zeta; "

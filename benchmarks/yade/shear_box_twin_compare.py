@@ -23,7 +23,7 @@ runs the 20 kPa stress with only the walls or only the floor and plate split (``
 Statistics (both engines the same code): peak shear stress = maximum of the interval means smoothed by
 ``scenes.shear_box.moving_average`` over the spec's ``smooth_width`` records (run_shear_boxes' rule); the normal
 stress on the plane is the spec's (measured by warpdem after consolidation; the realizations differ by 1e-9 m).
-Per realization a Mohr-Coulomb fit (``warpdem.analysis.mohr_coulomb``) of its three peaks gives c_k, phi_k; the
+Per realization a Mohr-Coulomb fit (``scenes.analysis.mohr_coulomb``) of its three peaks gives c_k, phi_k; the
 ensemble's c and phi are the means over realizations and their standard errors the standard deviation over
 realizations / sqrt(n). For comparison, the least-squares fit of all realizations' peaks pooled, with the standard
 errors of intercept and slope from its residuals (phi's by the delta method).
@@ -44,7 +44,7 @@ wp.config.quiet = True
 
 import warpdem as wd  # noqa: E402
 from scenes import shear_box as sbx  # noqa: E402
-from warpdem import analysis  # noqa: E402
+from scenes import analysis  # noqa: E402
 from warpdem.observers import csr_entries  # noqa: E402
 
 HERE = Path(__file__).resolve().parent

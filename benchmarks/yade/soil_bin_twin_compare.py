@@ -23,7 +23,7 @@ Three warpdem set-ups:
   triangles gets a contact with each (warpdem merges contacts within one mesh, see warpdem/contacts.py). This is the
   diagnostic for the only first-step difference found (Yade's edge double contacts).
 
-Statistics: ``warpdem.analysis.steady_state`` over the records with travel >= the spec's steady_travel (mean and
+Statistics: ``scenes.analysis.steady_state`` over the records with travel >= the spec's steady_travel (mean and
 standard error from the record's autocorrelation) for every run; the difference of two runs in units of the
 combined standard error sqrt(se_1^2 + se_2^2); for ensembles of realizations, the mean of the run means with the
 standard error from their spread (and, for comparison, from the runs' own SEs).
@@ -46,7 +46,7 @@ import warpdem as wd  # noqa: E402
 from scenes import soil_bin as sb  # noqa: E402
 from scenes.assemblies import AssemblySpec, Bed  # noqa: E402
 from scenes.sweep import build_sweep  # noqa: E402
-from warpdem import analysis  # noqa: E402
+from scenes import analysis  # noqa: E402
 from warpdem.observers import csr_entries  # noqa: E402
 
 HERE = Path(__file__).resolve().parent

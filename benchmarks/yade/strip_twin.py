@@ -13,7 +13,7 @@ paper-scale draught (150 N against the paper's 312 N) was measured. Run from the
 ``run``: ``scenes.soil_bin.run_soil_bin`` itself on the spec's bed (seed 0: the bed as exported; seed k: every
 particle displaced as a whole by RandomState(k).uniform(-1e-9, 1e-9) m, as soil_bin_twin.py --perturb 1e-9 --seed k
 does in Yade: another realization of the same bed). Writes ``warpdem_s{k}.npz`` (time, draught, coordination).
-``compare``: steady-state means and standard errors (``warpdem.analysis.steady_state``, travel >= 0.2 m) of every
+``compare``: steady-state means and standard errors (``scenes.analysis.steady_state``, travel >= 0.2 m) of every
 run, the warpdem ensemble, the difference in combined standard errors, coordination 2 C_ss / N_particles at the start
 and the end in both engines.
 """

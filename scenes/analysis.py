@@ -21,7 +21,7 @@ from typing import Literal
 import numpy as np
 from scipy import optimize, signal
 
-from .errors import InputError
+from warpdem.errors import InputError
 
 __all__ = [
     "MohrCoulomb",
