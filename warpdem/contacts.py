@@ -252,58 +252,39 @@ def tri_geom(p: wp.vec3d, r: wp.float64, tri_vertices: wp.array(dtype=wp.vec3d),
     return g
 
 
-@wp.func
-def entry_geom(
-    k: int,
-    p_world: wp.vec3d,
-    r: wp.float64,
-    mesh: wp.array(dtype=int),
-    face: wp.array(dtype=int),
-    mesh_body: wp.array(dtype=int),
-    mesh_tri_offset: wp.array(dtype=int),
-    tri_vertices: wp.array(dtype=wp.vec3d),
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-) -> TriGeom:
-    m = mesh[k]
-    b = mesh_body[m]
-    p = sphere_in_body_frame(p_world, body_pos[b], body_quat[b])
-    return tri_geom(p, r, tri_vertices, mesh_tri_offset[m] + face[k])
+@wp.func(inline=True)  # inlined: no copies of its struct arguments per call
+def entry_geom(k: int, p_world: wp.vec3d, r: wp.float64, st: TriangleList, meshes: Meshes, bodies: BodyState
+               ) -> TriGeom:
+    """The geometry of entry k of a sphere-triangle list for a sphere at p_world [m] of radius r [m]."""
+    m = st.mesh[k]
+    b = meshes.body[m]
+    p = sphere_in_body_frame(p_world, bodies.pos[b], bodies.quat[b])
+    return tri_geom(p, r, meshes.tri_vertices, meshes.tri_offset[m] + st.face[k])
 
 
-@wp.func
-def suppressed(
-    k: int,
-    g: TriGeom,
-    k0: int,
-    k1: int,
-    p_world: wp.vec3d,
-    r: wp.float64,
-    mesh: wp.array(dtype=int),
-    face: wp.array(dtype=int),
-    mesh_body: wp.array(dtype=int),
-    mesh_tri_offset: wp.array(dtype=int),
-    tri_vertices: wp.array(dtype=wp.vec3d),
-    body_pos: wp.array(dtype=wp.vec3d),
-    body_quat: wp.array(dtype=wp.quatd),
-) -> int:
+@wp.func(inline=True)  # inlined: no copies of its struct arguments per call
+def suppressed(k: int, g: TriGeom, k0: int, k1: int, p_world: wp.vec3d, r: wp.float64, st: TriangleList,
+               meshes: Meshes, bodies: BodyState) -> int:
     """1 if entry k's edge/vertex contact belongs to a neighbour's face contact or duplicates a lower entry."""
     if g.feature == 0:
         return 0
     tol = wp.float64(1.0e-5) * r
+    mesh = st.mesh
+    face = st.face
+    tri_vertices = meshes.tri_vertices
     for k2 in range(k0, k1):
         if k2 == k or mesh[k2] != mesh[k]:
             continue
-        g2 = entry_geom(k2, p_world, r, mesh, face, mesh_body, mesh_tri_offset, tri_vertices, body_pos, body_quat)
+        g2 = entry_geom(k2, p_world, r, st, meshes, bodies)
         if g2.un < 0.0:
             continue
         if g2.feature == 0:
             # does our closest point (an edge or vertex) lie on the touching triangle k2?
             cp = closest_point_triangle(
                 g.point,
-                tri_vertices[3 * (mesh_tri_offset[mesh[k2]] + face[k2])],
-                tri_vertices[3 * (mesh_tri_offset[mesh[k2]] + face[k2]) + 1],
-                tri_vertices[3 * (mesh_tri_offset[mesh[k2]] + face[k2]) + 2],
+                tri_vertices[3 * (meshes.tri_offset[mesh[k2]] + face[k2])],
+                tri_vertices[3 * (meshes.tri_offset[mesh[k2]] + face[k2]) + 1],
+                tri_vertices[3 * (meshes.tri_offset[mesh[k2]] + face[k2]) + 2],
             )
             if wp.length(wp.vec3d(cp[0], cp[1], cp[2]) - g.point) <= tol:
                 return 1
@@ -342,14 +323,12 @@ def sphere_triangle_one(
     t_s = wp.vec3f(0.0)
     # pass 1: contacts that exist now (inheriting history where the owning face changed) get the law
     for k in range(k0, k1):
-        g = entry_geom(k, x, rd, st.mesh, st.face, meshes.body, meshes.tri_offset, meshes.tri_vertices, bodies.pos,
-                       bodies.quat)
+        g = entry_geom(k, x, rd, st, meshes, bodies)
         active = st.hist[k].flags & ACTIVE
         if active == 0 and g.un < 0.0:
             continue
         h = st.hist[k]
-        if suppressed(k, g, k0, k1, x, rd, st.mesh, st.face, meshes.body, meshes.tri_offset, meshes.tri_vertices,
-                      bodies.pos, bodies.quat) == 1:
+        if suppressed(k, g, k0, k1, x, rd, st, meshes, bodies) == 1:
             continue
         m = st.mesh[k]
         b = meshes.body[m]
@@ -365,10 +344,8 @@ def sphere_triangle_one(
             for k2 in range(k0, k1):
                 h2 = st.hist[k2]
                 if k2 != k and st.mesh[k2] == m and (h2.flags & ACTIVE) != 0 and wp.dot(h2.normal, n) > 0.99:
-                    g2 = entry_geom(k2, x, rd, st.mesh, st.face, meshes.body, meshes.tri_offset,
-                                    meshes.tri_vertices, bodies.pos, bodies.quat)
-                    if suppressed(k2, g2, k0, k1, x, rd, st.mesh, st.face, meshes.body, meshes.tri_offset,
-                                  meshes.tri_vertices, bodies.pos, bodies.quat) == 1:
+                    g2 = entry_geom(k2, x, rd, st, meshes, bodies)
+                    if suppressed(k2, g2, k0, k1, x, rd, st, meshes, bodies) == 1:
                         h = h2
                         is_new = int(0)
         elif now != 0:
@@ -396,10 +373,8 @@ def sphere_triangle_one(
     for k in range(k0, k1):
         if (st.hist[k].flags & ACTIVE) == 0:
             continue
-        g = entry_geom(k, x, rd, st.mesh, st.face, meshes.body, meshes.tri_offset, meshes.tri_vertices, bodies.pos,
-                       bodies.quat)
-        if suppressed(k, g, k0, k1, x, rd, st.mesh, st.face, meshes.body, meshes.tri_offset, meshes.tri_vertices,
-                      bodies.pos, bodies.quat) == 1:
+        g = entry_geom(k, x, rd, st, meshes, bodies)
+        if suppressed(k, g, k0, k1, x, rd, st, meshes, bodies) == 1:
             st.hist[k] = empty_hist()
     add_wrench(sums.force_acc, sums.torque_acc, sums.force_scale, sums.torque_scale, spheres.body[i], f_s, t_s)
 
@@ -439,8 +414,7 @@ def triangle_entry(i: int, k: int, spheres: Spheres, meshes: Meshes, mats: Mater
     [m])."""
     rd = spheres.radius[i]
     r = float(rd)
-    g = entry_geom(k, kin.pos[i], rd, st.mesh, st.face, meshes.body, meshes.tri_offset, meshes.tri_vertices,
-                   bodies.pos, bodies.quat)
+    g = entry_geom(k, kin.pos[i], rd, st, meshes, bodies)
     return phys_of(mats, spheres.world[i], meshes.material[st.mesh[k]], spheres.material[i], 2.0 * r, r), g.un
 
 
