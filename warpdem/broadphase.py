@@ -85,55 +85,35 @@ def _ss_is_candidate(
 
 
 @wp.kernel
-def _ss_count_kernel(
+def _ss_build_kernel(
     first: int,  # the first sphere of this launch (a CPU thread's share)
     grid: wp.uint64,
     spheres: Spheres,
     max_radius: float,
     skin: float,
+    fill: int,
     sphere_pos: wp.array(dtype=wp.vec3d),
     old: SphereList,
-    built: SphereList,  # out: count
-):
-    i = wp.tid() + first
-    x = sphere_pos[i]
-    radius = spheres.radius
-    query = wp.hash_grid_query(grid, x, radius[i] + wp.float64(max_radius + skin), spheres.world[i])
-    j = int(0)
-    c = int(0)
-    while wp.hash_grid_query_next(query, j):
-        if j > i and spheres.body[j] != spheres.body[i]:
-            c += _ss_is_candidate(i, j, sphere_pos, radius, skin)
-    # existing contacts stretched beyond the skin stay listed
-    for k in range(old.start[i], old.start[i] + old.count[i]):
-        if (old.hist[k].flags & ACTIVE) != 0 and _ss_is_candidate(i, old.other[k], sphere_pos, radius, skin) == 0:
-            c += 1
-    built.count[i] = c
-
-
-@wp.kernel
-def _ss_fill_kernel(
-    first: int,  # the first sphere of this launch (a CPU thread's share)
-    grid: wp.uint64,
-    spheres: Spheres,
-    max_radius: float,
-    skin: float,
-    sphere_pos: wp.array(dtype=wp.vec3d),
-    old: SphereList,
-    built: SphereList,  # in: start; in/out: count; out: other, hist
+    built: SphereList,  # fill = 0: out: count; fill = 1: in: start; in/out: count; out: other, hist
     overflow_out: wp.array(dtype=int),
 ):
+    """Count (fill = 0) or fill (fill = 1) the sphere-sphere candidates of sphere i: the spheres of other bodies of
+    its world with a higher index within the skin [m], and its existing contacts stretched beyond the skin (they
+    stay listed). Filling sorts them by partner and carries the old list's history over."""
     i = wp.tid() + first
-    capacity = built.other.shape[0]
     radius = spheres.radius
     other_out = built.other
     old_other = old.other
-    base = built.start[i]
-    n = built.count[i]
-    if base + n > capacity:
-        wp.atomic_max(overflow_out, 0, base + n)
-        n = wp.max(capacity - base, 0)
-        built.count[i] = n
+    base = int(0)
+    n = int(2147483647)
+    if fill == 1:
+        capacity = built.other.shape[0]
+        base = built.start[i]
+        n = built.count[i]
+        if base + n > capacity:
+            wp.atomic_max(overflow_out, 0, base + n)
+            n = wp.max(capacity - base, 0)
+            built.count[i] = n
     x = sphere_pos[i]
     query = wp.hash_grid_query(grid, x, radius[i] + wp.float64(max_radius + skin), spheres.world[i])
     j = int(0)
@@ -141,13 +121,18 @@ def _ss_fill_kernel(
     while wp.hash_grid_query_next(query, j):
         if j > i and spheres.body[j] != spheres.body[i] and c < n:
             if _ss_is_candidate(i, j, sphere_pos, radius, skin) == 1:
-                other_out[base + c] = j
+                if fill == 1:
+                    other_out[base + c] = j
                 c += 1
     for k in range(old.start[i], old.start[i] + old.count[i]):
         jj = old_other[k]
         if (old.hist[k].flags & ACTIVE) != 0 and _ss_is_candidate(i, jj, sphere_pos, radius, skin) == 0 and c < n:
-            other_out[base + c] = jj
+            if fill == 1:
+                other_out[base + c] = jj
             c += 1
+    if fill == 0:
+        built.count[i] = c
+        return
     # sort by partner index: the order of force sums then does not depend on the hash grid's internals
     for a in range(1, n):
         v = other_out[base + a]
@@ -329,13 +314,13 @@ def build(grid: wp.HashGrid, cell: float, skin: float, model: object, state: obj
 
     grid.build(d.sphere_pos, cell, groups=m.sphere_world)
     spheres = ka.spheres_of(m)
-    common = [grid.id, spheres, m.max_radius, skin, d.sphere_pos, ka.sphere_list_of(c.ss)]
-    new = ka.sphere_list_of(c.ss_new)
-    per_sphere(_ss_count_kernel, common, [new])
+    ss_in = [d.sphere_pos, ka.sphere_list_of(c.ss)]
+    ss_out = [ka.sphere_list_of(c.ss_new), c.list_stats[2:3]]
+    per_sphere(_ss_build_kernel, [grid.id, spheres, m.max_radius, skin, 0, *ss_in], ss_out)
     c.alloc_total.zero_()
     wp.launch(allocate_blocks_kernel, ns, inputs=[c.ss_new.count, c.alloc_total[0:1]], outputs=[c.ss_new.start],
               device=dev)
-    per_sphere(_ss_fill_kernel, common, [new, c.list_stats[2:3]])
+    per_sphere(_ss_build_kernel, [grid.id, spheres, m.max_radius, skin, 1, *ss_in], ss_out)
     wp.launch(_list_total_kernel, 1, inputs=[c.alloc_total, 0, c.list_stats], device=dev)
     c.ss.copy_from(c.ss_new)
     c.ss.index_owners()
