@@ -47,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from calibration.archive import same_or_extended
+from scenes import rigs
 from scenes.paper import SPRING_COUNTS
 from warpdem.errors import InputError, SimulationError
 from warpdem.files import write_text_atomic
@@ -418,7 +419,7 @@ def run_ringing_cmd(args: argparse.Namespace) -> int:
         cfg = ringing.RingingConfig(springs=springs, spring_model=m)
         res[m] = ringing.run_ringing(cfg, device=device, progress=lambda d, n, ph, m=m: _bar(f"ringing {m} {ph}", d, n))
     table = {m: r.table() for m, r in res.items()}
-    _write_config(out, "ringing", device, config={m: r.config for m, r in res.items()})
+    _write_config(out, rigs.RINGING.name, device, config={m: r.config for m, r in res.items()})
     write_text_atomic(out / "summary.json", json.dumps(table, indent=2))
     report = write_ringing_report(out, res, device)
     for m, rows in table.items():
@@ -456,8 +457,8 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
             return RerunViewer(sim, spawn=args.viewer, save_path=args.viewer_save, speed_range=(lo, hi),
                                hide_outside_range=args.hide_outside_range)
 
-    _write_config(out, "soil-bin", device, config=asdict(cfg), preset=sb.SCALES[args.scale], replicas=args.replicas,
-                  tool=None if tool is None else tool.to_dict())
+    _write_config(out, rigs.SOIL_BIN.name, device, config=asdict(cfg), preset=sb.SCALES[args.scale],
+                  replicas=args.replicas, tool=None if tool is None else tool.to_dict())
     study = sb.run_study(cfg, device=device, cache_dir=out / "beds",
                          progress=lambda run, d, n: _bar(f"soil bin: {run} tool", d, n), viewer=viewer,
                          checkpoint_dir=out / "checkpoints",
@@ -717,9 +718,10 @@ def _diagnose_params(args: argparse.Namespace) -> dict[str, object]:
     checked against the rig's observables, before anything is read or simulated."""
     import inspect
 
-    from calibration.rig_models import RINGING_UNCERTAINTY, SOIL_BIN_UNCERTAINTY, RingingRigModel, SoilBinRigModel
+    from calibration.rig_models import rig_model_class
 
-    known = RINGING_UNCERTAINTY if args.rig == "ringing" else SOIL_BIN_UNCERTAINTY
+    model = rig_model_class(args.rig)
+    known = model.uncertainty_defaults
     for k in args.uncertainty or {}:
         if k not in known:
             raise InputError(f"--uncertainty {k}={args.uncertainty[k]:g}: {k!r} is no observable of the {args.rig} "
@@ -741,7 +743,6 @@ def _diagnose_params(args: argparse.Namespace) -> dict[str, object]:
     if not isinstance(params, dict):
         raise InputError(f"{where} must hold a JSON object of rig settings (NAME: VALUE), got "
                          f"{type(params).__name__} {text.strip()[:40]}")
-    model = RingingRigModel if args.rig == "ringing" else SoilBinRigModel
     allowed = sorted(set(inspect.signature(model.__init__).parameters) - _NOT_PARAMS) + ["fixed"]
     unknown = sorted(set(params) - set(allowed))
     if unknown:
@@ -805,7 +806,7 @@ def run_diagnose_cmd(args: argparse.Namespace) -> int:
     desc = rig_description.load(args.rig_file) if args.rig_file else \
         rig_description.find_description(args.measured) if Path(args.measured).is_dir() else None
     if desc is not None:
-        if args.rig != "ringing":
+        if args.rig != rigs.RINGING.name:
             raise InputError(f"a rig description ({desc.source}) is for --rig ringing, got --rig {args.rig}")
         print(f"rig description: {desc.source}")
     rig = make_rig_model(args.rig, data, device=device, fixed=fixed, uncertainty=args.uncertainty, **params,
@@ -1056,7 +1057,8 @@ def main(argv: list[str] | None = None) -> int:
     q = sub.add_parser("diagnose", help="model criticism: residuals, candidate mechanisms, the named cause, its gain")
     q.add_argument("measured", help="MEASURED data (a summary CSV or a folder; calibration.measured), or "
                                     "paper:ringing (Table 2) or paper:soil-bin (Table 3)")
-    q.add_argument("--rig", choices=("ringing", "soil-bin"), required=True, help="the rig the data come from")
+    q.add_argument("--rig", choices=(rigs.RINGING.name, rigs.SOIL_BIN.name), required=True,
+                   help="the rig the data come from")
     q.add_argument("--params", default=None, metavar="FILE",
                    help="a JSON file: rig settings (ringing: load_force, ring_time, ...; soil-bin: scale, assembly, "
                         "travel, cache_dir, ...) and 'fixed': baseline parameters not to fit (e.g. dashpot)")

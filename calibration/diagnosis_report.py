@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from scenes import rigs
+
 from .diagnosis import Diagnosis
 from .report import markdown_table
 
@@ -173,7 +175,7 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
         fig.savefig(out / "series.png", dpi=120)
         plt.close(fig)
         files.append("series.png")
-        if d.measured_series is not None and d.rig == "ringing":
+        if d.measured_series is not None and d.rig == rigs.RINGING.name:
             # the covariate within a decay: each cycle's damping ratio against its amplitude
             cols = min(n, 4)
             rows = -(-n // cols)

@@ -42,6 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
+from scenes import rigs
 from warpdem.errors import InputError
 
 UNITS: dict[str, dict[str, float]] = {
@@ -292,26 +293,36 @@ def write_summary(path: str | Path, columns: dict[str, np.ndarray], units: dict[
     Path(path).write_text("\n".join(lines) + "\n")
 
 
+def _paper_table2() -> tuple[dict[str, object], dict[str, str]]:
+    from scenes import paper
+
+    t = paper.table("ringing")
+    cols = {"springs": t["springs"], "stiffness": t["stiffness_n_per_m"], "frequency": t["measured_freq_hz"],
+            "damping": t["measured_damping"]}
+    return cols, {"springs": "-", "stiffness": "N/m", "frequency": "Hz", "damping": "-"}
+
+
+def _paper_table3() -> tuple[dict[str, object], dict[str, str]]:
+    from scenes import paper
+
+    t = paper.table("soil_bin_measured")
+    cols = {"springs": t["springs"], "speed": t["speed_mean_m_s"], "speed_std": t["speed_std_m_s"],
+            "rigid_draught_mean": t["rigid_draught_mean_n"], "rigid_draught_std": t["rigid_draught_std_n"],
+            "draught_mean": t["passive_draught_mean_n"], "draught_std": t["passive_draught_std_n"],
+            "displacement_mean": 1e-3 * t["displacement_mean_mm"],
+            "displacement_std": 1e-3 * t["displacement_std_mm"], "reduction": t["reduction_pct"]}
+    units = {"springs": "-", "speed": "m/s", "speed_std": "m/s", "rigid_draught_mean": "N",
+             "rigid_draught_std": "N", "draught_mean": "N", "draught_std": "N", "displacement_mean": "m",
+             "displacement_std": "m", "reduction": "%"}
+    return cols, units
+
+
+PAPER_TABLES = {rigs.RINGING.name: _paper_table2, rigs.SOIL_BIN.name: _paper_table3}
+"""each rig's measured table in the paper, as (columns, units)."""
+
+
 def from_paper(rig: str) -> Measured:
     """The paper's measured tables in this format: ``"ringing"`` (Table 2: springs, stiffness, frequency, damping)
     or ``"soil-bin"`` (Table 3: springs, speed and its std, rigid and passive draught, displacement, reduction)."""
-    from scenes import paper
-
-    if rig == "ringing":
-        t = paper.table("ringing")
-        cols = {"springs": t["springs"], "stiffness": t["stiffness_n_per_m"], "frequency": t["measured_freq_hz"],
-                "damping": t["measured_damping"]}
-        units = {"springs": "-", "stiffness": "N/m", "frequency": "Hz", "damping": "-"}
-    elif rig == "soil-bin":
-        t = paper.table("soil_bin_measured")
-        cols = {"springs": t["springs"], "speed": t["speed_mean_m_s"], "speed_std": t["speed_std_m_s"],
-                "rigid_draught_mean": t["rigid_draught_mean_n"], "rigid_draught_std": t["rigid_draught_std_n"],
-                "draught_mean": t["passive_draught_mean_n"], "draught_std": t["passive_draught_std_n"],
-                "displacement_mean": 1e-3 * t["displacement_mean_mm"],
-                "displacement_std": 1e-3 * t["displacement_std_mm"], "reduction": t["reduction_pct"]}
-        units = {"springs": "-", "speed": "m/s", "speed_std": "m/s", "rigid_draught_mean": "N",
-                 "rigid_draught_std": "N", "draught_mean": "N", "draught_std": "N", "displacement_mean": "m",
-                 "displacement_std": "m", "reduction": "%"}
-    else:
-        raise ValueError(f"rig must be 'ringing' or 'soil-bin', got {rig!r}")
+    cols, units = PAPER_TABLES[rigs.get(rig, tuple(PAPER_TABLES)).name]()
     return Measured({k: np.asarray(v, dtype=np.float64) for k, v in cols.items()}, units, [], f"paper:{rig}")

@@ -34,6 +34,8 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from scenes.rigs import RINGING, SOIL_BIN
+
 from .genes import Gene
 
 SEARCH_ONLY = "the search range (no physical bound stated for it)"
@@ -88,7 +90,7 @@ class Mechanism:
     rationale: str
     genes: tuple[Gene, ...]
     knobs: Callable[[dict[str, float]], dict[str, float]]
-    rigs: tuple[str, ...] = ("ringing", "soil-bin")
+    rigs: tuple[str, ...] = (RINGING.name, SOIL_BIN.name)
     needs_series: bool = False
     signature: str = ""
     """what it does to the observables, for the report."""
@@ -169,7 +171,7 @@ def _finite(xs: tuple[float, ...]) -> list[float]:
 
 
 def _friction_bound(f: RigFacts) -> dict[str, Bound]:
-    if f.rig != "ringing" or not math.isfinite(f.swing_moment):
+    if f.rig != RINGING.name or not math.isfinite(f.swing_moment):
         return {}
     return {"pivot_friction": Bound(0.0, f.swing_moment, "a Coulomb oscillator stops where the springs' moment "
                                     "K theta falls below the friction torque: above the smallest first-swing moment "
@@ -283,7 +285,7 @@ register(Mechanism(
     "damping ratio rises.",
     genes=(Gene("load_mass_fraction", 0.02, 1.0, unit="-"),),
     knobs=lambda p: {"load_mass_fraction": p["load_mass_fraction"]},
-    rigs=("ringing",),
+    rigs=(RINGING.name,),
     signature="all frequencies higher by about one factor",
     bounds=_load_bound, produces=("inertia_low", "stiffness_high")))
 register(Mechanism(
@@ -299,7 +301,7 @@ register(Mechanism(
     "every reading carries the same offset, which shifts mean displacements but not the vibration.",
     genes=(Gene("sensor_offset", -5e-3, 5e-3, unit="m"),),
     knobs=lambda p: {"sensor_offset": p["sensor_offset"]},
-    rigs=("soil-bin",),
+    rigs=(SOIL_BIN.name,),
     signature="mean displacements shifted by one constant"))
 register(Mechanism(
     "sensor_drift", "Sensor drift",
@@ -307,7 +309,7 @@ register(Mechanism(
     "which biases a decay's fitted damping and a run's mean.",
     genes=(Gene("sensor_drift", -5e-3, 5e-3, unit="m/s"),),
     knobs=lambda p: {"sensor_drift": p["sensor_drift"]},
-    rigs=("soil-bin",),
+    rigs=(SOIL_BIN.name,),
     needs_series=True,
     signature="a trend in time under the signal"))
 register(Mechanism(
@@ -317,7 +319,7 @@ register(Mechanism(
     "the stop (and barely vibrate); every soft one reads its deflection less the preload's compression.",
     genes=(Gene("stack_preload", 0.0, 5e-3, unit="m"),),
     knobs=lambda p: {"stack_preload": p["stack_preload"]},
-    rigs=("soil-bin",),
+    rigs=(SOIL_BIN.name,),
     signature="mean displacements low by a constant, the stiffest configurations at zero",
     bounds=_preload_bound))
 register(Mechanism(
@@ -326,7 +328,7 @@ register(Mechanism(
     "b v on the tool adds draught in proportion to the speed of each run.",
     genes=(Gene("soil_viscosity", 1.0, 1e3, log=True, unit="N s/m"),),
     knobs=lambda p: {"soil_viscosity": p["soil_viscosity"]},
-    rigs=("soil-bin",),
+    rigs=(SOIL_BIN.name,),
     signature="draught residuals growing with the speed of the run"))
 register(Mechanism(
     "rigid_reference_speed", "Rigid reference at another speed",
@@ -336,7 +338,7 @@ register(Mechanism(
     "a faster one an increase.",
     genes=(Gene("rigid_speed", 0.4, 0.8, unit="m/s"),),
     knobs=lambda p: {"rigid_speed": p["rigid_speed"]},
-    rigs=("soil-bin",),
+    rigs=(SOIL_BIN.name,),
     signature="reduction residuals falling with the configuration's speed, zero at the reference's speed"))
 register(Mechanism(
     "progressive_stack", "Progressive stacks, each by its own rate",
@@ -356,7 +358,7 @@ register(Mechanism(
     "the rotation at a.",
     genes=(Gene("spring_lever", 0.7, 1.3, unit="-"),),
     knobs=lambda p: {"spring_lever": p["spring_lever"]},
-    rigs=("soil-bin",),
+    rigs=(SOIL_BIN.name,),
     signature="every configuration's deflection scaled by one factor 1 / lambda^2 (its vibration with it)",
     bounds=_lever_bound, produces=("stiffness_high", "stiffness_low")))
 register(Mechanism(
@@ -366,6 +368,6 @@ register(Mechanism(
     "reductions do not change.",
     genes=(Gene("sensor_lever", 0.7, 1.3, unit="-"),),
     knobs=lambda p: {"sensor_lever": p["sensor_lever"]},
-    rigs=("soil-bin",),
+    rigs=(SOIL_BIN.name,),
     signature="every displacement scaled by one factor, the reductions unchanged",
     bounds=_sensor_lever_bound))

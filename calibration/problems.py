@@ -27,6 +27,7 @@ import numpy as np
 
 import warpdem as wd
 from scenes import analysis, paper, shear_box
+from scenes.rigs import RINGING, SHEAR_BOX, SOIL_BIN
 from scenes.ringing import RingingConfig, build_ringing, run_ringing
 from scenes.soil_bin import DEPOSIT_FRICTION, SCALES, SoilBinConfig, bed_for, run_soil_bin
 
@@ -91,6 +92,7 @@ class RingingProblem:
     _dt: float | None = field(default=None, repr=False, init=False)
 
     name = "ringing"
+    rigs = (RINGING,)
 
     def __post_init__(self) -> None:
         if self.springs not in paper.SPRING_COUNTS:
@@ -211,6 +213,7 @@ class DraughtProblem:
     stage_progress: Callable[[str, float, float], None] | None = field(default=None, repr=False, compare=False)
 
     name = "draught"
+    rigs = (SOIL_BIN,)
     default_genes = DRAUGHT_GENES
 
     def __post_init__(self) -> None:
@@ -318,6 +321,7 @@ class SoilProblem(DraughtProblem):
     box_changes: dict[str, object] | None = None
 
     name = "soil"
+    rigs = (SOIL_BIN, SHEAR_BOX)
     default_genes = SOIL_GENES
 
     def __post_init__(self) -> None:
@@ -374,12 +378,12 @@ class SoilProblem(DraughtProblem):
         return all(abs(errors[k]) <= tol for k, tol in SOIL_TOLERANCES.items())
 
 
+PROBLEMS: dict[str, type] = {"ringing": RingingProblem, "draught": DraughtProblem, "soil": SoilProblem}
+"""each calibration by name; its ``rigs`` are the ``scenes.rigs`` it simulates."""
+
+
 def make_problem(kind: str, **kwargs: object) -> RingingProblem | DraughtProblem | SoilProblem:
     """A problem by name ("ringing", "draught" or "soil")."""
-    if kind == "ringing":
-        return RingingProblem(**kwargs)
-    if kind == "draught":
-        return DraughtProblem(**kwargs)
-    if kind == "soil":
-        return SoilProblem(**kwargs)
-    raise ValueError(f"calibration must be 'ringing', 'draught' or 'soil', got {kind!r}")
+    if kind not in PROBLEMS:
+        raise ValueError(f"calibration must be one of {', '.join(map(repr, PROBLEMS))}, got {kind!r}")
+    return PROBLEMS[kind](**kwargs)

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from scenes import analysis
+from scenes import analysis, rigs
 from warpdem.errors import InputError
 
 from .genes import Gene
@@ -261,7 +261,8 @@ class RingingRigModel:
     series_stiffness act at the spring lever, like the rates.
     """
 
-    rig = "ringing"
+    rig = rigs.RINGING.name
+    uncertainty_defaults = RINGING_UNCERTAINTY
     units = {"frequency": "Hz", "damping": "-", "frequency_late": "Hz", "damping_late": "-", "damping_exponent": "-",
              "frequency_exponent": "-"}
 
@@ -437,7 +438,7 @@ class RingingRigModel:
         d = self.description
         mass = d.tool_mass if d.tool_mass is not None else (
             build_tool_mass() * ((d.tool_inertia / self.reference.tool_inertia) if d.tool_inertia else 1.0))
-        return mech.RigFacts("ringing", tuple(c["springs"] for c in self.configs), tuple(map(float, k)),
+        return mech.RigFacts(self.rig, tuple(c["springs"] for c in self.configs), tuple(map(float, k)),
                              tuple(self._travel()), tuple(map(float, abs(st["moment"]) / st["a"] / k)),
                              float(np.min(moment)) if np.all(np.isfinite(moment)) else math.nan, float(mass))
 
@@ -698,7 +699,8 @@ class SoilBinRigModel:
     (``run_soil_bin``'s arguments and result; for tests with an independent model).
     """
 
-    rig = "soil-bin"
+    rig = rigs.SOIL_BIN.name
+    uncertainty_defaults = SOIL_BIN_UNCERTAINTY
     knobs = frozenset({"pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
                        "stack_preload", "sensor_offset", "rigid_speed", "progressive_factor", "spring_lever",
                        "sensor_lever"})
@@ -934,7 +936,7 @@ class SoilBinRigModel:
         from . import mechanisms as mech
 
         tool = build_sweep()
-        return mech.RigFacts("soil-bin", tuple(c["springs"] for c in self.configs),
+        return mech.RigFacts(self.rig, tuple(c["springs"] for c in self.configs),
                              tuple(float(c["stiffness"]) for c in self.configs),
                              tuple(stack_travel(c["springs"]) for c in self.configs), tool_mass=float(tool.mass),
                              lever=lever(tool), seat_radius=DISC_OUTER_RADIUS,
@@ -1016,10 +1018,15 @@ class SoilBinRigModel:
         return SimOutput(values, {"static_deflection": static}, series if keep_series else None)
 
 
+RIG_MODELS: dict[str, type] = {rigs.RINGING.name: RingingRigModel, rigs.SOIL_BIN.name: SoilBinRigModel}
+"""the diagnosis model of each rig that has one (``scenes.rigs``)."""
+
+
+def rig_model_class(rig: str) -> type:
+    """The rig model class of ``rig`` (a name of ``scenes.rigs``); InputError naming the rigs that have one."""
+    return RIG_MODELS[rigs.get(rig, tuple(RIG_MODELS)).name]
+
+
 def make_rig_model(rig: str, measured: Measured, **kw: object) -> RingingRigModel | SoilBinRigModel:
     """The rig model of ``rig`` ("ringing" or "soil-bin") for a measured data set."""
-    if rig == "ringing":
-        return RingingRigModel(measured, **kw)
-    if rig == "soil-bin":
-        return SoilBinRigModel(measured, **kw)
-    raise ValueError(f"rig must be 'ringing' or 'soil-bin', got {rig!r}")
+    return rig_model_class(rig)(measured, **kw)

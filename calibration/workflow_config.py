@@ -9,6 +9,7 @@ from dataclasses import asdict, dataclass, field
 
 from scenes import paper
 from scenes import soil_bin as sb
+from scenes.rigs import SOIL_BIN
 from warpdem.errors import InputError
 
 from . import mechanisms
@@ -163,7 +164,7 @@ class WorkflowConfig:
             raise InputError(f"diagnosis_grid must be >= 2, got {self.diagnosis_grid!r}")
         if self.diagnosis_mechanisms is not None:
             for m in self.diagnosis_mechanisms:
-                if m not in mechanisms.REGISTRY or "soil-bin" not in mechanisms.REGISTRY[m].rigs:
+                if m not in mechanisms.REGISTRY or SOIL_BIN.name not in mechanisms.REGISTRY[m].rigs:
                     raise InputError(f"diagnosis_mechanisms: {m!r} is not a soil-bin mechanism")
 
     def to_dict(self) -> dict[str, object]:
