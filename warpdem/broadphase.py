@@ -73,6 +73,24 @@ def allocate_blocks_kernel(count: wp.array(dtype=int), total: wp.array(dtype=int
     start_out[i] = wp.atomic_add(total, 0, count[i])
 
 
+@wp.func
+def _list_block(fill: int, i: int, capacity: int, start: wp.array(dtype=int), count: wp.array(dtype=int),
+                overflow_out: wp.array(dtype=int)):
+    """Sphere i's block of a candidate list being built: returns (first entry, most entries): (0, unbounded) while
+    counting (fill = 0); while filling, its start and count, the count cut to the list's capacity (entries) where
+    the block would pass it (count[i] then holds the cut count and overflow_out[0] the entries needed)."""
+    base = int(0)
+    n = int(2147483647)
+    if fill == 1:
+        base = start[i]
+        n = count[i]
+        if base + n > capacity:
+            wp.atomic_max(overflow_out, 0, base + n)
+            n = wp.max(capacity - base, 0)
+            count[i] = n
+    return base, n
+
+
 # ----------------------------------------------------------------------------- sphere-sphere lists
 @wp.func
 def _ss_is_candidate(
@@ -104,16 +122,7 @@ def _ss_build_kernel(
     radius = spheres.radius
     other_out = built.other
     old_other = old.other
-    base = int(0)
-    n = int(2147483647)
-    if fill == 1:
-        capacity = built.other.shape[0]
-        base = built.start[i]
-        n = built.count[i]
-        if base + n > capacity:
-            wp.atomic_max(overflow_out, 0, base + n)
-            n = wp.max(capacity - base, 0)
-            built.count[i] = n
+    base, n = _list_block(fill, i, built.other.shape[0], built.start, built.count, overflow_out)
     x = sphere_pos[i]
     query = wp.hash_grid_query(grid, x, radius[i] + wp.float64(max_radius + skin), spheres.world[i])
     j = int(0)
@@ -217,16 +226,7 @@ def _st_build_kernel(
     old_count = old.count
     old_hist = old.hist
     i = wp.tid() + first
-    base = int(0)
-    n = int(2147483647)
-    if fill == 1:
-        capacity = built.mesh.shape[0]
-        base = built.start[i]
-        n = built.count[i]
-        if base + n > capacity:
-            wp.atomic_max(overflow_out, 0, base + n)
-            n = wp.max(capacity - base, 0)
-            built.count[i] = n
+    base, n = _list_block(fill, i, built.mesh.shape[0], built.start, built.count, overflow_out)
     c = int(0)
     r = float(radius[i]) + skin
     m0 = meshes.world_start[spheres.world[i]]

@@ -25,6 +25,7 @@ from .kernel_args import BodyState, Meshes, SphereList, Spheres, SphereState, Su
 from .laws import (
     ACTIVE,
     Hist,
+    LawOut,
     Materials,
     contact_law,
     elastic_energy,
@@ -59,6 +60,13 @@ def phys_of(mats: Materials, world: int, mi: int, mj: int, r1: float, r2: float)
     """The contact parameters of materials mi and mj of ``world`` (contact radii r1, r2 [m]), by their law."""
     off = world * mats.n_materials
     return pair_phys(mats, off + mi, off + mj, r1, r2)
+
+
+@wp.func
+def add_dissipation(energy: wp.array(dtype=wp.float64), w: int, law: LawOut):
+    """Add a contact law step's sliding and rolling dissipation [J] to world w's energy terms."""
+    wp.atomic_add(energy, w * N_ENERGY + E_SLIDING, wp.float64(law.dissip_slide))
+    wp.atomic_add(energy, w * N_ENERGY + E_ROLLING, wp.float64(law.dissip_roll))
 
 
 @wp.struct
@@ -130,8 +138,7 @@ def sphere_pair(
             out.torque_i = wp.cross(arm_i, law.force) - law.moment
             out.torque_j = wp.cross(arm_j, -law.force) + law.moment
             if opts.track_energy != 0:
-                wp.atomic_add(energy, w * N_ENERGY + E_SLIDING, wp.float64(law.dissip_slide))
-                wp.atomic_add(energy, w * N_ENERGY + E_ROLLING, wp.float64(law.dissip_roll))
+                add_dissipation(energy, w, law)
     return out
 
 
@@ -367,8 +374,7 @@ def sphere_triangle_one(
         f_s -= out.force
         t_s += wp.cross(kin.arm[i] + arm_s, -out.force) + out.moment
         if opts.track_energy != 0:
-            wp.atomic_add(sums.energy, w * N_ENERGY + E_SLIDING, wp.float64(out.dissip_slide))
-            wp.atomic_add(sums.energy, w * N_ENERGY + E_ROLLING, wp.float64(out.dissip_roll))
+            add_dissipation(sums.energy, w, out)
     # pass 2: clear the history of entries that are not contacts any more
     for k in range(k0, k1):
         if (st.hist[k].flags & ACTIVE) == 0:
