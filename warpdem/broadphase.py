@@ -52,16 +52,12 @@ def mesh_displacement(
 
 
 @wp.kernel
-def _record_mesh_build_pose_kernel(
-    mesh_body: wp.array(dtype=int),
-    body_pos_in: wp.array(dtype=wp.vec3d),
-    body_quat_in: wp.array(dtype=wp.quatd),
-    build_pos_out: wp.array(dtype=wp.vec3d),
-    build_quat_out: wp.array(dtype=wp.quatd),
-):
+def _record_mesh_build_pose_kernel(meshes: Meshes, state: BodyState, build_pos_out: wp.array(dtype=wp.vec3d),
+                                   build_quat_out: wp.array(dtype=wp.quatd)):
+    """The pose of mesh instance m's body at a list build (position [m], orientation), for the displacement check."""
     m = wp.tid()
-    build_pos_out[m] = body_pos_in[mesh_body[m]]
-    build_quat_out[m] = body_quat_in[mesh_body[m]]
+    build_pos_out[m] = state.pos[meshes.body[m]]
+    build_quat_out[m] = state.quat[meshes.body[m]]
 
 
 @wp.kernel
@@ -328,7 +324,8 @@ def build(grid: wp.HashGrid, cell: float, skin: float, model: object, state: obj
     if m.n_meshes == 0:
         return
     meshes = ka.meshes_of(m, d)
-    st_in = [d.sphere_pos, ka.body_state_of(state), ka.triangle_list_of(c.st)]
+    bodies = ka.body_state_of(state)
+    st_in = [d.sphere_pos, bodies, ka.triangle_list_of(c.st)]
     st_out = [ka.triangle_list_of(c.st_new), c.list_stats[3:4]]
     per_sphere(_st_build_kernel, [spheres, meshes, skin, 0, *st_in], st_out)
     wp.launch(allocate_blocks_kernel, ns, inputs=[c.st_new.count, c.alloc_total[1:2]], outputs=[c.st_new.start],
@@ -336,7 +333,7 @@ def build(grid: wp.HashGrid, cell: float, skin: float, model: object, state: obj
     per_sphere(_st_build_kernel, [spheres, meshes, skin, 1, *st_in], st_out)
     wp.launch(_list_total_kernel, 1, inputs=[c.alloc_total, 1, c.list_stats], device=dev)
     c.st.copy_from(c.st_new)
-    wp.launch(_record_mesh_build_pose_kernel, m.n_meshes, inputs=[m.mesh_body, state.body_pos, state.body_quat],
+    wp.launch(_record_mesh_build_pose_kernel, m.n_meshes, inputs=[meshes, bodies],
               outputs=[c.mesh_build_pos, c.mesh_build_quat], device=dev)
 
 
