@@ -569,6 +569,19 @@ def _speed_range(text: str) -> tuple[float, float]:
     return lo, hi
 
 
+def _stresses(text: str) -> tuple[float, ...]:
+    """An argparse type: normal stresses given in kPa as 'A,B,C' (at least three distinct, each > 0) -> Pa."""
+    try:
+        v = [float(x) for x in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be comma-separated normal stresses in kPa, e.g. 20,40,80, got "
+                                         f"{text!r}") from None
+    if not all(math.isfinite(x) and x > 0 for x in v) or len(set(v)) < 3:
+        raise argparse.ArgumentTypeError(f"must be at least three distinct normal stresses > 0 kPa (a Mohr-Coulomb "
+                                         f"line through the peaks), got {text!r}")
+    return tuple(1e3 * x for x in sorted(v))
+
+
 def _number(cast: type, *, gt: float | None = None, ge: float | None = None, lt: float | None = None,
             unit: str = "") -> Callable[[str], float]:
     """An argparse type: a finite ``cast`` (int or float) within the given bounds, else a message saying so."""
@@ -594,7 +607,8 @@ def run_shear_box_cmd(args: argparse.Namespace) -> int:
 
     device = _setup(args)
     out = _claim(args, args.out)
-    cfg = shear_box.preset(args.scale, args.assembly, seed=args.seed)
+    cfg = shear_box.preset(args.scale, args.assembly, seed=args.seed,
+                           **({"normal_stresses": args.normal_stresses} if args.normal_stresses else {}))
     _write_config(out, "shear-box", device, config=str(cfg))
     vtk = None
     if args.vtk:
@@ -651,6 +665,8 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
     settings = GASettings(generations=args.generations, population=args.population, parents=args.parents,
                           seed=args.seed, refine_iterations=args.refine)
     genes = _genes(args)
+    if args.box_stresses and args.kind != "soil":
+        raise InputError(f"--box-stresses: only 'calibrate soil' reads it (its shear box), got 'calibrate {args.kind}'")
     if args.kind == "ringing":
         kw: dict[str, object] = {"springs": args.springs, "spring_model": args.spring_model, "fitness": args.fitness}
     else:
@@ -658,6 +674,8 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
               "deposit_friction": args.deposit_friction}
         if args.kind == "soil":
             kw["box_scale"] = args.screen_scale or SCREEN_SCALE.get(args.scale, args.scale)
+            if args.box_stresses:
+                kw["box_changes"] = {"normal_stresses": args.box_stresses}
         if args.beds:
             kw["cache_dir"] = str(args.beds)
     out = _claim(args, args.out or f"results/calibrate/{args.kind}_" + (str(args.springs) if args.kind == "ringing"
@@ -1001,6 +1019,8 @@ def main(argv: list[str] | None = None) -> int:
     common(x, "results/shear_box", scale=False, seed="the sample's deposition seed")
     x.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"), help=SHEAR_SCALE_HELP)
     x.add_argument("--assembly", default="C", choices=("A", "B", "C"), help=ASSEMBLY_HELP)
+    x.add_argument("--normal-stresses", type=_stresses, default=None, metavar="KPA,KPA,KPA",
+                   help="the plate's normal stresses [kPa] (default 5,10,20; the paper does not give the laboratory's)")
     x.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
                    help="write ParaView (VTK) frames of every normal stress's sample into OUT/vtk/ while it is "
                         "sheared, at its start and at every EVERY-th record")
@@ -1044,6 +1064,9 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--no-screen", action="store_true", help="draught: calibrate only, no shear-box screening")
     c.add_argument("--deposit-friction", type=_number(float, ge=0, lt=90, unit="deg"), default=30.0,
                    help="draught, soil: contact friction of the bed's deposition [deg] (0: a dense bed)")
+    c.add_argument("--box-stresses", type=_stresses, default=None, metavar="KPA,KPA,KPA",
+                   help="soil: the shear box's normal stresses [kPa] (default 5,10,20; the paper does not give the "
+                        "laboratory's)")
     c.add_argument("--beds", default=None,
                    help="draught: folder of deposited beds to read and add to (default OUT/beds)")
     c.add_argument("--archive", default=None, help="archive.json of an earlier calibration to reuse")

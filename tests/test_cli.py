@@ -132,6 +132,11 @@ BAD = [
     ("reproduce --deposit-friction 0", "error: --deposit-friction 0: only --workflow full reads it"),
     ("reproduce --workflow full --deposit-friction 90", "argument --deposit-friction: must be >= 0 and < 90 deg"),
     ("calibrate soil --deposit-friction -5", "argument --deposit-friction: must be >= 0 and < 90 deg"),
+    ("calibrate soil --box-stresses 20,40", "argument --box-stresses: must be at least three distinct normal stresses"),
+    ("calibrate soil --box-stresses 20,x,80", "argument --box-stresses: must be comma-separated normal stresses in kPa"),
+    ("calibrate draught --box-stresses 20,40,80", "--box-stresses: only 'calibrate soil' reads it (its shear box), "
+                                                  "got 'calibrate draught'"),
+    ("shear-box --normal-stresses 10,10,-3", "argument --normal-stresses: must be at least three distinct normal"),
     ("calibrate soil --budget 0", "argument --budget: must be > 0 s"),
     ("calibrate draught --scale paper_2m", "argument --scale: invalid choice: 'paper_2m'"),
     ("calibrate ringing --gene young=1e8:1e6", "argument --gene: --gene must be NAME=LOW:HIGH with finite LOW < HIGH, "
