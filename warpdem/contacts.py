@@ -62,7 +62,7 @@ def phys_of(mats: Materials, world: int, mi: int, mj: int, r1: float, r2: float)
     return pair_phys(mats, off + mi, off + mj, r1, r2)
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: the same code as before the split
 def add_dissipation(energy: wp.array(dtype=wp.float64), w: int, law: LawOut):
     """Add a contact law step's sliding and rolling dissipation [J] to world w's energy terms."""
     wp.atomic_add(energy, w * N_ENERGY + E_SLIDING, wp.float64(law.dissip_slide))
@@ -402,7 +402,7 @@ def sphere_triangle_kernel(
 
 
 # ----------------------------------------------------------------------------- per contact: energy, stiffness
-@wp.func
+@wp.func(inline=True)  # inlined: the same code as before the split
 def sphere_entry(i: int, k: int, spheres: Spheres, mats: Materials, kin: SphereState, ss: SphereList):
     """Entry k of sphere i's sphere-sphere list: returns (the contact's parameters by its law, its overlap un
     [m])."""
@@ -413,7 +413,7 @@ def sphere_entry(i: int, k: int, spheres: Spheres, mats: Materials, kin: SphereS
                    float(radius[j])), un
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: the same code as before the split
 def triangle_entry(i: int, k: int, spheres: Spheres, meshes: Meshes, mats: Materials, kin: SphereState,
                    bodies: BodyState, st: TriangleList):
     """Entry k of sphere i's sphere-triangle list: returns (the contact's parameters by its law, its overlap un

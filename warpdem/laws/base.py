@@ -155,7 +155,7 @@ def new_hist(p: Phys, n: wp.vec3f, give_cohesion: int) -> Hist:
     return h
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: the same code as before the split
 def law_out(h: Hist) -> LawOut:
     """A law's output before its step: history h, no force or moment, alive, nothing dissipated."""
     out = LawOut()
@@ -168,7 +168,7 @@ def law_out(h: Hist) -> LawOut:
     return out
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: the same code as before the split
 def deleted(out: LawOut) -> LawOut:
     """out for a contact the law deletes this step: not alive, its history cleared (the rest of out kept)."""
     out.alive = 0
@@ -176,7 +176,7 @@ def deleted(out: LawOut) -> LawOut:
     return out
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: the same code as before the split
 def transport(h: Hist, n: wp.vec3f, ang_sum: wp.vec3f, dt: float, is_new: int):
     """The two small rotations that carry the history's tangential vectors from the previous normal h.normal to n
     (the current unit normal) over dt [s] with ang_sum = omega1 + omega2 [rad/s]: returns (orth, twist) for

@@ -145,7 +145,7 @@ def make_phys(mats: Materials, mi: int, mj: int, r1: float, r2: float) -> Phys:
     return p
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: the same code as before the split
 def normal_force(h: Hist, p: Phys, un: float, fragile: bool, unp_max: float):
     """The normal force fn [N] (positive in compression) of a contact of overlap un [m], with its plastic normal
     displacement unp [m] (h.unp, or the new one where a non-fragile bond yields in tension); returns (alive, fn,
@@ -164,7 +164,7 @@ def normal_force(h: Hist, p: Phys, un: float, fragile: bool, unp_max: float):
     return 1, fn, unp
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: the same code as before the split
 def shear_force(out: LawOut, h: Hist, p: Phys, fn: float, fragile: bool, is_new: int, n: wp.vec3f, v12: wp.vec3f,
                 orth: wp.vec3f, twist: wp.vec3f, dt: float):
     """The shear force: h.fs [N] transported to the current tangent plane (by orth and twist, see
@@ -200,7 +200,7 @@ def shear_force(out: LawOut, h: Hist, p: Phys, fn: float, fragile: bool, is_new:
     return out, fn_out
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: the same code as before the split
 def cap_moment(m: wp.vec3f, m_max: float, k: float):
     """A rolling or twisting moment m [N m] held to its plastic cap m_max [N m] (m_max >= 0); returns (the capped
     moment, the energy dissipated [J] by the cap at rotational stiffness k [N m/rad], 0 where k is 0 or m is within
@@ -215,7 +215,7 @@ def cap_moment(m: wp.vec3f, m_max: float, k: float):
     return m, dissip
 
 
-@wp.func
+@wp.func(inline=True)  # inlined: the same code as before the split
 def moments(out: LawOut, h: Hist, p: Phys, fn_out: float, n: wp.vec3f, rel_angvel: wp.vec3f, orth: wp.vec3f,
             twist: wp.vec3f, dt: float, always_moment: int) -> LawOut:
     """The rolling and twisting moments, incremental form with plastic caps (eta * R * |fn_out| [N m]): h.mb and
