@@ -4,7 +4,8 @@ Adding a contact law: write ``warpdem/laws/<law>.py`` giving
 (1) its material: a frozen dataclass with the class attributes ``LAW`` (a new id in ``base.py``) and ``FIELDS``
     (its per-world overridable fields, each a column of the Model's material tables), a ``flags`` property and a
     validating ``replace``. A field no law has yet needs a column: :data:`MATERIAL_FIELDS`, a ``mat_<field>`` array
-    of ``Model``, its packing in ``builder._assemble``, a ``Materials`` field in ``base.py`` set in ``Simulation``;
+    of ``Model`` packed by ``builder._MAT_ARRAYS``, a ``Materials`` field in ``base.py`` set in
+    ``simulation._materials_of``;
 (2) the pair physics ``make_phys(mats, mi, mj, r1, r2) -> Phys``, which sets ``Phys.law``;
 (3) the force law: one step of a contact's history, giving a ``LawOut``;
 (4) ``elastic_energy(h, p, un)``, the energy stored in a contact [J];
