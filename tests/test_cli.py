@@ -133,7 +133,7 @@ BAD = [
     ("reproduce --workflow full --deposit-friction 90", "argument --deposit-friction: must be >= 0 and < 90 deg"),
     ("calibrate soil --deposit-friction -5", "argument --deposit-friction: must be >= 0 and < 90 deg"),
     ("calibrate soil --box-stresses 20,40", "argument --box-stresses: must be at least three distinct normal stresses"),
-    ("calibrate soil --box-stresses 20,x,80", "argument --box-stresses: must be comma-separated normal stresses in kPa"),
+    ("calibrate soil --box-stresses 20,x,80", "argument --box-stresses: must be comma-separated normal stresses"),
     ("calibrate draught --box-stresses 20,40,80", "--box-stresses: only 'calibrate soil' reads it (its shear box), "
                                                   "got 'calibrate draught'"),
     ("shear-box --normal-stresses 10,10,-3", "argument --normal-stresses: must be at least three distinct normal"),

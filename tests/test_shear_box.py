@@ -175,3 +175,17 @@ def test_vtk_frames_show_every_sample_while_it_is_sheared(results: dict) -> None
     moved = np.abs(mesh1.points[:, 0] - mesh0.points[:, 0]).max()
     shear = dry.config.shear_rate * (int(frames[-1].stem.split("_")[1]) - int(frames[0].stem.split("_")[1])) * dry.dt
     assert moved == pytest.approx(shear, rel=1e-3)
+
+
+def test_a_cohesionless_envelope_bends_so_its_intercept_depends_on_the_stresses(results: dict) -> None:
+    """Reference: the peak strength envelope of a dense granular sample is curved (dilatancy, which adds to the
+    peak, is suppressed as the normal stress grows: Bolton 1986, Geotechnique 36(1)), so a Mohr-Coulomb line through
+    peaks at higher stresses has a positive intercept without any bond, and a lower slope. The same ci sample,
+    cohesionless, at 5/10/20 kPa (the fixture's) and at 50/100/200 kPa: measured in docs/runs/shear_box_stress_range
+    (seeds 0-2, CPU) an intercept 12.7-16.0 kPa higher and a friction angle 13.4-17.4 deg lower at the higher
+    stresses; the bounds (5 kPa, 5 deg) keep about a third of the smallest."""
+    dry = results["dry"]
+    high = sb.run_shear_boxes([dry.config.replace(normal_stresses=(50e3, 100e3, 200e3))], DEVICE,
+                              bed=results["bed"])[0]
+    assert high.fit.cohesion > dry.fit.cohesion + 5e3, (dry.table(), high.table())
+    assert high.fit.friction_angle_deg < dry.fit.friction_angle_deg - 5.0, (dry.table(), high.table())
