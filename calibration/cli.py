@@ -582,6 +582,11 @@ def _stresses(text: str) -> tuple[float, ...]:
     return tuple(1e3 * x for x in sorted(v))
 
 
+def _add_budget(parser: argparse.ArgumentParser, help_text: str) -> None:
+    """A command's --budget: the wall time [s] of one call, > 0."""
+    parser.add_argument("--budget", type=_number(float, gt=0, unit="s"), default=None, help=help_text)
+
+
 def _number(cast: type, *, gt: float | None = None, ge: float | None = None, lt: float | None = None,
             unit: str = "") -> Callable[[str], float]:
     """An argparse type: a finite ``cast`` (int or float) within the given bounds, else a message saying so."""
@@ -919,9 +924,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="quick: ringing with the paper's parameters + soil bin with the paper's GA set 11; full: "
                         "ringing and draught calibrations, shear-box screening, Table 3 with replicas (resumable: "
                         "run the same command again after a stop)")
-    r.add_argument("--budget", type=_number(float, gt=0, unit="s"), default=None,
-                   help="full: wall time [s] of this call; the workflow stops (exit code 3) where the next piece "
-                        "would not fit, saving its state; the same command continues")
+    _add_budget(r, "full: wall time [s] of this call; the workflow stops (exit code 3) where the next piece "
+                   "would not fit, saving its state; the same command continues")
     r.add_argument("--replicas-min", type=_number(int, ge=1), default=3,
                    help="full: independent beds at least (default 3)")
     r.add_argument("--replicas-max", type=_replicas, default=8,
@@ -1005,9 +1009,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="workflow: the paper-scale workflow's calibrated soil (default); bonded: GA set 11 with 4x its "
                         "cohesions, yielding bonds on a settled bed (its draught and shear box match the lab's); "
                         "dense: GA set 11, yielding bonds on a bed deposited without friction")
-    t.add_argument("--budget", type=_number(float, gt=0, unit="s"), default=None,
-                   help="wall time [s] of this call; a soil-bin stage stops into its checkpoint (exit code 3) and "
-                        "the same command continues")
+    _add_budget(t, "wall time [s] of this call; a soil-bin stage stops into its checkpoint (exit code 3) and "
+                   "the same command continues")
     v = sub.add_parser("speed-sweep", help="rigid draught against speed (one world per speed) and the paper's "
                        "Table 7 reductions re-paired with a rigid run at each configuration's speed")
     common(v, "results/speed_sweep")
@@ -1074,9 +1077,8 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--ray-workers", type=_number(int, ge=1), default=None,
                    help="evaluate on N Ray workers (optional extra)")
     c.add_argument("--ray-address", default=None, help="address of an existing Ray cluster")
-    c.add_argument("--budget", type=_number(float, gt=0, unit="s"), default=None,
-                   help="wall time [s] for this call: stop before a GA batch that would not fit (exit 3); the same "
-                        "command continues")
+    _add_budget(c, "wall time [s] for this call: stop before a GA batch that would not fit (exit 3); the same "
+                   "command continues")
     q = sub.add_parser("diagnose", help="model criticism: residuals, candidate mechanisms, the named cause, its gain")
     q.add_argument("measured", help="MEASURED data (a summary CSV or a folder; calibration.measured), or "
                                     "paper:ringing (Table 2) or paper:soil-bin (Table 3)")

@@ -100,6 +100,17 @@ def _axis_label(name: str) -> str:
     return f"{name.replace('_', ' ')} [{COVARIATE_UNITS.get(name, '-')}]"
 
 
+def _save(fig: object, path: Path, title: str) -> str:
+    """Title, lay out, write (120 dpi) and close a figure; its file name."""
+    import matplotlib.pyplot as plt
+
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path.name
+
+
 def plots(d: Diagnosis, out: Path) -> list[str]:
     """observables.png (measured vs baseline vs extended, against stiffness), residuals.png (held-out residuals of
     the baseline against each covariate) and, with series, series.png (measured records and re-simulations against
@@ -131,12 +142,8 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
         ax.set_xlabel(_axis_label(x_name))
         ax.set_title(f"{name} [{d.units.get(name, '-')}]")
     axes[0, 0].legend(fontsize=7)
-    fig.suptitle("Measured (± stated uncertainty) against the held-out predictions of the baseline and of the "
-                 "named extension", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(out / "observables.png", dpi=120)
-    plt.close(fig)
-    files.append("observables.png")
+    files.append(_save(fig, out / "observables.png", "Measured (± stated uncertainty) against the held-out "
+                       "predictions of the baseline and of the named extension"))
 
     res = (d.baseline.pred_heldout - d.measured) / d.sigma
     fig, axes = plt.subplots(1, len(cov), figsize=(3.6 * len(cov), 3.2), squeeze=False)
@@ -148,11 +155,8 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
         ax.set_xlabel(_axis_label(cname))
         ax.set_ylabel("baseline held-out residual [sigma]")
     axes[0, 0].legend(fontsize=7)
-    fig.suptitle("The baseline's held-out residuals (in stated uncertainties) against each covariate", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(out / "residuals.png", dpi=120)
-    plt.close(fig)
-    files.append("residuals.png")
+    files.append(_save(fig, out / "residuals.png",
+                       "The baseline's held-out residuals (in stated uncertainties) against each covariate"))
 
     base = v.get("baseline")
     if isinstance(base, dict) and base.get("series"):
@@ -170,11 +174,8 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
             ax.set_ylabel(f"{d.configs[j].get('springs', j)} springs:\ndisp. [mm]", fontsize=8)
         axes[0, 0].legend(fontsize=7)
         axes[-1, 0].set_xlabel("time [s]")
-        fig.suptitle("Measured records and their re-simulations (baseline, named extension)", fontsize=10)
-        fig.tight_layout()
-        fig.savefig(out / "series.png", dpi=120)
-        plt.close(fig)
-        files.append("series.png")
+        files.append(_save(fig, out / "series.png",
+                           "Measured records and their re-simulations (baseline, named extension)"))
         if d.measured_series is not None and d.rig == rigs.RINGING.name:
             # the covariate within a decay: each cycle's damping ratio against its amplitude
             cols = min(n, 4)
@@ -194,11 +195,8 @@ def plots(d: Diagnosis, out: Path) -> list[str]:
             for j in range(n, rows * cols):
                 axes[j // cols, j % cols].axis("off")
             axes[0, 0].legend(fontsize=7)
-            fig.suptitle("Damping ratio of each cycle against its amplitude: measured and re-simulated", fontsize=10)
-            fig.tight_layout()
-            fig.savefig(out / "decay.png", dpi=120)
-            plt.close(fig)
-            files.append("decay.png")
+            files.append(_save(fig, out / "decay.png",
+                               "Damping ratio of each cycle against its amplitude: measured and re-simulated"))
     return files
 
 
