@@ -554,6 +554,8 @@ def _pattern(cov: dict[str, np.ndarray], rig: object, fit: Fit, bound: np.ndarra
             continue
         best = ("", 0.0, 1.0)
         for cname, cval in cov.items():
+            if np.ptp(cval[ok]) == 0 or np.ptp(rk[ok]) == 0:  # a constant has no rank correlation (scipy warns)
+                continue
             rho, p = stats.spearmanr(cval[ok], rk[ok])
             if np.isfinite(rho) and abs(rho) > abs(best[1]):
                 best = (cname, float(rho), float(p))
