@@ -437,3 +437,47 @@ def test_a_rotation_step_is_the_axis_angle_rotation() -> None:
     ref /= np.linalg.norm(ref, axis=1)[:, None]
     np.testing.assert_allclose(out.numpy(), ref, rtol=0, atol=6e-16)
     np.testing.assert_array_equal(out.numpy()[0], q[0])  # no rotation: q as it was
+
+
+def _pair_incline(theta: float, pair: list[float] | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """incline_run's sphere (20 deg) on its wall (60 deg), the pair's own angle per world (``pair``) or none: each
+    world's sphere motion over the first and both halves of 4,000 steps and its acceleration over the second [m/s^2]."""
+    b = wd.ModelBuilder(gravity=(0, 0, -9.81))
+    b.add_material("s", soil(friction_angle=20.0))
+    b.add_material("w", soil(friction_angle=60.0))
+    v, f = square((0, 0, 0), 0.5, theta)
+    b.add_mesh("plane", v, f, "w")
+    t = np.radians(theta)
+    start = np.array([0.2, -0.2, 0.0])
+    start[2] = -np.tan(t) * start[0] + (R - MASS * 9.81 * np.cos(t) / (4.0 / 3.0 * E * R)) / np.cos(t)
+    b.add_sphere(start, R, "s", blocked="XYZ")
+    if pair is not None:
+        b.set_pair_friction("s", "w", pair[0])
+    model, state = b.finalize(DEVICE, n_worlds=len(pair or [0]),
+                              overrides={"pair:s:w:friction_angle": pair} if pair else None)
+    k = 1 + 2 * np.arange(len(pair or [0]))  # each world's sphere (after its plane)
+    dt, half_steps = 2e-5, 2000
+    sim = wd.Simulation(model, state, dt=dt)
+    x0 = state.body_pos.numpy()[k].copy()
+    sim.advance(half_steps)
+    half, v_half = state.body_pos.numpy()[k] - x0, state.body_vel.numpy()[k].copy()
+    sim.advance(half_steps)
+    return half, state.body_pos.numpy()[k] - x0, (state.body_vel.numpy()[k] - v_half) / (half_steps * dt)
+
+
+def test_a_pair_friction_angle_replaces_the_smaller_of_the_two() -> None:
+    """Reference: Coulomb on an incline, the contact's friction angle being the pair's own where one is set (Yade's
+    MatchMaker on Ip2_CohFrictMat_CohFrictMat_CohFrictPhys.frictAngle) and min(phi_sphere, phi_wall) otherwise.
+    Sphere 20 deg, wall 60 deg, incline 25 deg: no pair angle (20 deg) slides with a = g (sin 25 - cos 25 tan 20);
+    two worlds with the pair's own 30 deg (sticks: under 0.1 um of motion over the second half) and 22 deg (slides
+    with tan 22). Tolerance on a: 0.2 % (float32 forces), as the incline test above."""
+    t = np.radians(25.0)
+    _, _, acc0 = _pair_incline(25.0, None)
+    half, d, acc = _pair_incline(25.0, [30.0, 22.0])
+    assert np.linalg.norm(d[0] - half[0]) < 1e-7
+    for a, phi in ((acc0[0], 20.0), (acc[1], 22.0)):
+        assert np.linalg.norm(a) == pytest.approx(9.81 * (np.sin(t) - np.cos(t) * np.tan(np.radians(phi))), rel=2e-3)
+    b = wd.ModelBuilder()
+    b.add_material("s", soil())
+    with pytest.raises(wd.InputError, match="pair friction_angle"):
+        b.set_pair_friction("s", "s", 90.0)

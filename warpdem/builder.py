@@ -29,6 +29,7 @@ from .errors import (
     check_points,
     check_positive,
     check_vec3,
+    degrees_to_radians,
 )
 from .laws import MATERIAL_FIELDS
 from .model import ALL_DOFS, FLAG_ASPHERICAL, FLAG_PIVOT, ROT_DOFS, Model, State, dof_mask
@@ -70,6 +71,7 @@ class ModelBuilder:
         self.gravity = tuple(check_vec3("gravity", gravity).tolist())
         self.materials: list[laws.Material | laws.HertzMindlinMaterial] = []
         self.material_names: dict[str, int] = {}
+        self.pair_friction: dict[tuple[int, int], float] = {}
         self.groups: dict[str, int] = {}
         self.group_damping: list[float] = []
         # bodies, stored as chunks of rows (see _push_bodies) and concatenated on demand
@@ -125,6 +127,14 @@ class ModelBuilder:
         if idx >= len(self.materials):
             raise InputError(f"material index {idx} is out of range (have {len(self.materials)})")
         return idx
+
+    def set_pair_friction(self, a: str, b: str, friction_angle: float) -> None:
+        """The friction angle [deg] (0 <= phi < 90) of every contact between materials ``a`` and ``b`` (names),
+        instead of the smaller of their own (Yade's MatchMaker on Ip2_*'s frictAngle), e.g. soil on steel. Per world
+        with the override ``pair:<a>:<b>:friction_angle``."""
+        i, j = self._material(a), self._material(b)
+        degrees_to_radians("pair friction_angle", friction_angle)
+        self.pair_friction[(min(i, j), max(i, j))] = float(friction_angle)
 
     def _group(self, group: str) -> int:
         if group not in self.groups:
@@ -514,6 +524,7 @@ class ModelBuilder:
             overrides: per-world parameters, name -> values of length n_worlds:
                 ``material:<name>:<field>`` (fields: young, poisson, density, friction_angle [deg],
                 normal_cohesion, shear_cohesion, eta_roll, eta_twist, alpha_kr, alpha_ktw),
+                ``pair:<a>:<b>:friction_angle`` [deg] (a material pair's own, :meth:`set_pair_friction`),
                 ``spring:<name>:<stiffness|damping|rest_length|preload|progressive|stop_stiffness>``,
                 ``spring:<name>:point_a`` / ``point_b`` (shape (n_worlds, 3) [m]: the attachment point in the world
                 as built, like :meth:`add_spring`'s; e.g. an anchor that sits elsewhere in each world),
@@ -551,6 +562,10 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
         # a field that is not the material's law's is 0 in the tables (its law does not read it)
         t[f] = np.tile(np.array([getattr(m, f) if f in m.FIELDS else 0.0 for m in b.materials], dtype=np.float64),
                        (n_worlds, 1))
+    nm = len(b.materials)
+    t["pair_friction"] = np.full((n_worlds, nm, nm), np.nan)
+    for (i, j), angle in b.pair_friction.items():
+        t["pair_friction"][:, i, j] = t["pair_friction"][:, j, i] = angle
     t["damping"] = np.tile(np.array(b.group_damping, dtype=np.float64), (n_worlds, 1))
     for f in SPRING_FIELDS:
         t["spring_" + f] = np.tile(np.array([getattr(s, f) for s in b.springs], dtype=np.float64), (n_worlds, 1))
@@ -572,6 +587,12 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
             for v in col:  # validate each world's material like a user-built one
                 b.materials[b.material_names[parts[1]]].replace(**{parts[2]: float(v)})
             t[parts[2]][:, b.material_names[parts[1]]] = col
+        elif parts[0] == "pair" and len(parts) == 4 and parts[3] == "friction_angle":
+            i, j = b._material(parts[1]), b._material(parts[2])
+            col = _per_world(key, values, n_worlds)
+            for v in col:
+                degrees_to_radians(f"override {key!r}", float(v))
+            t["pair_friction"][:, i, j] = t["pair_friction"][:, j, i] = col
         elif parts[0] == "spring" and len(parts) == 3 and parts[2] in ("point_a", "point_b"):
             if parts[1] not in spring_names:
                 raise InputError(f"override {key!r}: unknown spring {parts[1]!r}")
@@ -618,7 +639,8 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
             t[parts[2]][:, idx] = col
         else:
             raise InputError(
-                f"unknown override {key!r}; expected material:<name>:<field>, spring:<name>:<field>, "
+                f"unknown override {key!r}; expected material:<name>:<field>, pair:<a>:<b>:friction_angle, "
+                "spring:<name>:<field>, "
                 "spring:<name>:point_a|point_b, damping:<group> or "
                 "body:<name>:velocity|angular_velocity|mass|pivot_friction"
             )
@@ -733,6 +755,8 @@ def _material_and_spring_arrays(b: ModelBuilder, W: int, t: dict[str, np.ndarray
         col = t[f].reshape(-1)
         out["mat_" + name] = arr((np.radians(col) if f == "friction_angle" else col).astype(np.float32), wp.float32)
     out["mat_flags"] = arr(np.tile(np.array([m.flags for m in b.materials], dtype=np.int32), W), wp.int32)
+    pair = t["pair_friction"].reshape(-1)
+    out["mat_pair_tan"] = arr(np.where(np.isnan(pair), -1.0, np.tan(np.radians(pair))).astype(np.float32), wp.float32)
     out["group_damping"] = arr(t["damping"].reshape(-1).astype(np.float32), wp.float32)
     nb, nk = b._n_bodies, len(b.springs)
     off = np.repeat(np.arange(W) * nb, nk)

@@ -110,6 +110,9 @@ class Model:
     mat_alpha_ktw: wp.array
     mat_flags: wp.array
     """bits: 1 moment law, 2 fragile, 4 cohesive; int32."""
+    mat_pair_tan: wp.array
+    """tan of a material pair's own friction angle [-], float32 (n_worlds * n_materials * n_materials,); -1: the
+    smaller of the two materials' angles (``ModelBuilder.set_pair_friction``)."""
 
     # Local damping per world and group (n_worlds * n_groups,)
     group_damping: wp.array

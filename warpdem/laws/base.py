@@ -111,10 +111,26 @@ class Materials:
     """twisting stiffness factor [-], float32."""
     flags: wp.array(dtype=int)
     """MAT_MOMENT | MAT_FRAGILE | MAT_COHESIVE, int32."""
+    pair_tan: wp.array(dtype=float)
+    """tangent of a material pair's own friction angle [-], float32, (n_worlds * n_materials * n_materials,) in
+    world, first, second material order; -1 where the pair takes the smaller of its materials' angles (Yade's
+    default; ``ModelBuilder.set_pair_friction``, Yade's MatchMaker on the Ip2's frictAngle)."""
     n_materials: int
     """materials per world, int32."""
     law: int
     """the contact law of every material (COHFRICT, HERTZ_MINDLIN; ``Model.contact_law``), int32."""
+
+
+@wp.func
+def pair_tan_friction(mats: Materials, mi: int, mj: int) -> float:
+    """tan of the friction angle of a contact between materials mi and mj (indices into the per-world tables, one
+    world): the pair's own where one is set, else tan(min(phi_i, phi_j)) (tan is increasing)."""
+    n = mats.n_materials
+    w = mi / n
+    t = mats.pair_tan[w * n * n + (mi - w * n) * n + (mj - w * n)]
+    if t >= 0.0:
+        return t
+    return wp.min(mats.tan_friction[mi], mats.tan_friction[mj])
 
 
 @wp.func
