@@ -8,7 +8,8 @@ the rig supports all of its knobs.
 
 Built-in mechanisms (rationale in each entry): ``pivot_friction``, ``progressive_spring``, ``series_compliance``,
 ``extra_mass``, ``load_inertia``, ``pose_change``, ``sensor_offset``, ``sensor_drift``, ``stack_preload``,
-``speed_dependence``, ``rigid_reference_speed``, ``progressive_stack``, ``lever_geometry``, ``sensor_lever``.
+``speed_dependence``, ``rigid_reference_speed``, ``progressive_stack``, ``lever_geometry``, ``sensor_lever``,
+``soil_tool_friction``.
 
 Physical bounds (issue #39, item 1): every gene of a mechanism has a physical range, from the rig (its
 :class:`RigFacts`: the stacks' rates and travel, the tool's mass, the first swing) where the rig states one, with its
@@ -61,7 +62,7 @@ class RigFacts:
     smallest moment of the springs at a configuration's first swing (K theta_1); tool_mass [kg]; lever [m]: the
     stacks' and the sensor's stated lever about the pivot; seat_radius [m]: how far from its axis a stack's seat may
     bear on the shank (the discs' outer radius); sensor_tolerance [m]: how far the sensor's contact point may sit
-    from its stated lever."""
+    from its stated lever; soil_friction [deg]: the soil's internal friction angle (its shear box)."""
 
     rig: str
     springs: tuple[int, ...] = ()
@@ -73,6 +74,7 @@ class RigFacts:
     lever: float = math.nan
     seat_radius: float = math.nan
     sensor_tolerance: float = math.nan
+    soil_friction: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -241,6 +243,21 @@ def _sensor_lever_bound(f: RigFacts) -> dict[str, Bound]:
                                   "SENSOR_MOUNT_TOLERANCE, an assumption: the paper gives no tolerance)")}
 
 
+POTYONDY_RATIO = (0.5, 1.0)
+"""soil-steel friction angle over the soil's internal friction angle: Potyondy (1961, Geotechnique 11(4)) measured
+about 0.54 (smooth steel) to 0.76 (rough) on sand; an interface cannot be stronger than the soil itself (1)."""
+
+
+def _tool_friction_bound(f: RigFacts) -> dict[str, Bound]:
+    if not math.isfinite(f.soil_friction):
+        return {}
+    lo, hi = (r * f.soil_friction for r in POTYONDY_RATIO)
+    return {"tool_friction": Bound(lo, hi, f"soil on steel: {POTYONDY_RATIO[0]:g}-{POTYONDY_RATIO[1]:g} x the soil's "
+                                   f"internal friction angle ({f.soil_friction:g} deg, its shear box): Potyondy "
+                                   "(1961) measured 0.54-0.76 for sand on smooth to rough steel; no interface is "
+                                   "stronger than the soil")}
+
+
 register(Mechanism(
     "pivot_friction", "Dry friction at the pivot",
     "The shank turns about a pin in a bore; a dry (Coulomb) friction torque there takes a fixed amount of "
@@ -371,3 +388,14 @@ register(Mechanism(
     rigs=(SOIL_BIN.name,),
     signature="every displacement scaled by one factor, the reductions unchanged",
     bounds=_sensor_lever_bound))
+register(Mechanism(
+    "soil_tool_friction", "Soil-steel friction of its own",
+    "A contact takes the smaller of its two materials' friction angles (Yade's default), so a soil calibrated to a "
+    "few degrees of contact friction (the paper's assembly C sets: 5.1-7.5 deg) also slides on the steel sweep at "
+    "that angle, far below what sand shows on steel. Friction on the blade is part of the draught and of the moment "
+    "that deflects the passive tool.",
+    genes=(Gene("tool_friction", 2.0, 45.0, unit="deg"),),
+    knobs=lambda p: {"tool_friction": p["tool_friction"]},
+    rigs=(SOIL_BIN.name,),
+    signature="the draught and the deflection up together, rigid and passive alike",
+    bounds=_tool_friction_bound))

@@ -672,7 +672,9 @@ class SoilBinRigModel:
     lever: the DEM's spring, at the sensor's lever, gets the same moment-rotation law: rate x lambda^2, a given
     dashpot x lambda^2, progressive x lambda^4, preload / lambda; without a dashpot knob the measured damping ratio
     is kept), sensor_lever [-] (the sensor reads at this many times its stated lever: every displacement reading
-    scaled by it, before the offset), sensor_offset [m] (added to the displacement reading) and rigid_speed [m/s]
+    scaled by it, before the offset), tool_friction [deg] (the soil-steel contacts' own friction angle, in the
+    passive and the rigid runs alike: ``scenes.soil_bin.KNOBS``), sensor_offset [m] (added to the displacement
+    reading) and rigid_speed [m/s]
     (every reduction taken against a rigid run at this one speed instead of the configuration's own: the rigid
     draught at the configuration's speed moved along the rigid draught's line against speed, fitted through rigid
     runs at :data:`RIGID_SWEEP` and the measured speeds; the rigid runs are simulated once). Rigid runs (one per
@@ -703,7 +705,7 @@ class SoilBinRigModel:
     uncertainty_defaults = SOIL_BIN_UNCERTAINTY
     knobs = frozenset({"pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
                        "stack_preload", "sensor_offset", "rigid_speed", "progressive_factor", "spring_lever",
-                       "sensor_lever"})
+                       "sensor_lever", "tool_friction"})
     units = {"reduction": "%", "displacement_mean": "m", "displacement_trend": "m/s", "draught_mean": "N",
              "rigid_draught_mean": "N"}
     genes: tuple[Gene, ...] = ()
@@ -798,6 +800,8 @@ class SoilBinRigModel:
         self.max_worlds = int(max_worlds)
         self._rigid: dict[float, dict[str, float]] = {}
         self._rigid_line: tuple[float, float] | None = None
+        self._rigid_tool: dict[float, dict[float, dict[str, float]]] = {}
+        """rigid runs with the tool_friction knob: angle [deg] -> speed -> mean, sem."""
         self.simulator = simulator
         self._passive: dict[tuple, dict[str, object]] = {}
         self._sim_sigma: np.ndarray | None = None
@@ -805,6 +809,7 @@ class SoilBinRigModel:
             if runs_from.settings() != self.settings():
                 raise ValueError("runs_from: the other rig model simulates another scene (settings differ)")
             self._bed, self._rigid, self._passive = runs_from._bed, runs_from._rigid, runs_from._passive
+            self._rigid_tool = runs_from._rigid_tool
             self.simulator = runs_from.simulator
 
     @property
@@ -850,6 +855,7 @@ class SoilBinRigModel:
         realisation would not match the fitted points)."""
         return {"sim_sigma": None if self._sim_sigma is None else self._sim_sigma.tolist(),
                 "rigid": [[v, r["mean"], r["sem"]] for v, r in self._rigid.items()],
+                "rigid_tool": [[a, v, r["mean"], r["sem"]] for a, t in self._rigid_tool.items() for v, r in t.items()],
                 "rigid_line": None if self._rigid_line is None else list(self._rigid_line)}
 
     def restore(self, state: dict[str, object]) -> None:
@@ -858,6 +864,8 @@ class SoilBinRigModel:
             self._sim_sigma = np.array(state["sim_sigma"], dtype=np.float64)
         for v, mean, sem in state.get("rigid", []):
             self._rigid[round(float(v), 6)] = {"mean": float(mean), "sem": float(sem)}  # soil_bin.speed_key
+        for a, v, mean, sem in state.get("rigid_tool", []):
+            self._rigid_table(a)[round(float(v), 6)] = {"mean": float(mean), "sem": float(sem)}
         if state.get("rigid_line") is not None:
             self._rigid_line = (float(state["rigid_line"][0]), float(state["rigid_line"][1]))
 
@@ -896,26 +904,43 @@ class SoilBinRigModel:
         return sb.run_soil_bin(self.config, springs, bed=self.bed(), device=self.device, speeds=speeds, knobs=knobs,
                                progress=progress, soil_overrides=soil)
 
-    def _run_rigid(self, speeds: list[float], progress: object | None) -> None:
+    def _tool_friction_off(self) -> float:
+        """The soil-steel friction angle [deg] of the scene without the knob: the smaller of the soil's and the
+        tool's (Yade's rule), for a case without the knob batched with one that has it."""
+        from scenes import paper
+
+        soil = float(self.soil.get("friction_angle", self.config.soil_material().friction_angle))
+        return min(soil, paper.TOOL_FRICTION)
+
+    def _rigid_table(self, tool_friction: float | None) -> dict[float, dict[str, float]]:
+        """The rigid runs by speed: the scene's own, or with the tool_friction knob at that angle [deg]."""
+        return self._rigid if tool_friction is None else self._rigid_tool.setdefault(float(tool_friction), {})
+
+    def _run_rigid(self, speeds: list[float], progress: object | None, tool_friction: float | None = None) -> None:
         from scenes import soil_bin as sb
 
-        todo = sorted({sb.speed_key(v) for v in speeds} - set(self._rigid))
+        table = self._rigid_table(tool_friction)
+        todo = sorted({sb.speed_key(v) for v in speeds} - set(table))
         if not todo:
             return
-        run = self._run([0] * len(todo), todo, None, progress)
+        knobs = None if tool_friction is None else {"tool_friction": [float(tool_friction)] * len(todo)}
+        run = self._run([0] * len(todo), todo, knobs, progress)
         for v, row in zip(todo, run.steady, strict=True):
-            self._rigid[v] = {"mean": row["draught_mean"], "sem": row["draught_sem"]}
+            table[v] = {"mean": row["draught_mean"], "sem": row["draught_sem"]}
 
-    def rigid_reference(self, speed: float, rigid_speed: float | None = None) -> tuple[float, float]:
+    def rigid_reference(self, speed: float, rigid_speed: float | None = None,
+                        tool_friction: float | None = None) -> tuple[float, float]:
         """The rigid draught [N] and its standard error [N] that a passive run at ``speed`` [m/s] is compared with:
         the rigid run at ``speed`` (Table 3's pairing), or with ``rigid_speed`` (the rigid_speed knob) that run
         moved along the rigid draught's line against speed to ``rigid_speed`` (the line's slope is fitted once,
-        through rigid runs at :data:`RIGID_SWEEP` and every measured speed). Simulates what is missing."""
+        through rigid runs at :data:`RIGID_SWEEP` and every measured speed). With ``tool_friction`` [deg] (the
+        knob) the rigid tool runs with it too (the line's slope stays the scene's own). Simulates what is
+        missing."""
         from scenes import soil_bin as sb
         from scenes import speed_sweep
 
-        self._run_rigid([speed], None)
-        rig = self._rigid[sb.speed_key(speed)]
+        self._run_rigid([speed], None, tool_friction)
+        rig = self._rigid_table(tool_friction)[sb.speed_key(speed)]
         if rigid_speed is None or sb.speed_key(rigid_speed) == sb.speed_key(speed):
             return rig["mean"], rig["sem"]
         if self._rigid_line is None:
@@ -929,8 +954,9 @@ class SoilBinRigModel:
     def facts(self) -> object:
         """What the soil-bin rig states that bounds the mechanisms (``calibration.mechanisms.RigFacts``): the stated
         rates, each stack's DIN 2093 travel, the sweep's mass, its stacks' and sensor's lever, the discs' radius and
-        the sensor's mounting tolerance."""
+        the sensor's mounting tolerance, the laboratory's internal friction angle."""
         from scenes.passive_tool import DISC_OUTER_RADIUS, SENSOR_MOUNT_TOLERANCE, lever, stack_travel
+        from scenes.shear_box import lab_strength
         from scenes.sweep import build_sweep
 
         from . import mechanisms as mech
@@ -940,7 +966,7 @@ class SoilBinRigModel:
                              tuple(float(c["stiffness"]) for c in self.configs),
                              tuple(stack_travel(c["springs"]) for c in self.configs), tool_mass=float(tool.mass),
                              lever=lever(tool), seat_radius=DISC_OUTER_RADIUS,
-                             sensor_tolerance=SENSOR_MOUNT_TOLERANCE)
+                             sensor_tolerance=SENSOR_MOUNT_TOLERANCE, soil_friction=lab_strength()[1])
 
     def _run_passive(self, keys: list[tuple], keep_series: bool, progress: object | None) -> None:
         from scenes.passive_tool import stack_travel
@@ -965,7 +991,8 @@ class SoilBinRigModel:
             for name in sorted({n for p in params for n in p}):
                 if name == "dashpot" and not all(name in p for p in params):
                     raise ValueError("dashpot must be given for every case or none")
-                knobs[name] = [p.get(name, KNOB_OFF.get(name, 0.0)) for p in params]
+                off = self._tool_friction_off() if name == "tool_friction" else KNOB_OFF.get(name, 0.0)
+                knobs[name] = [p.get(name, off) for p in params]
             run = self._run([c["springs"] for c in cfgs], [c["speed"] for c in cfgs], knobs, progress)
             for w, (key, row) in enumerate(zip(chunk, run.steady, strict=True)):
                 entry: dict[str, object] = {k: row[k] for k in ("draught_mean", "draught_sem", "displacement_mean",
@@ -981,7 +1008,9 @@ class SoilBinRigModel:
         """The observables of every case (n_cases, n_obs) (with ``_sem``: their simulation standard errors)."""
         from scenes import soil_bin as sb
 
-        self._run_rigid([self.configs[c.config]["speed"] for c in cases], progress)
+        for angle in {({**self.fixed, **c.params}).get("tool_friction") for c in cases}:  # rigid runs alike
+            self._run_rigid([self.configs[c.config]["speed"] for c in cases
+                             if ({**self.fixed, **c.params}).get("tool_friction") == angle], progress, angle)
         keys = [self._physical(c) for c in cases]
         self._run_passive(keys, keep_series, progress)
         values = np.full((len(cases), len(self.observables)), np.nan)
@@ -992,7 +1021,7 @@ class SoilBinRigModel:
             speed = self.configs[case.config]["speed"]
             run = self._passive[key]
             rigid_speed = p.get("rigid_speed")
-            rigid, rigid_sem = self.rigid_reference(speed, rigid_speed)
+            rigid, rigid_sem = self.rigid_reference(speed, rigid_speed, p.get("tool_friction"))
             # the rigid tool moves at its carriage speed exactly
             drag = p.get("soil_viscosity", 0.0) * (speed if rigid_speed is None else rigid_speed)
             rigid, passive = rigid + drag, float(run["draught_mean"])

@@ -65,7 +65,7 @@ DEPOSIT_FRICTION = 30.0
 """contact friction [deg] of a bed's deposition (``SoilBinConfig.deposit_friction``'s default): porosity 0.456,
 coordination 4.9 at paper scale for assembly C (docs/fidelity.md)."""
 KNOBS = ("stiffness", "dashpot", "pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
-         "stack_preload", "tool_mass_scale")
+         "stack_preload", "tool_mass_scale", "tool_friction")
 """per-world settings and extensions of the passive rig with linear springs (``run_soil_bin(knobs=...)``), SI:
 stiffness [N/m] (default DIN 2093 of the configuration), dashpot [N s/m] (default: Table 2's measured damping
 ratio for the hinged tool alone), pivot_friction [N m] (Coulomb torque at the hinge), extra_mass [kg] (added to the
@@ -75,7 +75,11 @@ resistance b v against travel at the share's tip; it adds to the draught), stack
 compressed by this much at the drawing pose, against a stop: the tool rests on the stop until the spring's load
 exceeds k x stack_preload, then deflects by the excess / k; the stop is STOP_RATIO times the spring's rate). The rigid
 tool takes soil_viscosity only (its motion is prescribed: the resistance only adds to the draught). tool_mass_scale
-[-] (> 0) multiplies the tool's mass and inertia (``scenes.passive_tool.PassiveTool.inertia_factor``)."""
+[-] (> 0) multiplies the tool's mass and inertia (``scenes.passive_tool.PassiveTool.inertia_factor``).
+tool_friction [deg] (0 <= phi < 90): the soil-steel contacts' own friction angle (``ModelBuilder.set_pair_friction``;
+without it they take the smaller of the soil's and the tool's, i.e. the soil's); the rigid tool takes it too."""
+RIGID_KNOBS = ("soil_viscosity", "tool_friction")
+"""the knobs a rigid tool takes (its motion is prescribed)."""
 STOP_RATIO = 100.0
 """stiffness of the preloaded stack's stop relative to the stack's rate: the tool presses into it by at most 1 % of
 the preload's compression (a metal stop is stiffer still; this keeps the spring's time step far above the soil's)."""
@@ -434,9 +438,9 @@ def _check_knobs(knobs: dict[str, object] | None, n_worlds: int, rigid: bool, sp
     for name, values in (knobs or {}).items():
         if name not in KNOBS:
             raise ValueError(f"knobs: unknown knob {name!r}; known {KNOBS}")
-        if rigid and name != "soil_viscosity":
-            raise ValueError(f"knobs: the rigid tool takes soil_viscosity only, got {name!r}")
-        if not rigid and spring_model != "linear":
+        if rigid and name not in RIGID_KNOBS:
+            raise ValueError(f"knobs: the rigid tool takes {' and '.join(RIGID_KNOBS)} only, got {name!r}")
+        if not rigid and spring_model != "linear" and name != "tool_friction":
             raise ValueError(f"knobs: {name!r} needs spring_model 'linear', got {spring_model!r}")
         a = np.broadcast_to(np.asarray(values, dtype=np.float64), (n_worlds,)).copy()
         check_per_world(name, tuple(a.tolist()))
@@ -488,6 +492,8 @@ def build_scene(config: SoilBinConfig, bed: Bed | list[Bed], tool: SweepTool, sp
     overrides: dict[str, object] = {"body:sweep_lower:velocity": [(0.0, s, 0.0) for s in speeds]}
     for name, values in (soil_overrides or {}).items():
         overrides[f"material:soil:{name}"] = values
+    if "tool_friction" in knobs:  # checked by the builder (0 <= phi < 90 deg)
+        overrides["pair:soil:tool:friction_angle"] = knobs["tool_friction"]
     if "soil_viscosity" in knobs:
         # a dashpot from a static anchor far ahead to the tip: its force is b v against travel
         tip = np.asarray(tool.tip, dtype=np.float64)

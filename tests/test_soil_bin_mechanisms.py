@@ -113,3 +113,43 @@ def test_a_stack_seated_off_the_sensor_lever_is_named_and_the_sensor_at_its_boun
     bound = [b for b in d.at_bound if b["mechanism"] == "sensor_lever"]
     assert bound and bound[0]["side"] == "high", d.at_bound
     assert bound[0]["value"] == pytest.approx(1 + SENSOR_MOUNT_TOLERANCE / rig.facts().lever, rel=1e-3)
+
+
+def test_the_soil_steel_friction_knob_reaches_the_rigid_and_the_passive_runs() -> None:
+    """Reference: a quasi-static soil bin (written here) whose draught is 300 N (1 + tan(delta)) less 0.2 % per
+    spring, delta the soil-steel friction angle the runs get (the scene's 20 deg without the knob: a soil of 20 deg on
+    40 deg steel):
+    with tool_friction the rigid reference runs at the same angle, so the reduction stays the spring count's alone
+    (0.2 % per spring) while the displacement follows the draught; the knob's bound comes from the laboratory's
+    internal friction angle (Potyondy's ratios)."""
+    seen: list[tuple[int, float]] = []
+
+    def run(config, springs, speeds, knobs, soil):  # noqa: ANN001, ANN202
+        steady = []
+        for w, (n, v) in enumerate(zip(springs, speeds, strict=True)):
+            delta = float((knobs or {}).get("tool_friction", [20.0] * len(springs))[w])
+            seen.append((n, delta))
+            f = 300.0 * (1 + math.tan(math.radians(delta))) * (1 - (0.002 * n if n else 0.0))
+            k = float(knobs["stiffness"][w]) if n else math.inf
+            steady.append({"springs": n, "speed": v, "draught_mean": f, "draught_sem": 0.5,
+                           "displacement_mean": f * H / (k * A), "displacement_sem": 1e-5, "displacement_trend": 0.0,
+                           "displacement_trend_sem": 1e-5, "steady_time_mean": 1.0})
+        t = np.linspace(0.0, 1.0, 5)
+        series = {"displacement": np.tile([r["displacement_mean"] for r in steady], (len(t), 1)),
+                  "draught": np.tile([r["draught_mean"] for r in steady], (len(t), 1))}
+        return sb.SoilBinRun(tuple(springs), tuple(speeds), t, np.outer(t, speeds), series, steady)
+
+    from calibration.rig_models import Case
+
+    m = _measured(1.0, 1.0, 0)
+    data = Measured({**m.summary, "reduction": np.zeros(len(m.summary["springs"]))}, {})
+    rig = SoilBinRigModel(data, simulator=run, observables=("reduction", "displacement_mean"),
+                          soil={"friction_angle": 20.0})  # the scene's soil-steel angle without the knob: 20 deg
+    base, rough = rig.simulate([Case(3, {}), Case(3, {"tool_friction": 30.0})]).values
+    assert {d for n, d in seen if n == 0} == {20.0, 30.0}  # a rigid run at each angle
+    assert {d for n, d in seen if n == 16} == {20.0, 30.0}  # a case without the knob keeps the scene's angle
+    assert base[0] == pytest.approx(rough[0]) == pytest.approx(100 * 0.002 * 16)  # springs 16: 3.2 %
+    ratio = (1 + math.tan(math.radians(30.0))) / (1 + math.tan(math.radians(20.0)))
+    assert rough[1] / base[1] == pytest.approx(ratio)
+    bound = mech.get("soil_tool_friction").physical(rig.facts())["tool_friction"]
+    assert (bound.low, bound.high) == pytest.approx((0.5 * 32.3, 32.3)) and "Potyondy" in bound.source
