@@ -21,7 +21,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from throughput import emit, run_yade_script, timed_run  # benchmarks/throughput.py, beside this script
+from throughput import YADE_TIMED_RUN, emit, run_yade_script, timed_run  # benchmarks/throughput.py, beside this script
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -116,13 +116,7 @@ for s, e in zip(starts, ends):
         O.bodies.append(members[0])
     else:
         O.bodies.appendClumped(members)
-O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb()]),
-    InteractionLoop([Ig2_Sphere_Sphere_ScGeom6D()], [Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(setCohesionNow=True)],
-                    [Law2_ScGeom6D_CohFrictPhys_CohesionMoment(useIncrementalForm=True, always_use_moment_law=True)]),
-    NewtonIntegrator(gravity=(0, 0, 0), damping=0.0)]
-O.dt = 0.3 * PWaveTimeStep()
-O.run(cfg["warmup"], True)
-t = time.time(); O.run(cfg["steps"], True); wall = time.time() - t
+""" + YADE_TIMED_RUN + r"""
 json.dump({"engine": "yade -j2", "scene": "deposited bed C", "spheres": len(pos), "steps": cfg["steps"],
            "wall_s": wall, "particle_steps_per_s": len(pos) * cfg["steps"] / wall,
            "contacts": O.interactions.countReal()}, open(cfg["out"], "w"))

@@ -83,6 +83,17 @@ def run_warpdem(n: int, device: str, steps: int, warmup: int, threads: int | Non
             "contacts_or_candidates": contacts, "rebuilds": sim.rebuild_count}
 
 
+YADE_TIMED_RUN = r"""
+O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb()]),
+    InteractionLoop([Ig2_Sphere_Sphere_ScGeom6D()], [Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(setCohesionNow=True)],
+                    [Law2_ScGeom6D_CohFrictPhys_CohesionMoment(useIncrementalForm=True, always_use_moment_law=True)]),
+    NewtonIntegrator(gravity=(0, 0, 0), damping=0.0)]
+O.dt = 0.3 * PWaveTimeStep()
+O.run(cfg["warmup"], True)
+t = time.time(); O.run(cfg["steps"], True); wall = time.time() - t
+"""
+"""the Yade scripts' engines (the cohesive-frictional law, no gravity, no damping) and their timed run."""
+
 YADE_SCRIPT = r"""
 import json, time, numpy as np
 cfg = json.load(open(CFG))
@@ -91,13 +102,7 @@ m = O.materials.append(CohFrictMat(young=1e7, poisson=0.3, density=2700, frictio
     normalCohesion=1e6, shearCohesion=1e6, momentRotationLaw=True, etaRoll=0.3, etaTwist=0.3, isCohesive=True))
 for p, r in zip(pos, rad):
     O.bodies.append(sphere(tuple(p), float(r), material=m))
-O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb()]),
-    InteractionLoop([Ig2_Sphere_Sphere_ScGeom6D()], [Ip2_CohFrictMat_CohFrictMat_CohFrictPhys(setCohesionNow=True)],
-                    [Law2_ScGeom6D_CohFrictPhys_CohesionMoment(useIncrementalForm=True, always_use_moment_law=True)]),
-    NewtonIntegrator(gravity=(0, 0, 0), damping=0.0)]
-O.dt = 0.3 * PWaveTimeStep()
-O.run(cfg["warmup"], True)
-t = time.time(); O.run(cfg["steps"], True); wall = time.time() - t
+""" + YADE_TIMED_RUN + r"""
 json.dump({"engine": "yade -j2", "spheres": len(pos), "steps": cfg["steps"], "wall_s": wall,
            "particle_steps_per_s": len(pos) * cfg["steps"] / wall, "contacts": O.interactions.countReal()},
           open(cfg["out"], "w"))

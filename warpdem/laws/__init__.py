@@ -46,6 +46,7 @@ from .base import (
     Phys,
     empty_hist,
     new_hist,
+    pair_tan,
     rotate_hist,
     set_cohesion,
 )
@@ -87,12 +88,23 @@ def check_settings(law: int, **settings: object) -> None:
 
 
 @wp.func
+def _with_pair_friction(p: Phys, mats: Materials, mi: int, mj: int) -> Phys:
+    """``p`` with the friction tangent set for the pair of materials mi, mj where one is."""
+    out = p
+    t = pair_tan(mats, mi, mj)
+    if t >= 0.0:
+        out.tan_phi = t
+    return out
+
+
+@wp.func
 def pair_phys(mats: Materials, mi: int, mj: int, r1: float, r2: float) -> Phys:
     """The contact parameters of materials mi (contact radius r1 [m]) and mj (r2 [m]), indices into the per-world
-    tables, by the materials' law."""
+    tables, by the materials' law; a friction angle set for the pair (``ModelBuilder.set_pair_friction``) replaces
+    the law's own rule (both laws: the smaller of the two materials' angles)."""
     if mats.law == HERTZ_MINDLIN:
-        return hertz_mindlin.make_phys(mats, mi, mj, r1, r2)
-    return cohfrict.make_phys(mats, mi, mj, r1, r2)
+        return _with_pair_friction(hertz_mindlin.make_phys(mats, mi, mj, r1, r2), mats, mi, mj)
+    return _with_pair_friction(cohfrict.make_phys(mats, mi, mj, r1, r2), mats, mi, mj)
 
 
 @wp.func

@@ -122,15 +122,12 @@ class Materials:
 
 
 @wp.func
-def pair_tan_friction(mats: Materials, mi: int, mj: int) -> float:
-    """tan of the friction angle of a contact between materials mi and mj (indices into the per-world tables, one
-    world): the pair's own where one is set, else tan(min(phi_i, phi_j)) (tan is increasing)."""
+def pair_tan(mats: Materials, mi: int, mj: int) -> float:
+    """tan of the friction angle set for the pair of materials mi and mj (indices into the per-world tables, one
+    world), or -1 where none is (the law's own rule then holds)."""
     n = mats.n_materials
     w = mi / n
-    t = mats.pair_tan[w * n * n + (mi - w * n) * n + (mj - w * n)]
-    if t >= 0.0:
-        return t
-    return wp.min(mats.tan_friction[mi], mats.tan_friction[mj])
+    return mats.pair_tan[w * n * n + (mi - w * n) * n + (mj - w * n)]
 
 
 @wp.func

@@ -29,7 +29,6 @@ from .base import (
     Phys,
     deleted,
     law_out,
-    pair_tan_friction,
     rotate_hist,
     transport,
 )
@@ -132,7 +131,7 @@ def make_phys(mats: Materials, mi: int, mj: int, r1: float, r2: float) -> Phys:
         p.ks = 2.0 * b1 * b2 / (b1 + b2)
     p.kr = r1 * r2 * p.ks * hmean(mats.alpha_kr[mi], mats.alpha_kr[mj])
     p.ktw = r1 * r2 * p.ks * hmean(mats.alpha_ktw[mi], mats.alpha_ktw[mj])
-    p.tan_phi = pair_tan_friction(mats, mi, mj)
+    p.tan_phi = wp.min(mats.tan_friction[mi], mats.tan_friction[mj])  # tan(min(phi_i, phi_j)): tan is increasing
     p.max_roll = wp.min(mats.eta_roll[mi] * r1, mats.eta_roll[mj] * r2)
     p.max_twist = wp.min(mats.eta_twist[mi] * r1, mats.eta_twist[mj] * r2)
     fi = mats.flags[mi]

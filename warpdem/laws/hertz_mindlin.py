@@ -36,18 +36,7 @@ from typing import ClassVar
 import warp as wp
 
 from ..errors import check_positive, check_range, degrees_to_radians
-from .base import (
-    HERTZ_MINDLIN,
-    Hist,
-    LawOut,
-    Materials,
-    Phys,
-    deleted,
-    law_out,
-    pair_tan_friction,
-    rotate_hist,
-    transport,
-)
+from .base import HERTZ_MINDLIN, Hist, LawOut, Materials, Phys, deleted, law_out, rotate_hist, transport
 
 wp.set_module_options({"enable_backward": False})
 
@@ -106,7 +95,7 @@ def make_phys(mats: Materials, mi: int, mj: int, r1: float, r2: float) -> Phys:
     r = r1 * r2 / (r1 + r2)
     p.kn = 4.0 / 3.0 * e * wp.sqrt(r)
     p.ks = 2.0 * wp.sqrt(4.0 * r) * g / (2.0 - v)
-    p.tan_phi = pair_tan_friction(mats, mi, mj)
+    p.tan_phi = wp.min(mats.tan_friction[mi], mats.tan_friction[mj])  # tan(min(phi_i, phi_j)): tan is increasing
     p.max_roll = -1.0
     p.max_twist = -1.0
     return p
