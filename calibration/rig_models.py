@@ -1008,9 +1008,10 @@ class SoilBinRigModel:
         """The observables of every case (n_cases, n_obs) (with ``_sem``: their simulation standard errors)."""
         from scenes import soil_bin as sb
 
-        for angle in {({**self.fixed, **c.params}).get("tool_friction") for c in cases}:  # rigid runs alike
-            self._run_rigid([self.configs[c.config]["speed"] for c in cases
-                             if ({**self.fixed, **c.params}).get("tool_friction") == angle], progress, angle)
+        angles = [{**self.fixed, **c.params}.get("tool_friction") for c in cases]  # the rigid runs alike
+        for angle in set(angles):
+            self._run_rigid([self.configs[c.config]["speed"] for c, a in zip(cases, angles, strict=True)
+                             if a == angle], progress, angle)
         keys = [self._physical(c) for c in cases]
         self._run_passive(keys, keep_series, progress)
         values = np.full((len(cases), len(self.observables)), np.nan)

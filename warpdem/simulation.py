@@ -111,6 +111,7 @@ def _materials_of(model: Model) -> laws.Materials:
         setattr(materials, name, arr)
     materials.n_materials = model.n_materials
     materials.law = model.contact_law  # the one selection of the contact law (laws/__init__.py)
+    materials.pair_friction = model.pair_friction
     return materials
 
 

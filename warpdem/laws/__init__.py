@@ -91,9 +91,10 @@ def check_settings(law: int, **settings: object) -> None:
 def _with_pair_friction(p: Phys, mats: Materials, mi: int, mj: int) -> Phys:
     """``p`` with the friction tangent set for the pair of materials mi, mj where one is."""
     out = p
-    t = pair_tan(mats, mi, mj)
-    if t >= 0.0:
-        out.tan_phi = t
+    if mats.pair_friction != 0:  # the same for every contact: no table read per contact without pair angles
+        t = pair_tan(mats, mi, mj)
+        if t >= 0.0:
+            out.tan_phi = t
     return out
 
 

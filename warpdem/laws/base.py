@@ -119,6 +119,9 @@ class Materials:
     """materials per world, int32."""
     law: int
     """the contact law of every material (COHFRICT, HERTZ_MINDLIN; ``Model.contact_law``), int32."""
+    pair_friction: int
+    """1 if some material pair has its own friction angle (``pair_tan``), else 0 and ``pair_tan`` is not read;
+    int32."""
 
 
 @wp.func
