@@ -12,7 +12,8 @@
    A simulated record whose extraction fails is scored by what the failure says (``residuals``), not as a fixed
    large error.
 2. **Compare on held-out data**: the baseline plus each applicable mechanism of ``calibration.mechanisms`` (started
-   from the baseline's fit, its own genes gridded), leave-one-configuration-out. For configuration j the candidate
+   from the baseline's fit, its own genes gridded; the grid is repeated from points along the baseline's least
+   determined direction, ``DiagnosisSettings.ridge_starts``), leave-one-configuration-out. For configuration j the candidate
    is fitted without j and predicts j; its held-out loss is l_j = sum_k r_jk^2. A candidate beats the baseline when
    its held-out loss falls by at least ``min_gain`` (reported with the standard error of the per-configuration
    gains), its likelihood-ratio test against the baseline (in-sample chi^2 fall ~ chi^2(added genes), the
@@ -103,6 +104,13 @@ class DiagnosisSettings:
     converge_tol: float = 0.5
     """a round in which neither the in-sample chi^2 nor the held-out loss falls by this much has converged (chi^2
     units: a tenth of the 3.84 a one-gene likelihood-ratio test needs at 5 %)."""
+    ridge_starts: tuple[float, ...] = (0.25, 0.5)
+    """a model extended by a mechanism also starts its first round's grid from points moved along the model it
+    extends's least determined direction (the eigenvector of J^T J's smallest eigenvalue, J the simulated forward
+    differences of its residuals; e.g. the inertia-stiffness ridge of ringing records), at these fractions of the way
+    to the unit box's edge on either side: a mechanism whose best fit lies elsewhere along that ridge is found
+    whatever tiny differences (another device's rounding, 1e-6 of the data) choose the path of the local steps.
+    () starts from the extended fit alone. Not part of a checkpoint's key (it only adds points)."""
 
     def __post_init__(self) -> None:
         if self.rounds < 1:
@@ -117,6 +125,8 @@ class DiagnosisSettings:
             raise ValueError(f"alpha must be in (0, 1), got {self.alpha!r}")
         if not 0 <= self.min_gain < 1:
             raise ValueError(f"min_gain must be in [0, 1), got {self.min_gain!r}")
+        if not all(isinstance(f, int | float) and 0 < f <= 1 for f in self.ridge_starts):
+            raise ValueError(f"ridge_starts must be fractions in (0, 1], got {self.ridge_starts!r}")
 
 
 @dataclass
@@ -266,6 +276,7 @@ def _checkpoint_key(rig: object, settings: DiagnosisSettings, rounds: int | None
     more rounds requests a prefix or an extension of another's points, and its checkpoint serves both. ``rounds``:
     the key as it was written before the rounds left it (the same text with ``fit.rounds`` at that value)."""
     fit = asdict(settings)
+    del fit["ridge_starts"]
     if rounds is None:
         del fit["rounds"]
     else:
@@ -332,8 +343,10 @@ class _Fitter:
     def _key(self, cand: Candidate, z: np.ndarray) -> tuple[str, tuple[float, ...]]:
         return cand.name, tuple(np.round(z, 10).tolist())
 
-    def evaluate(self, requests: list[tuple[Candidate, np.ndarray]], what: str) -> None:
-        for cand, z in requests:
+    def evaluate(self, requests: list[tuple[Candidate, np.ndarray]], what: str, record: bool = True) -> None:
+        """Simulate the requested points not yet in the cache; ``record``: they count as the candidates' points
+        (False: only cached, e.g. the differences that find a fitted model's least determined direction)."""
+        for cand, z in requests if record else ():
             self.seen.setdefault(cand.name, []).append(self._key(cand, z))
         todo, seen = [], set()
         for cand, z in requests:
@@ -383,15 +396,53 @@ class _Fitter:
         i_fold = np.argmin(total[:, None] - loss, axis=0)
         return np.array([i_all]), i_fold
 
-    def fit(self, cands: list[Candidate], label: str, seeds: dict[str, np.ndarray] | None = None
-            ) -> dict[str, Fit]:
+    def sloppy_direction(self, cand: Candidate, z: np.ndarray, label: str) -> np.ndarray:
+        """The direction (n_genes,), unit length in unit coordinates, in which the candidate's fit at z is least
+        determined: the eigenvector of J^T J's smallest eigenvalue over every configuration's finite residuals, J
+        their simulated forward differences about z (simulated here where not cached; not counted as its points)."""
+        stencil = self._stencil(z)
+        self.evaluate([(cand, z)] + [(cand, p) for p in stencil], f"{label} (the fit's least determined direction)",
+                      record=False)
+        r0 = residuals(self.cache[self._key(cand, z)], self.rig.measured, self.sigma, self.bound)
+        cols = [(residuals(self.cache[self._key(cand, p)], self.rig.measured, self.sigma, self.bound) - r0)
+                / (p[i] - z[i]) for i, p in enumerate(stencil)]
+        jac = np.stack(cols, axis=-1).reshape(-1, len(stencil))
+        jac = jac[np.all(np.isfinite(jac), axis=1)]
+        if len(jac) == 0:
+            return np.zeros(len(z))
+        _, vecs = np.linalg.eigh(jac.T @ jac)
+        return vecs[:, 0]
+
+    def _starts(self, z0: np.ndarray, ridge: np.ndarray | None) -> list[np.ndarray]:
+        """z0 and the points along ``ridge`` (over z0's seeded genes) at the settings' fractions of the way to the
+        unit box's edge on either side (those that move a gene by at least 0.02)."""
+        out = [z0]
+        if ridge is None or not np.any(ridge):
+            return out
+        seeded = ~np.isnan(z0)
+        v = np.where(seeded, ridge, 0.0)
+        for sign in (1.0, -1.0):
+            d = sign * v
+            with np.errstate(divide="ignore", invalid="ignore"):
+                room = np.where(d > 0, (1.0 - z0) / d, np.where(d < 0, -z0 / d, np.inf))
+            t_edge = float(np.min(room[seeded])) if seeded.any() else 0.0
+            for f in self.settings.ridge_starts:
+                z = np.where(seeded, np.clip(z0 + f * t_edge * d, 0.0, 1.0), np.nan)
+                if np.nanmax(np.abs(z - z0)) >= 0.02:
+                    out.append(z)
+        return out
+
+    def fit(self, cands: list[Candidate], label: str, seeds: dict[str, np.ndarray] | None = None,
+            ridges: dict[str, np.ndarray] | None = None) -> dict[str, Fit]:
         """A grid over the genes' whole ranges, then Levenberg-Marquardt rounds: after each round, the forward
         differences about every candidate's all-data best point are simulated and the damped Gauss-Newton steps of
         every fold (and of all data) from that point are the next round's points. ``seeds``: per candidate, unit
         coordinates (n_genes,) with NaN for the genes to grid; the others start at their seed (a model extended
-        by one mechanism starts from the fitted model it extends)."""
+        by one mechanism starts from the fitted model it extends). ``ridges``: per seeded candidate, a direction
+        over its genes (:meth:`sloppy_direction` of the model it extends); the grid is repeated from points moved
+        along it (``DiagnosisSettings.ridge_starts``)."""
         s = self.settings
-        seeds = seeds or {}
+        seeds, ridges = seeds or {}, ridges or {}
         proposals: dict[str, list[np.ndarray]] = {c.name: [] for c in cands}
         for r in range(s.rounds):
             if r == 0:
@@ -399,8 +450,9 @@ class _Fitter:
                 for c in cands:
                     z0 = seeds.get(c.name, np.full(len(c.genes), np.nan))
                     free = np.isnan(z0)
-                    box = np.array([np.where(free, 0.0, z0), np.where(free, 1.0, z0)])
-                    requests += [(c, z) for z in _grid(box, s.first_grid.get(int(free.sum()), 3))]
+                    for zs in self._starts(z0, ridges.get(c.name)):
+                        box = np.array([np.where(free, 0.0, zs), np.where(free, 1.0, zs)])
+                        requests += [(c, z) for z in _grid(box, s.first_grid.get(int(free.sum()), 3))]
             else:
                 requests = [(c, z) for c in cands for z in proposals[c.name]]
             self.evaluate(requests, f"{label}, round {r + 1}/{s.rounds}")
@@ -605,7 +657,11 @@ def _step(fitter: _Fitter, current: Fit, remaining: list[mech.Mechanism], s: Dia
     """Every remaining mechanism added to ``current`` (each started from current's fit), compared with it."""
     cands = [extend(current.candidate, m, facts) for m in remaining]
     seeds = {c.name: np.r_[current.z_all, np.full(len(c.genes) - len(current.z_all), np.nan)] for c in cands}
-    fits = fitter.fit(cands, label, seeds)
+    ridges = {}
+    if s.ridge_starts and current.candidate.genes:
+        v = fitter.sloppy_direction(current.candidate, current.z_all, label)
+        ridges = {c.name: np.r_[v, np.zeros(len(c.genes) - len(v))] for c in cands}
+    fits = fitter.fit(cands, label, seeds, ridges)
     out = [fits[c.name] for c in cands]
     _compare(out, current, s)
     return out
