@@ -13,12 +13,12 @@
    large error.
 2. **Compare on held-out data**: the baseline plus each applicable mechanism of ``calibration.mechanisms`` (started
    from the baseline's fit, its own genes gridded; the grid is repeated from points along the baseline's least
-   determined direction, ``DiagnosisSettings.ridge_starts``), leave-one-configuration-out. For configuration j the candidate
-   is fitted without j and predicts j; its held-out loss is l_j = sum_k r_jk^2. A candidate beats the baseline when
-   its held-out loss falls by at least ``min_gain`` (reported with the standard error of the per-configuration
-   gains), its likelihood-ratio test against the baseline (in-sample chi^2 fall ~ chi^2(added genes), the
-   uncertainties being stated) is significant after Holm's correction over all candidates (alpha), and its AICc
-   (in-sample chi^2 + 2p + 2p(p+1)/(n-p-1)) is lower by more than 2.
+   determined direction, ``DiagnosisSettings.ridge_starts``), leave-one-configuration-out. For configuration j the
+   candidate is fitted without j and predicts j; its held-out loss is l_j = sum_k r_jk^2. A candidate beats the
+   baseline when its held-out loss falls by at least ``min_gain`` (reported with the standard error of the
+   per-configuration gains), its likelihood-ratio test against the baseline (in-sample chi^2 fall ~ chi^2(added
+   genes), the uncertainties being stated) is significant after Holm's correction over all candidates (alpha), and
+   its AICc (in-sample chi^2 + 2p + 2p(p+1)/(n-p-1)) is lower by more than 2.
 3. **Name the causes, stepwise**: the significant candidate of least held-out loss is named (with any other
    significant one whose held-out loss is within sqrt(2 n) of it, the spread of a chi^2 with n data points, as
    indistinguishable); it becomes the baseline and the remaining mechanisms are tried on top of it, until none is
@@ -105,10 +105,10 @@ class DiagnosisSettings:
     """a round in which neither the in-sample chi^2 nor the held-out loss falls by this much has converged (chi^2
     units: a tenth of the 3.84 a one-gene likelihood-ratio test needs at 5 %)."""
     ridge_starts: tuple[float, ...] = (0.25, 0.5)
-    """a model extended by a mechanism also starts its first round's grid from points moved along the model it
-    extends's least determined direction (the eigenvector of J^T J's smallest eigenvalue, J the simulated forward
-    differences of its residuals; e.g. the inertia-stiffness ridge of ringing records), at these fractions of the way
-    to the unit box's edge on either side: a mechanism whose best fit lies elsewhere along that ridge is found
+    """a model extended by a mechanism also starts its first round's grid from points moved along the least
+    determined direction of the model it extends (the eigenvector of J^T J's smallest eigenvalue, J the simulated
+    forward differences of its residuals; e.g. the inertia-stiffness ridge of ringing records), at these fractions of
+    the way to the unit box's edge on either side: a mechanism whose best fit lies elsewhere along that ridge is found
     whatever tiny differences (another device's rounding, 1e-6 of the data) choose the path of the local steps.
     () starts from the extended fit alone. Not part of a checkpoint's key (it only adds points)."""
 
