@@ -104,7 +104,7 @@ class DiagnosisSettings:
     converge_tol: float = 0.5
     """a round in which neither the in-sample chi^2 nor the held-out loss falls by this much has converged (chi^2
     units: a tenth of the 3.84 a one-gene likelihood-ratio test needs at 5 %)."""
-    ridge_starts: tuple[float, ...] = (0.25, 0.5)
+    ridge_starts: tuple[float, ...] = (0.25,)
     """a model extended by a mechanism also starts its first round's grid from points moved along the least
     determined direction of the model it extends (the eigenvector of J^T J's smallest eigenvalue, J the simulated
     forward differences of its residuals; e.g. the inertia-stiffness ridge of ringing records), at these fractions of
