@@ -20,7 +20,7 @@ stiffest individual the gene ranges allow), so an individual's result does not d
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -348,18 +348,26 @@ class SoilProblem(DraughtProblem):
         friction_angle_deg, r2}]: one soil-bin simulation and one batched shear box."""
         values = np.atleast_2d(np.asarray(values, dtype=np.float64))
         rows = super().evaluate(values)
+        for row, box in zip(rows, self.box_observables(values), strict=True):
+            row.update(box)
+        return rows
+
+    def box_observables(self, values: np.ndarray, labels: Sequence[object] | None = None) -> list[dict[str, float]]:
+        """The shear box alone, one batched simulation (the sample deposited once per problem): genes (n, 3) ->
+        [{cohesion_kpa, friction_angle_deg, r2}]. ``labels``: how each individual is named in progress and errors
+        (default its row)."""
+        values = np.atleast_2d(np.asarray(values, dtype=np.float64))
         soil = self.soil_overrides(values)
-        configs = [self.box.replace(**{k: float(soil[k][i]) for k in soil}, label=f"individual {i}")
-                   for i in range(len(values))]
+        labels = range(len(values)) if labels is None else labels
+        configs = [self.box.replace(**{k: float(soil[k][i]) for k in soil}, label=f"individual {lab}")
+                   for i, lab in enumerate(labels)]
         if self._box_bed is None:
             self._box_bed = shear_box.make_bed(self.box, self.device)
         bar = self.stage_progress
         boxes = shear_box.run_shear_boxes(configs, self.device, bed=self._box_bed,
                                           progress=(lambda ph, d, n: bar(f"shear box: {ph}", d, n)) if bar else None)
-        for row, res in zip(rows, boxes, strict=True):
-            row.update(cohesion_kpa=float(res.fit.cohesion / 1e3), friction_angle_deg=float(res.fit.friction_angle_deg),
-                       r2=float(res.fit.r2))
-        return rows
+        return [{"cohesion_kpa": float(res.fit.cohesion / 1e3), "friction_angle_deg": float(res.fit.friction_angle_deg),
+                 "r2": float(res.fit.r2)} for res in boxes]
 
     def errors(self, obs: dict[str, float]) -> dict[str, float]:
         """re_draught (signed, [-]), re_cohesion (signed, [-]) and d_friction_deg (signed [deg])."""

@@ -75,8 +75,7 @@ resistance b v against travel at the share's tip; it adds to the draught), stack
 compressed by this much at the drawing pose, against a stop: the tool rests on the stop until the spring's load
 exceeds k x stack_preload, then deflects by the excess / k; the stop is STOP_RATIO times the spring's rate). The rigid
 tool takes soil_viscosity and tool_friction only (its motion is prescribed: the resistance only adds to the draught).
-tool_mass_scale
-[-] (> 0) multiplies the tool's mass and inertia (``scenes.passive_tool.PassiveTool.inertia_factor``).
+tool_mass_scale [-] (> 0) multiplies the tool's mass and inertia (``scenes.passive_tool.PassiveTool.inertia_factor``).
 tool_friction [deg] (0 <= phi < 90): the soil-steel contacts' own friction angle (``ModelBuilder.set_pair_friction``;
 without it they take the smaller of the soil's and the tool's, i.e. the soil's), the sweep's and the bin walls' alike
 (both are of the "tool" material)."""
