@@ -250,10 +250,11 @@ def test_packing_matches_yade_statistically(yade: dict[str, np.ndarray]) -> None
 
 
 def test_hertz_mindlin_in_batched_worlds_and_world_steps(yade: dict[str, np.ndarray]) -> None:
-    # The law is selected once (Materials.law) and reaches every path of the step: a batch of two worlds with
-    # per-world Young's moduli (an override of the material's own field), run stage by stage and a thread per world
-    # (world_steps), gives in world 1 the bits of the same scene built alone with that modulus (worlds never interact
-    # and the force sums are fixed point). 5,000 steps (0.1 s) of the packing: the lowest grains land at 0.02 s.
+    # The law is selected once (the type of Simulation.materials) and reaches every path of the step: a batch of two
+    # worlds with per-world Young's moduli (an override of the material's own field), run stage by stage and a thread
+    # per world (world_steps), gives in world 1 the bits of the same scene built alone with that modulus (worlds never
+    # interact and the force sums are fixed point). 5,000 steps (0.1 s) of the packing: the lowest grains land at
+    # 0.02 s.
     d = yade
     young = np.array([float(d["pack_young"]), 2.0 * float(d["pack_young"])])
 
@@ -310,16 +311,18 @@ def test_hertz_mindlin_refuses_cohesion_and_moments_by_name() -> None:
 
 
 def test_new_struct_fields_are_documented() -> None:
-    # every field of the laws' shared structs has a docstring (Materials: naming its dtype, as tests/test_kernel_args)
-    for struct, dtype_words in ((base.Phys, True), (base.Materials, True)):
-        tree = ast.parse(inspect.getsource(struct.cls))
+    # every field of the laws' shared structs has a docstring (the material tables: naming its dtype, as
+    # tests/test_kernel_args), and every law's tables have the same fields
+    for law_tables in laws.MATERIAL_TABLES.values():
+        assert list(law_tables.vars) == list(base.CohFrictMaterials.vars)
+    for cls, fields in ((base.Phys.cls, base.Phys.vars), (base.MaterialTables, base.CohFrictMaterials.vars)):
+        tree = ast.parse(inspect.getsource(cls))
         body = tree.body[0].body
         docs = {}
         for stmt, nxt in zip(body, body[1:] + [None], strict=True):
             if isinstance(stmt, ast.AnnAssign):
                 docs[stmt.target.id] = nxt.value.value if isinstance(nxt, ast.Expr) else ""
-        assert list(docs) == list(struct.vars), struct.key
-        for name, var in struct.vars.items():
-            assert docs[name].strip(), f"{struct.key}.{name}"
-            if dtype_words and var.type in (int, float):
-                assert ("int32" if var.type is int else "float32") in docs[name], f"{struct.key}.{name}"
+        assert list(docs) == list(fields), cls.__name__
+        for name, var in fields.items():
+            assert docs[name].strip(), f"{cls.__name__}.{name}"
+            assert ("int32" if var.type is int else "float32") in docs[name] or var.type not in (int, float), name

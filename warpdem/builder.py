@@ -829,7 +829,6 @@ def _assemble(b: ModelBuilder, dev: wp.context.Device, W: int, t: dict[str, np.n
         warp_meshes=warp_meshes,
         max_radius=float(sph_rad.max()) if ns else 0.0,
         contact_law=laws.law_of(b.materials),
-        pair_friction=int(not np.all(np.isnan(t["pair_friction"]))),
     )
     model.host = {
         "sphere_radius": np.tile(sph_rad, W),

@@ -16,6 +16,8 @@ Forces and torques are accumulated into per-body arrays (atomics); torques are a
 
 from __future__ import annotations
 
+from typing import Any
+
 import warp as wp
 
 from .accumulate import add_wrench
@@ -26,11 +28,11 @@ from .laws import (
     ACTIVE,
     Hist,
     LawOut,
-    Materials,
     contact_law,
     elastic_energy,
     empty_hist,
     new_hist,
+    overload_per_law,
     pair_phys,
     set_cohesion,
     stiffness,
@@ -49,14 +51,25 @@ N_ENERGY = wp.constant(5)  # slots per world in the energy accumulator
 
 
 @wp.kernel
-def tan_kernel(angle: wp.array(dtype=float), out: wp.array(dtype=float)):
-    """out = tan(angle) (float32, the tangent the contact law used to take per contact)."""
-    i = wp.tid()
-    out[i] = wp.tan(angle[i])
+def pair_tan_kernel(friction: wp.array(dtype=float), pair_tan: wp.array(dtype=float), n_materials: int,
+                    out: wp.array(dtype=float)):
+    """out[(w, i, j)] = the tangent of material pair (i, j)'s friction angle in world w, for one entry of the
+    (n_worlds * n_materials * n_materials,) pair tables: the pair's own tangent pair_tan [-] where set (>= 0),
+    else tan of the smaller of the two materials' angles friction [rad] (float32, taken once here, not per
+    contact and step)."""
+    k = wp.tid()
+    n = n_materials
+    w = k / (n * n)
+    i = (k / n) % n
+    j = k % n
+    t = pair_tan[k]
+    if t < 0.0:
+        t = wp.min(wp.tan(friction[w * n + i]), wp.tan(friction[w * n + j]))
+    out[k] = t
 
 
 @wp.func
-def phys_of(mats: Materials, world: int, mi: int, mj: int, r1: float, r2: float):
+def phys_of(mats: Any, world: int, mi: int, mj: int, r1: float, r2: float):
     """The contact parameters of materials mi and mj of ``world`` (contact radii r1, r2 [m]), by their law."""
     off = world * mats.n_materials
     return pair_phys(mats, off + mi, off + mj, r1, r2)
@@ -92,7 +105,7 @@ def sphere_pair(
     arm_i0: wp.vec3f,
     now: int,
     spheres: Spheres,
-    mats: Materials,
+    mats: Any,
     opts: Options,
     kin: SphereState,
     hist: wp.array(dtype=Hist),  # in/out
@@ -128,7 +141,8 @@ def sphere_pair(
         wj = kin.angvel[j]
         alpha = (r1 + r2) / (r1 + r2 - un)
         v12 = alpha * (kin.vel[j] - vi) - wp.cross(r1 * wi + r2 * wj, n)
-        law = contact_law(h, p, is_new, n, un, v12, wi + wj, wj - wi, float(opts.dt), opts.always_moment, opts.unp_max)
+        law = contact_law(mats, h, p, is_new, n, un, v12, wi + wj, wj - wi, float(opts.dt), opts.always_moment,
+                          opts.unp_max)
         hist[k] = law.hist
         if law.alive != 0:
             arm_i = arm_i0 + (r1 - 0.5 * un) * n
@@ -146,7 +160,7 @@ def sphere_pair(
 def sphere_sphere_one(
     i: int,
     spheres: Spheres,
-    mats: Materials,
+    mats: Any,
     opts: Options,
     kin: SphereState,
     ss: SphereList,  # in/out: the history
@@ -184,7 +198,7 @@ def sphere_sphere_one(
 def sphere_sphere_kernel(
     first: int,  # the first sphere of this launch (a CPU thread's share)
     spheres: Spheres,
-    mats: Materials,
+    mats: Any,
     opts: Options,
     kin: SphereState,
     ss: SphereList,
@@ -198,7 +212,7 @@ def sphere_sphere_kernel(
 def sphere_pair_kernel(
     first: int,  # the first list entry of this launch (a CPU thread's share)
     spheres: Spheres,
-    mats: Materials,
+    mats: Any,
     opts: Options,
     kin: SphereState,
     ss: SphereList,  # with ``owner``
@@ -305,7 +319,7 @@ def sphere_triangle_one(
     i: int,
     spheres: Spheres,
     meshes: Meshes,
-    mats: Materials,
+    mats: Any,
     opts: Options,
     kin: SphereState,
     bodies: BodyState,
@@ -362,7 +376,7 @@ def sphere_triangle_one(
         vm = wp.vec3f(bodies.vel[b])
         wm = wp.vec3f(bodies.angvel[b])
         v12 = (vs + wp.cross(ws, arm_s)) - (vm + wp.cross(wm, arm_m))
-        out = contact_law(h, p, is_new, n, g.un, v12, wm + ws, ws - wm, float(opts.dt), opts.always_moment,
+        out = contact_law(mats, h, p, is_new, n, g.un, v12, wm + ws, ws - wm, float(opts.dt), opts.always_moment,
                            opts.unp_max)
         st.hist[k] = out.hist
         if out.alive == 0:
@@ -390,7 +404,7 @@ def sphere_triangle_kernel(
     first: int,  # the first sphere of this launch (a CPU thread's share)
     spheres: Spheres,
     meshes: Meshes,
-    mats: Materials,
+    mats: Any,
     opts: Options,
     kin: SphereState,
     bodies: BodyState,
@@ -403,7 +417,7 @@ def sphere_triangle_kernel(
 
 # ----------------------------------------------------------------------------- per contact: energy, stiffness
 @wp.func(inline=True)  # inlined: the same code as before the split
-def sphere_entry(i: int, k: int, spheres: Spheres, mats: Materials, kin: SphereState, ss: SphereList):
+def sphere_entry(i: int, k: int, spheres: Spheres, mats: Any, kin: SphereState, ss: SphereList):
     """Entry k of sphere i's sphere-sphere list: returns (the contact's parameters by its law, its overlap un
     [m])."""
     radius = spheres.radius
@@ -414,7 +428,7 @@ def sphere_entry(i: int, k: int, spheres: Spheres, mats: Materials, kin: SphereS
 
 
 @wp.func(inline=True)  # inlined: the same code as before the split
-def triangle_entry(i: int, k: int, spheres: Spheres, meshes: Meshes, mats: Materials, kin: SphereState,
+def triangle_entry(i: int, k: int, spheres: Spheres, meshes: Meshes, mats: Any, kin: SphereState,
                    bodies: BodyState, st: TriangleList):
     """Entry k of sphere i's sphere-triangle list: returns (the contact's parameters by its law, its overlap un
     [m])."""
@@ -426,30 +440,30 @@ def triangle_entry(i: int, k: int, spheres: Spheres, meshes: Meshes, mats: Mater
 
 @wp.kernel
 def sphere_sphere_elastic_kernel(
-    spheres: Spheres, mats: Materials, kin: SphereState, ss: SphereList, out: wp.array(dtype=wp.float64)
+    spheres: Spheres, mats: Any, kin: SphereState, ss: SphereList, out: wp.array(dtype=wp.float64)
 ):
     """The elastic energy of sphere i's active sphere-sphere contacts [J] added into out[its world]."""
     i = wp.tid()
     for k in range(ss.start[i], ss.start[i] + ss.count[i]):
         if (ss.hist[k].flags & ACTIVE) != 0:
             p, un = sphere_entry(i, k, spheres, mats, kin, ss)
-            wp.atomic_add(out, spheres.world[i], wp.float64(elastic_energy(ss.hist[k], p, un)))
+            wp.atomic_add(out, spheres.world[i], wp.float64(elastic_energy(mats, ss.hist[k], p, un)))
 
 
 @wp.kernel
-def sphere_triangle_elastic_kernel(spheres: Spheres, meshes: Meshes, mats: Materials, kin: SphereState,
+def sphere_triangle_elastic_kernel(spheres: Spheres, meshes: Meshes, mats: Any, kin: SphereState,
                                    bodies: BodyState, st: TriangleList, out: wp.array(dtype=wp.float64)):
     """The elastic energy of sphere i's active sphere-triangle contacts [J] added into out[its world]."""
     i = wp.tid()
     for k in range(st.start[i], st.start[i] + st.count[i]):
         if (st.hist[k].flags & ACTIVE) != 0:
             p, un = triangle_entry(i, k, spheres, meshes, mats, kin, bodies, st)
-            wp.atomic_add(out, spheres.world[i], wp.float64(elastic_energy(st.hist[k], p, un)))
+            wp.atomic_add(out, spheres.world[i], wp.float64(elastic_energy(mats, st.hist[k], p, un)))
 
 
 @wp.kernel
 def sphere_sphere_stiffness_kernel(
-    spheres: Spheres, mats: Materials, kin: SphereState, ss: SphereList, out: wp.array(dtype=wp.vec4f)
+    spheres: Spheres, mats: Any, kin: SphereState, ss: SphereList, out: wp.array(dtype=wp.vec4f)
 ):
     """out[k] = (kn [N/m], ks [N/m], kr [N m/rad], ktw [N m/rad]) of entry k of sphere i's sphere-sphere list, by
     the contact law (zeros for an entry that is not a contact)."""
@@ -458,11 +472,11 @@ def sphere_sphere_stiffness_kernel(
         out[k] = wp.vec4f(0.0)
         if (ss.hist[k].flags & ACTIVE) != 0:
             p, un = sphere_entry(i, k, spheres, mats, kin, ss)
-            out[k] = stiffness(ss.hist[k], p, un)
+            out[k] = stiffness(mats, ss.hist[k], p, un)
 
 
 @wp.kernel
-def sphere_triangle_stiffness_kernel(spheres: Spheres, meshes: Meshes, mats: Materials, kin: SphereState,
+def sphere_triangle_stiffness_kernel(spheres: Spheres, meshes: Meshes, mats: Any, kin: SphereState,
                                      bodies: BodyState, st: TriangleList, out: wp.array(dtype=wp.vec4f)):
     """out[k] = (kn, ks, kr, ktw) of entry k of sphere i's sphere-triangle list (as sphere_sphere_stiffness_kernel)."""
     i = wp.tid()
@@ -470,4 +484,8 @@ def sphere_triangle_stiffness_kernel(spheres: Spheres, meshes: Meshes, mats: Mat
         out[k] = wp.vec4f(0.0)
         if (st.hist[k].flags & ACTIVE) != 0:
             p, un = triangle_entry(i, k, spheres, meshes, mats, kin, bodies, st)
-            out[k] = stiffness(st.hist[k], p, un)
+            out[k] = stiffness(mats, st.hist[k], p, un)
+
+
+overload_per_law(sphere_sphere_kernel, sphere_pair_kernel, sphere_triangle_kernel, sphere_sphere_elastic_kernel,
+                 sphere_triangle_elastic_kernel, sphere_sphere_stiffness_kernel, sphere_triangle_stiffness_kernel)

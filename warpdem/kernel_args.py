@@ -1,5 +1,5 @@
 """Kernel arguments grouped as Warp structs, as MuJoCo Warp groups its Model and Data: what a stage of the step
-reads of the model (bodies, spheres, meshes, springs; the materials are ``laws.Materials``, the settings
+reads of the model (bodies, spheres, meshes, springs; the materials are ``laws.MaterialTables``, the settings
 ``types.Options``), what it reads and
 writes of the state (body poses and velocities, sphere kinematics, the candidate lists with their history) and the
 sums it adds into (fixed-point wrenches, energies, their float results).

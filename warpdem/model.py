@@ -149,8 +149,6 @@ class Model:
     """largest sphere radius [m]."""
     contact_law: int = 0
     """the contact law of every material: ``laws.COHFRICT`` (0) or ``laws.HERTZ_MINDLIN`` (1)."""
-    pair_friction: int = 0
-    """1 if some material pair has its own friction angle in some world (``mat_pair_tan``), else 0."""
 
     @property
     def n_bodies(self) -> int:

@@ -21,7 +21,7 @@ import warp as wp
 from . import broadphase as bp
 from . import cpu_threads, laws, stages
 from . import world_steps as world_steps_mod
-from .contacts import tan_kernel
+from .contacts import pair_tan_kernel
 from .cpu_threads import BARRIER_OK, Barrier
 from .data import NO_FAULT, Data
 from .errors import InputError, SimulationError, check_finite, check_positive
@@ -94,24 +94,22 @@ def _contact_threads(contact_threads: str | None, world_steps: bool) -> str:
     return contact_threads
 
 
-def _materials_of(model: Model) -> laws.Materials:
-    """The kernels' material tables (laws.Materials) on the model's arrays, with tan(friction angle) taken once
-    here (not per contact and step) and the model's contact law."""
-    materials = laws.Materials()
-    tan_friction = wp.empty_like(model.mat_friction)
-    wp.launch(tan_kernel, tan_friction.shape[0], inputs=[model.mat_friction], outputs=[tan_friction],
-              device=model.device)
+def _materials_of(model: Model) -> laws.MaterialTables:
+    """The kernels' material tables on the model's arrays, of the struct of the model's contact law
+    (``laws.MATERIAL_TABLES``: the type selects the law the kernels run), with the friction tangent of every
+    material pair taken once here (not per contact and step)."""
+    materials = laws.MATERIAL_TABLES[model.contact_law]()
+    pair_tan = wp.empty_like(model.mat_pair_tan)
+    wp.launch(pair_tan_kernel, pair_tan.shape[0], inputs=[model.mat_friction, model.mat_pair_tan, model.n_materials],
+              outputs=[pair_tan], device=model.device)
     for name, arr in (
-        ("young", model.mat_young), ("poisson", model.mat_poisson), ("tan_friction", tan_friction),
-        ("normal_coh", model.mat_normal_cohesion), ("shear_coh", model.mat_shear_cohesion),
-        ("eta_roll", model.mat_eta_roll), ("eta_twist", model.mat_eta_twist),
+        ("young", model.mat_young), ("poisson", model.mat_poisson), ("normal_coh", model.mat_normal_cohesion),
+        ("shear_coh", model.mat_shear_cohesion), ("eta_roll", model.mat_eta_roll), ("eta_twist", model.mat_eta_twist),
         ("alpha_kr", model.mat_alpha_kr), ("alpha_ktw", model.mat_alpha_ktw), ("flags", model.mat_flags),
-        ("pair_tan", model.mat_pair_tan),
+        ("pair_tan", pair_tan),
     ):
         setattr(materials, name, arr)
     materials.n_materials = model.n_materials
-    materials.law = model.contact_law  # the one selection of the contact law (laws/__init__.py)
-    materials.pair_friction = model.pair_friction
     return materials
 
 

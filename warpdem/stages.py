@@ -23,7 +23,7 @@ from . import kernel_args as ka
 from .contacts import sphere_pair_kernel, sphere_sphere_kernel, sphere_triangle_kernel
 from .data import DISP_STRIDE, NO_FAULT, Data
 from .integrator import integrate_bodies_kernel, keep_first_fault, mesh_end_one, spring_kernel, update_spheres_kernel
-from .laws import Materials
+from .laws import MaterialTables
 from .model import Model, State
 from .types import Contacts, Control, Options
 
@@ -162,7 +162,7 @@ def update_spheres(model: Model, args: KernelArgs, contacts: Contacts, launch: L
 
 
 def contact_stage(model: Model, args: KernelArgs, contacts: Contacts, data: Data, options: Options,
-                  materials: Materials, layout: Layout, launch: Launch) -> list[list[Op | None]]:
+                  materials: MaterialTables, layout: Layout, launch: Launch) -> list[list[Op | None]]:
     """The contact forces of every candidate and the springs', added into the fixed-point sums (each part into
     its own slots; the springs into part 0's, after its contacts): one list of launches per part. The
     accumulators are zero here (the previous step's sums to float cleared them)."""
@@ -241,7 +241,7 @@ def end_stage(model: Model, args: KernelArgs, contacts: Contacts, data: Data, op
 
 
 def segments(model: Model, args: KernelArgs, contacts: Contacts, data: Data, options: Options,
-             materials: Materials, layout: Layout, launch: Launch) -> list[Segment]:
+             materials: MaterialTables, layout: Layout, launch: Launch) -> list[Segment]:
     """A whole step's launches (or recorded launches) in order: the contacts phase, the motion phase (after the
     float sums' launch where there is one), the end of the step. Launches of no threads are left out."""
     out: list[Segment] = []
@@ -263,7 +263,7 @@ def segments(model: Model, args: KernelArgs, contacts: Contacts, data: Data, opt
 
 
 def step(model: Model, state: State, control: Control, contacts: Contacts, data: Data, options: Options,
-         materials: Materials, layout: Layout, args: KernelArgs | None = None) -> None:
+         materials: MaterialTables, layout: Layout, args: KernelArgs | None = None) -> None:
     """Launch one step's kernels (capturable), each part of a phase after the other: the lists must hold (no
     rebuild flagged), and the caller counts the step in ``state.step`` and ``state.time``. ``args``: the argument
     structs of these arrays (made here if None)."""

@@ -25,6 +25,8 @@ thousands of steps; and where all the launch's blocks run at once, a world that 
 
 from __future__ import annotations
 
+from typing import Any
+
 import warp as wp
 
 from .contacts import sphere_sphere_one, sphere_triangle_one
@@ -41,7 +43,7 @@ from .kernel_args import (
     Sums,
     TriangleList,
 )
-from .laws import Materials
+from .laws import overload_per_law
 from .types import Options
 
 wp.set_module_options({"enable_backward": False})
@@ -164,7 +166,7 @@ class Worlds:
 
 @wp.func(inline=True)  # inlined: no copies of its array arguments per call
 def contact_stage(w: int, slot: int, slots: int, ws: Worlds, spheres: Spheres, meshes: Meshes, springs: Springs,
-                  bodies: Bodies, mats: Materials, opts: Options, kin: SphereState, state: BodyState, ss: SphereList,
+                  bodies: Bodies, mats: Any, opts: Options, kin: SphereState, state: BodyState, ss: SphereList,
                   st: TriangleList, no_cohesion: wp.array(dtype=int), sums: Sums):
     """World w's contacts and springs, items slot, slot + slots, ...: its spheres' sphere-sphere candidates, then
     (with meshes) their sphere-triangle candidates, then its springs. They only add to the fixed-point sums, whose
@@ -247,7 +249,7 @@ def world_steps_kernel(
     meshes: Meshes,
     springs: Springs,
     bodies: Bodies,
-    mats: Materials,
+    mats: Any,
     opts: Options,
     kin: SphereState,  # in/out
     state: BodyState,  # in/out
@@ -355,3 +357,6 @@ def world_end_kernel(
     rebuild_flag[0] = last
     if best >= 0:
         keep_first_fault(world_fault, best, fault, 0)
+
+
+overload_per_law(world_steps_kernel)

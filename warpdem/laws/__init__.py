@@ -4,20 +4,22 @@ Adding a contact law: write ``warpdem/laws/<law>.py`` giving
 (1) its material: a frozen dataclass with the class attributes ``LAW`` (a new id in ``base.py``) and ``FIELDS``
     (its per-world overridable fields, each a column of the Model's material tables), a ``flags`` property and a
     validating ``replace``. A field no law has yet needs a column: :data:`MATERIAL_FIELDS`, a ``mat_<field>`` array
-    of ``Model`` packed by ``builder._MAT_ARRAYS``, a ``Materials`` field in ``base.py`` set in
+    of ``Model`` packed by ``builder._MAT_ARRAYS``, a :class:`MaterialTables` field in ``base.py`` set in
     ``simulation._materials_of``;
-(2) the pair physics ``make_phys(mats, mi, mj, r1, r2) -> Phys``, which sets ``Phys.law``;
-(3) the force law: one step of a contact's history, giving a ``LawOut``;
-(4) ``elastic_energy(h, p, un)``, the energy stored in a contact [J];
-(5) ``stiffness(h, p, un)``, the (kn, ks, kr, ktw) the time step estimate reads.
-Then add one branch for the new id to each of :func:`pair_phys`, :func:`contact_law`, :func:`elastic_energy` and
-:func:`stiffness` below, its material class to :data:`LAWS` and its name to :data:`LAW_NAMES`, and the settings it
-cannot take to :func:`check_settings`. The kernels (``contacts.py``) call only these four functions; a contact's
-history is the shared :class:`Hist` (a law uses the fields it needs). ``hertz_mindlin.py`` is the example to copy.
+(2) its material tables' struct in ``base.py`` (fields: :class:`MaterialTables`), the type that names the law;
+(3) the pair physics ``make_phys(mats, mi, mj, r1, r2) -> Phys`` taking those tables;
+(4) the force law: one step of a contact's history, giving a ``LawOut``;
+(5) ``elastic_energy(h, p, un)``, the energy stored in a contact [J];
+(6) ``stiffness(h, p, un)``, the (kn, ks, kr, ktw) the time step estimate reads.
+Then add one overload for the new tables to each of :func:`pair_phys`, :func:`contact_law`, :func:`elastic_energy`
+and :func:`stiffness` below, the tables to :data:`MATERIAL_TABLES`, its material class to :data:`LAWS` and its name
+to :data:`LAW_NAMES`, and the settings it cannot take to :func:`check_settings`. The kernels (``contacts.py``) call
+only these four functions; a contact's history is the shared :class:`Hist` (a law uses the fields it needs).
+``hertz_mindlin.py`` is the example to copy.
 
-Every material of a model follows one law (``Model.contact_law``, checked by :func:`law_of`); the kernels read it
-from ``Materials.law`` and branch at run time (Warp compiles a module's functions once, so the branch is an int
-test per contact, the same for every thread).
+Every material of a model follows one law (``Model.contact_law``, checked by :func:`law_of`). The law is the type
+of the material tables the kernels get (``Simulation.materials``): every kernel taking them is generic and compiled
+once per law (:func:`overload_per_law`), so a contact pays for its own law only, with no branch on the law.
 
 - ``cohfrict``: Yade's Law2_ScGeom6D_CohFrictPhys_CohesionMoment (``Material``): cohesion, rolling and twisting.
 - ``hertz_mindlin``: Yade's Law2_ScGeom_MindlinPhys_Mindlin without cohesion (``HertzMindlinMaterial``).
@@ -26,6 +28,7 @@ test per contact, the same for every thread).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import warp as wp
 
@@ -40,13 +43,14 @@ from .base import (
     MAT_COHESIVE,
     MAT_FRAGILE,
     MAT_MOMENT,
+    CohFrictMaterials,
+    HertzMindlinMaterials,
     Hist,
     LawOut,
-    Materials,
+    MaterialTables,
     Phys,
     empty_hist,
     new_hist,
-    pair_tan,
     rotate_hist,
     set_cohesion,
 )
@@ -87,29 +91,35 @@ def check_settings(law: int, **settings: object) -> None:
             )
 
 
-@wp.func
-def _with_pair_friction(p: Phys, mats: Materials, mi: int, mj: int) -> Phys:
-    """``p`` with the friction tangent set for the pair of materials mi, mj where one is."""
-    out = p
-    if mats.pair_friction != 0:  # the same for every contact: no table read per contact without pair angles
-        t = pair_tan(mats, mi, mj)
-        if t >= 0.0:
-            out.tan_phi = t
-    return out
+MATERIAL_TABLES: dict[int, Any] = {int(COHFRICT): CohFrictMaterials, int(HERTZ_MINDLIN): HertzMindlinMaterials}
+"""law id -> the struct of its material tables (fields: :class:`MaterialTables`), whose type selects the law."""
 
 
+def overload_per_law(*kernels: wp.Kernel) -> None:
+    """Compile each kernel once per contact law: an overload whose ``mats`` argument is that law's material tables
+    (:data:`MATERIAL_TABLES`), so that a launch runs the law of the tables it is given and no kernel branches on the
+    law at run time."""
+    for kernel in kernels:
+        for tables in MATERIAL_TABLES.values():
+            wp.overload(kernel, {"mats": tables})
+
+
+# The four functions the kernels call, one overload per law: the type of ``mats`` selects it at compile time.
 @wp.func
-def pair_phys(mats: Materials, mi: int, mj: int, r1: float, r2: float) -> Phys:
+def pair_phys(mats: CohFrictMaterials, mi: int, mj: int, r1: float, r2: float) -> Phys:
     """The contact parameters of materials mi (contact radius r1 [m]) and mj (r2 [m]), indices into the per-world
-    tables, by the materials' law; a friction angle set for the pair (``ModelBuilder.set_pair_friction``) replaces
-    the law's own rule (both laws: the smaller of the two materials' angles)."""
-    if mats.law == HERTZ_MINDLIN:
-        return _with_pair_friction(hertz_mindlin.make_phys(mats, mi, mj, r1, r2), mats, mi, mj)
-    return _with_pair_friction(cohfrict.make_phys(mats, mi, mj, r1, r2), mats, mi, mj)
+    tables, by the materials' law; the friction tangent is the pair's (``MaterialTables.pair_tan``)."""
+    return cohfrict.make_phys(mats, mi, mj, r1, r2)
+
+
+@wp.func
+def pair_phys(mats: HertzMindlinMaterials, mi: int, mj: int, r1: float, r2: float) -> Phys:  # noqa: F811
+    return hertz_mindlin.make_phys(mats, mi, mj, r1, r2)
 
 
 @wp.func
 def contact_law(
+    mats: CohFrictMaterials,
     h: Hist,
     p: Phys,
     is_new: int,
@@ -122,27 +132,49 @@ def contact_law(
     always_moment: int,
     unp_max: float,
 ) -> LawOut:
-    """One step of the contact's law (``p.law``): see ``cohfrict.law`` for the arguments (Hertz-Mindlin ignores
-    ``rel_angvel``, ``always_moment`` and ``unp_max``)."""
-    if p.law == HERTZ_MINDLIN:
-        return hertz_mindlin.law(h, p, is_new, n, un, v12, ang_sum, dt)
+    """One step of the contact's law (the law of ``mats``): see ``cohfrict.law`` for the arguments (Hertz-Mindlin
+    ignores ``rel_angvel``, ``always_moment`` and ``unp_max``)."""
     return cohfrict.law(h, p, is_new, n, un, v12, ang_sum, rel_angvel, dt, always_moment, unp_max)
 
 
 @wp.func
-def elastic_energy(h: Hist, p: Phys, un: float) -> float:
-    """Elastic energy stored in a contact of overlap un [m] [J], by its law."""
-    if p.law == HERTZ_MINDLIN:
-        return hertz_mindlin.elastic_energy(h, p, un)
+def contact_law(  # noqa: F811
+    mats: HertzMindlinMaterials,
+    h: Hist,
+    p: Phys,
+    is_new: int,
+    n: wp.vec3f,
+    un: float,
+    v12: wp.vec3f,
+    ang_sum: wp.vec3f,
+    rel_angvel: wp.vec3f,
+    dt: float,
+    always_moment: int,
+    unp_max: float,
+) -> LawOut:
+    return hertz_mindlin.law(h, p, is_new, n, un, v12, ang_sum, dt)
+
+
+@wp.func
+def elastic_energy(mats: CohFrictMaterials, h: Hist, p: Phys, un: float) -> float:
+    """Elastic energy stored in a contact of overlap un [m] [J], by the law of ``mats``."""
     return cohfrict.elastic_energy(h, p, un)
 
 
 @wp.func
-def stiffness(h: Hist, p: Phys, un: float) -> wp.vec4f:
-    """The contact's (kn [N/m], ks [N/m], kr [N m/rad], ktw [N m/rad]) for the time step, by its law."""
-    if p.law == HERTZ_MINDLIN:
-        return hertz_mindlin.stiffness(h, p, un)
+def elastic_energy(mats: HertzMindlinMaterials, h: Hist, p: Phys, un: float) -> float:  # noqa: F811
+    return hertz_mindlin.elastic_energy(h, p, un)
+
+
+@wp.func
+def stiffness(mats: CohFrictMaterials, h: Hist, p: Phys, un: float) -> wp.vec4f:
+    """The contact's (kn [N/m], ks [N/m], kr [N m/rad], ktw [N m/rad]) for the time step, by the law of ``mats``."""
     return cohfrict.stiffness(h, p, un)
+
+
+@wp.func
+def stiffness(mats: HertzMindlinMaterials, h: Hist, p: Phys, un: float) -> wp.vec4f:  # noqa: F811
+    return hertz_mindlin.stiffness(h, p, un)
 
 
 __all__ = [
@@ -160,8 +192,11 @@ __all__ = [
     "HertzMindlinMaterial",
     "Hist",
     "LawOut",
+    "MATERIAL_TABLES",
+    "CohFrictMaterials",
+    "HertzMindlinMaterials",
     "Material",
-    "Materials",
+    "MaterialTables",
     "Phys",
     "check_settings",
     "contact_law",
@@ -169,6 +204,7 @@ __all__ = [
     "empty_hist",
     "law_of",
     "new_hist",
+    "overload_per_law",
     "pair_phys",
     "rotate_hist",
     "set_cohesion",

@@ -8,11 +8,13 @@ Fn > 0 compresses.
 
 from __future__ import annotations
 
+from typing import Any
+
 import warp as wp
 
 wp.set_module_options({"enable_backward": False})
 
-#: Contact law ids (Materials.law, Phys.law): which law a model's materials follow.
+#: Contact law ids (Model.contact_law, laws.MATERIAL_TABLES): which law a model's materials follow.
 COHFRICT = wp.constant(0)  # Yade's Law2_ScGeom6D_CohFrictPhys_CohesionMoment (laws/cohfrict.py)
 HERTZ_MINDLIN = wp.constant(1)  # Yade's Law2_ScGeom_MindlinPhys_Mindlin (laws/hertz_mindlin.py)
 
@@ -86,17 +88,17 @@ class LawOut:
     dissip_roll: float  # energy dissipated by rolling/twisting plasticity this step [J]
 
 
-@wp.struct
-class Materials:
-    """Per-world material tables (Simulation.materials, from the Model's), each of shape (n_worlds * n_materials,)."""
+class MaterialTables:
+    """Per-world material tables (Simulation.materials, from the Model's), each of shape (n_worlds * n_materials,)
+    but ``pair_tan``. The fields of every law's table struct (:data:`CohFrictMaterials`,
+    :data:`HertzMindlinMaterials`): the struct's type is the law, so the kernels are compiled for one law each (a
+    kernel taking the tables is generic over them, overloaded once per law) and branch on no law at run time."""
 
     young: wp.array(dtype=float)
     """Young's modulus [Pa], float32."""
     poisson: wp.array(dtype=float)
     """Poisson's ratio [-], float32 (CohFrict: Yade's shear to normal stiffness ratio; Hertz-Mindlin: the elastic
     Poisson's ratio)."""
-    tan_friction: wp.array(dtype=float)
-    """tangent of the friction angle [-], float32."""
     normal_coh: wp.array(dtype=float)
     """normal cohesion [Pa], float32."""
     shear_coh: wp.array(dtype=float)
@@ -112,22 +114,31 @@ class Materials:
     flags: wp.array(dtype=int)
     """MAT_MOMENT | MAT_FRAGILE | MAT_COHESIVE, int32."""
     pair_tan: wp.array(dtype=float)
-    """tangent of a material pair's own friction angle [-], float32, (n_worlds * n_materials * n_materials,) in
-    world, first, second material order; -1 where the pair takes the smaller of its materials' angles (Yade's
-    default; ``ModelBuilder.set_pair_friction``, Yade's MatchMaker on the Ip2's frictAngle)."""
+    """tangent of the friction angle of each pair of materials [-], float32, (n_worlds * n_materials *
+    n_materials,) in world, first, second material order: the pair's own angle where one is set
+    (``ModelBuilder.set_pair_friction``, Yade's MatchMaker on the Ip2's frictAngle), else the smaller of its two
+    materials' angles (both laws' rule, Yade's default)."""
     n_materials: int
     """materials per world, int32."""
-    law: int
-    """the contact law of every material (COHFRICT, HERTZ_MINDLIN; ``Model.contact_law``), int32."""
-    pair_friction: int
-    """1 if some material pair has its own friction angle (``pair_tan``), else 0 and ``pair_tan`` is not read;
-    int32."""
+
+
+@wp.struct
+class CohFrictMaterials:
+    """The material tables of a cohesive-frictional model (fields: :class:`MaterialTables`)."""
+
+    __annotations__ = dict(MaterialTables.__annotations__)
+
+
+@wp.struct
+class HertzMindlinMaterials:
+    """The material tables of a Hertz-Mindlin model (fields: :class:`MaterialTables`)."""
+
+    __annotations__ = dict(MaterialTables.__annotations__)
 
 
 @wp.func
-def pair_tan(mats: Materials, mi: int, mj: int) -> float:
-    """tan of the friction angle set for the pair of materials mi and mj (indices into the per-world tables, one
-    world), or -1 where none is (the law's own rule then holds)."""
+def pair_tan(mats: Any, mi: int, mj: int) -> float:
+    """tan of the friction angle of materials mi and mj (indices into the per-world tables, one world) [-]."""
     n = mats.n_materials
     w = mi / n
     return mats.pair_tan[w * n * n + (mi - w * n) * n + (mj - w * n)]

@@ -36,7 +36,18 @@ from typing import ClassVar
 import warp as wp
 
 from ..errors import check_positive, check_range, degrees_to_radians
-from .base import HERTZ_MINDLIN, Hist, LawOut, Materials, Phys, deleted, law_out, rotate_hist, transport
+from .base import (
+    HERTZ_MINDLIN,
+    HertzMindlinMaterials,
+    Hist,
+    LawOut,
+    Phys,
+    deleted,
+    law_out,
+    pair_tan,
+    rotate_hist,
+    transport,
+)
 
 wp.set_module_options({"enable_backward": False})
 
@@ -80,11 +91,10 @@ class HertzMindlinMaterial:
 
 
 @wp.func
-def make_phys(mats: Materials, mi: int, mj: int, r1: float, r2: float) -> Phys:
+def make_phys(mats: HertzMindlinMaterials, mi: int, mj: int, r1: float, r2: float) -> Phys:
     """Ip2_FrictMat_FrictMat_MindlinPhys for materials mi (contact radius r1 [m]) and mj (r2 [m]), indices into the
     per-world tables: kno in ``kn`` and kso in ``ks`` [N/m^1.5], the friction tangent; no cohesion, no moments."""
     p = Phys()
-    p.law = HERTZ_MINDLIN
     ea = mats.young[mi]
     eb = mats.young[mj]
     va = mats.poisson[mi]
@@ -95,7 +105,7 @@ def make_phys(mats: Materials, mi: int, mj: int, r1: float, r2: float) -> Phys:
     r = r1 * r2 / (r1 + r2)
     p.kn = 4.0 / 3.0 * e * wp.sqrt(r)
     p.ks = 2.0 * wp.sqrt(4.0 * r) * g / (2.0 - v)
-    p.tan_phi = wp.min(mats.tan_friction[mi], mats.tan_friction[mj])  # tan(min(phi_i, phi_j)): tan is increasing
+    p.tan_phi = pair_tan(mats, mi, mj)  # the pair's own angle, or tan(min(phi_i, phi_j))
     p.max_roll = -1.0
     p.max_twist = -1.0
     return p
