@@ -71,8 +71,9 @@ def pair_tan_kernel(friction: wp.array(dtype=float), pair_tan: wp.array(dtype=fl
 @wp.func
 def phys_of(mats: Any, world: int, mi: int, mj: int, r1: float, r2: float):
     """The contact parameters of materials mi and mj of ``world`` (contact radii r1, r2 [m]), by their law."""
-    off = world * mats.n_materials
-    return pair_phys(mats, off + mi, off + mj, r1, r2)
+    n = mats.n_materials
+    off = world * n
+    return pair_phys(mats, off + mi, off + mj, (off + mi) * n + mj, r1, r2)
 
 
 @wp.func(inline=True)  # inlined: the same code as before the split

@@ -7,7 +7,7 @@ Adding a contact law: write ``warpdem/laws/<law>.py`` giving
     of ``Model`` packed by ``builder._MAT_ARRAYS``, a :class:`MaterialTables` field in ``base.py`` set in
     ``simulation._materials_of``;
 (2) its material tables' struct in ``base.py`` (fields: :class:`MaterialTables`), the type that names the law;
-(3) the pair physics ``make_phys(mats, mi, mj, r1, r2) -> Phys`` taking those tables;
+(3) the pair physics ``make_phys(mats, mi, mj, pair, r1, r2) -> Phys`` taking those tables;
 (4) the force law: one step of a contact's history, giving a ``LawOut``;
 (5) ``elastic_energy(h, p, un)``, the energy stored in a contact [J];
 (6) ``stiffness(h, p, un)``, the (kn, ks, kr, ktw) the time step estimate reads.
@@ -106,15 +106,15 @@ def overload_per_law(*kernels: wp.Kernel) -> None:
 
 # The four functions the kernels call, one overload per law: the type of ``mats`` selects it at compile time.
 @wp.func
-def pair_phys(mats: CohFrictMaterials, mi: int, mj: int, r1: float, r2: float) -> Phys:
+def pair_phys(mats: CohFrictMaterials, mi: int, mj: int, pair: int, r1: float, r2: float) -> Phys:
     """The contact parameters of materials mi (contact radius r1 [m]) and mj (r2 [m]), indices into the per-world
-    tables, by the materials' law; the friction tangent is the pair's (``MaterialTables.pair_tan``)."""
-    return cohfrict.make_phys(mats, mi, mj, r1, r2)
+    tables, by the materials' law; pair: the pair's index into ``MaterialTables.pair_tan`` (its friction tangent)."""
+    return cohfrict.make_phys(mats, mi, mj, pair, r1, r2)
 
 
 @wp.func
-def pair_phys(mats: HertzMindlinMaterials, mi: int, mj: int, r1: float, r2: float) -> Phys:  # noqa: F811
-    return hertz_mindlin.make_phys(mats, mi, mj, r1, r2)
+def pair_phys(mats: HertzMindlinMaterials, mi: int, mj: int, pair: int, r1: float, r2: float) -> Phys:  # noqa: F811
+    return hertz_mindlin.make_phys(mats, mi, mj, pair, r1, r2)
 
 
 @wp.func

@@ -8,8 +8,6 @@ Fn > 0 compresses.
 
 from __future__ import annotations
 
-from typing import Any
-
 import warp as wp
 
 wp.set_module_options({"enable_backward": False})
@@ -134,14 +132,6 @@ class HertzMindlinMaterials:
     """The material tables of a Hertz-Mindlin model (fields: :class:`MaterialTables`)."""
 
     __annotations__ = dict(MaterialTables.__annotations__)
-
-
-@wp.func
-def pair_tan(mats: Any, mi: int, mj: int) -> float:
-    """tan of the friction angle of materials mi and mj (indices into the per-world tables, one world) [-]."""
-    n = mats.n_materials
-    w = mi / n
-    return mats.pair_tan[w * n * n + (mi - w * n) * n + (mj - w * n)]
 
 
 @wp.func

@@ -29,7 +29,6 @@ from .base import (
     Phys,
     deleted,
     law_out,
-    pair_tan,
     rotate_hist,
     transport,
 )
@@ -118,7 +117,7 @@ def hmean(a: float, b: float) -> float:
 
 
 @wp.func
-def make_phys(mats: CohFrictMaterials, mi: int, mj: int, r1: float, r2: float) -> Phys:
+def make_phys(mats: CohFrictMaterials, mi: int, mj: int, pair: int, r1: float, r2: float) -> Phys:
     """Contact parameters for materials mi (radius r1) and mj (radius r2), indices into the per-world tables."""
     p = Phys()
     a1 = mats.young[mi] * r1
@@ -131,7 +130,7 @@ def make_phys(mats: CohFrictMaterials, mi: int, mj: int, r1: float, r2: float) -
         p.ks = 2.0 * b1 * b2 / (b1 + b2)
     p.kr = r1 * r2 * p.ks * hmean(mats.alpha_kr[mi], mats.alpha_kr[mj])
     p.ktw = r1 * r2 * p.ks * hmean(mats.alpha_ktw[mi], mats.alpha_ktw[mj])
-    p.tan_phi = pair_tan(mats, mi, mj)  # the pair's own angle, or tan(min(phi_i, phi_j))
+    p.tan_phi = mats.pair_tan[pair]  # the pair's own angle, or tan(min(phi_i, phi_j))
     p.max_roll = wp.min(mats.eta_roll[mi] * r1, mats.eta_roll[mj] * r2)
     p.max_twist = wp.min(mats.eta_twist[mi] * r1, mats.eta_twist[mj] * r2)
     fi = mats.flags[mi]

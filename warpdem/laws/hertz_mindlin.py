@@ -44,7 +44,6 @@ from .base import (
     Phys,
     deleted,
     law_out,
-    pair_tan,
     rotate_hist,
     transport,
 )
@@ -91,7 +90,7 @@ class HertzMindlinMaterial:
 
 
 @wp.func
-def make_phys(mats: HertzMindlinMaterials, mi: int, mj: int, r1: float, r2: float) -> Phys:
+def make_phys(mats: HertzMindlinMaterials, mi: int, mj: int, pair: int, r1: float, r2: float) -> Phys:
     """Ip2_FrictMat_FrictMat_MindlinPhys for materials mi (contact radius r1 [m]) and mj (r2 [m]), indices into the
     per-world tables: kno in ``kn`` and kso in ``ks`` [N/m^1.5], the friction tangent; no cohesion, no moments."""
     p = Phys()
@@ -105,7 +104,7 @@ def make_phys(mats: HertzMindlinMaterials, mi: int, mj: int, r1: float, r2: floa
     r = r1 * r2 / (r1 + r2)
     p.kn = 4.0 / 3.0 * e * wp.sqrt(r)
     p.ks = 2.0 * wp.sqrt(4.0 * r) * g / (2.0 - v)
-    p.tan_phi = pair_tan(mats, mi, mj)  # the pair's own angle, or tan(min(phi_i, phi_j))
+    p.tan_phi = mats.pair_tan[pair]  # the pair's own angle, or tan(min(phi_i, phi_j))
     p.max_roll = -1.0
     p.max_twist = -1.0
     return p
