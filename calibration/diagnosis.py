@@ -400,17 +400,13 @@ class _Fitter:
         """The direction (n_genes,), unit length in unit coordinates, in which the candidate's fit at z is least
         determined: the eigenvector of J^T J's smallest eigenvalue over every configuration's finite residuals, J
         their simulated forward differences about z (simulated here where not cached; not counted as its points)."""
-        stencil = self._stencil(z)
-        self.evaluate([(cand, z)] + [(cand, p) for p in stencil], f"{label} (the fit's least determined direction)",
-                      record=False)
-        r0 = residuals(self.cache[self._key(cand, z)], self.rig.measured, self.sigma, self.bound)
-        cols = [(residuals(self.cache[self._key(cand, p)], self.rig.measured, self.sigma, self.bound) - r0)
-                / (p[i] - z[i]) for i, p in enumerate(stencil)]
-        jac = np.stack(cols, axis=-1).reshape(-1, len(stencil))
-        jac = jac[np.all(np.isfinite(jac), axis=1)]
-        if len(jac) == 0:
+        self.evaluate([(cand, z)] + [(cand, p) for p in self._stencil(z)],
+                      f"{label} (the fit's least determined direction)", record=False)
+        _, jac, valid = self._jacobian(cand, z)
+        a = jac[valid]
+        if len(a) == 0:
             return np.zeros(len(z))
-        _, vecs = np.linalg.eigh(jac.T @ jac)
+        _, vecs = np.linalg.eigh(a.T @ a)
         return vecs[:, 0]
 
     def _starts(self, z0: np.ndarray, ridge: np.ndarray | None) -> list[np.ndarray]:
@@ -509,19 +505,25 @@ class _Fitter:
             out.append(z)
         return out
 
+    def _jacobian(self, cand: Candidate, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The residuals at x0 (n_cfg, n_obs), their forward differences about it from the cached stencil
+        (n_cfg, n_obs, n_genes), and where both are finite (n_cfg, n_obs)."""
+        keys = [self._key(cand, z) for z in self._stencil(x0)]
+        p0 = self.cache[self._key(cand, x0)]
+        r0 = residuals(p0, self.rig.measured, self.sigma, self.bound)
+        cols = []
+        for i, k in enumerate(keys):
+            dz = np.array(k[1])[i] - x0[i]  # the step the cached point took (its key is rounded)
+            cols.append((residuals(self.cache[k], self.rig.measured, self.sigma, self.bound) - r0) / dz)
+        jac = np.stack(cols, axis=-1)
+        valid = np.isfinite(p0) & np.all(np.isfinite(np.stack([self.cache[k] for k in keys])), axis=0)
+        return r0, jac, valid & np.all(np.isfinite(jac), axis=-1)
+
     def _lm_steps(self, cand: Candidate, x0: np.ndarray) -> list[np.ndarray]:
         """Damped Gauss-Newton steps of every fold and of all data from x0, by the simulated forward differences
         about it."""
-        keys = [self._key(cand, z) for z in self._stencil(x0)]
-        p0 = self.cache[self._key(cand, x0)]
+        r0, jac, valid = self._jacobian(cand, x0)
         n_cfg = self.rig.n_configs
-        r0 = residuals(p0, self.rig.measured, self.sigma, self.bound)  # (n_cfg, n_obs)
-        cols = []
-        for i, k in enumerate(keys):
-            dz = np.array(k[1])[i] - x0[i]
-            cols.append((residuals(self.cache[k], self.rig.measured, self.sigma, self.bound) - r0) / dz)
-        jac = np.stack(cols, axis=-1)  # (n_cfg, n_obs, d)
-        valid = np.isfinite(p0) & np.all(np.isfinite(np.stack([self.cache[k] for k in keys])), axis=0)
         out = []
         masks = [np.ones(n_cfg, bool)] + [np.arange(n_cfg) != j for j in range(n_cfg)]
         for mask in masks:
