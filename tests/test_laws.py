@@ -326,3 +326,26 @@ def test_new_struct_fields_are_documented() -> None:
         for name, var in fields.items():
             assert docs[name].strip(), f"{cls.__name__}.{name}"
             assert ("int32" if var.type is int else "float32") in docs[name] or var.type not in (int, float), name
+
+
+def test_each_law_gets_its_own_tables_and_every_pairs_friction() -> None:
+    # The law is the type of the material tables a Simulation hands its kernels, and the pair table holds each
+    # pair's friction tangent: its own angle where set, else tan of the smaller angle (Yade's Ip2 rule), per world.
+    # Reference: numpy's tangent of the angles in degrees (float32 tolerance).
+    for law_material, tables in ((wd.Material, base.CohFrictMaterials), (wd.HertzMindlinMaterial,
+                                                                         base.HertzMindlinMaterials)):
+        b = wd.ModelBuilder()
+        for name, angle in (("a", 20.0), ("b", 35.0), ("c", 10.0)):
+            b.add_material(name, law_material(young=1e7, poisson=0.3, density=2600, friction_angle=angle))
+        b.add_sphere((0, 0, 0), 0.005, "a")
+        b.set_pair_friction("a", "b", 27.0)
+        angles = np.array([[20.0, 35.0, 10.0], [25.0, 5.0, 40.0]])
+        model, state = b.finalize(DEVICE, n_worlds=2, overrides={"material:a:friction_angle": angles[:, 0],
+                                                                  "material:b:friction_angle": angles[:, 1],
+                                                                  "material:c:friction_angle": angles[:, 2]})
+        sim = wd.Simulation(model, state, dt=1e-6)
+        assert sim.materials._cls is tables  # the struct of the instance (Warp keeps it as _cls)
+        got = sim.materials.pair_tan.numpy().reshape(2, 3, 3)
+        want = np.tan(np.radians(np.minimum(angles[:, :, None], angles[:, None, :])))
+        want[:, 0, 1] = want[:, 1, 0] = math.tan(math.radians(27.0))
+        np.testing.assert_allclose(got, want, rtol=1e-6)

@@ -12,6 +12,9 @@ vertex contacts at the same point are merged (the lowest triangle keeps it). Whe
 (a sphere rolling across a diagonal), the new contact inherits the old one's history if their normals agree.
 
 Forces and torques are accumulated into per-body arrays (atomics); torques are about the body's centre of mass.
+
+``mats`` (annotated ``Any``) is a law's material tables (``laws.MATERIAL_TABLES``): each kernel taking them is
+generic and compiled once per law (``laws.overload_per_law``), the law selected by the tables' type.
 """
 
 from __future__ import annotations
