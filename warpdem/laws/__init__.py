@@ -118,40 +118,17 @@ def pair_phys(mats: HertzMindlinMaterials, mi: int, mj: int, pair: int, r1: floa
 
 
 @wp.func
-def contact_law(
-    mats: CohFrictMaterials,
-    h: Hist,
-    p: Phys,
-    is_new: int,
-    n: wp.vec3f,
-    un: float,
-    v12: wp.vec3f,
-    ang_sum: wp.vec3f,
-    rel_angvel: wp.vec3f,
-    dt: float,
-    always_moment: int,
-    unp_max: float,
-) -> LawOut:
+def contact_law(mats: CohFrictMaterials, h: Hist, p: Phys, is_new: int, n: wp.vec3f, un: float, v12: wp.vec3f,
+                ang_sum: wp.vec3f, rel_angvel: wp.vec3f, dt: float, always_moment: int, unp_max: float) -> LawOut:
     """One step of the contact's law (the law of ``mats``): see ``cohfrict.law`` for the arguments (Hertz-Mindlin
     ignores ``rel_angvel``, ``always_moment`` and ``unp_max``)."""
     return cohfrict.law(h, p, is_new, n, un, v12, ang_sum, rel_angvel, dt, always_moment, unp_max)
 
 
 @wp.func
-def contact_law(  # noqa: F811
-    mats: HertzMindlinMaterials,
-    h: Hist,
-    p: Phys,
-    is_new: int,
-    n: wp.vec3f,
-    un: float,
-    v12: wp.vec3f,
-    ang_sum: wp.vec3f,
-    rel_angvel: wp.vec3f,
-    dt: float,
-    always_moment: int,
-    unp_max: float,
-) -> LawOut:
+def contact_law(mats: HertzMindlinMaterials, h: Hist, p: Phys, is_new: int, n: wp.vec3f, un: float,  # noqa: F811
+                v12: wp.vec3f, ang_sum: wp.vec3f, rel_angvel: wp.vec3f, dt: float, always_moment: int,
+                unp_max: float) -> LawOut:
     return hertz_mindlin.law(h, p, is_new, n, un, v12, ang_sum, dt)
 
 

@@ -36,17 +36,7 @@ from typing import ClassVar
 import warp as wp
 
 from ..errors import check_positive, check_range, degrees_to_radians
-from .base import (
-    HERTZ_MINDLIN,
-    HertzMindlinMaterials,
-    Hist,
-    LawOut,
-    Phys,
-    deleted,
-    law_out,
-    rotate_hist,
-    transport,
-)
+from .base import HERTZ_MINDLIN, HertzMindlinMaterials, Hist, LawOut, Phys, deleted, law_out, rotate_hist, transport
 
 wp.set_module_options({"enable_backward": False})
 
