@@ -1,4 +1,4 @@
-"""The kernels' argument structs (warpdem/kernel_args.py, the settings types.Options, laws.Materials):
+"""The kernels' argument structs (warpdem/kernel_args.py, the settings types.Options, the laws' material tables):
 every field documented with its dtype, and every array field set by the host builders from a simulation's model,
 state and data (the same arrays, no copies). The host-side types (types.Control, types.Contacts): every field
 documented with its unit, dtype and shape."""
