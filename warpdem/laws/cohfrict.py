@@ -118,7 +118,8 @@ def hmean(a: float, b: float) -> float:
 
 @wp.func
 def make_phys(mats: CohFrictMaterials, mi: int, mj: int, pair: int, r1: float, r2: float) -> Phys:
-    """Contact parameters for materials mi (radius r1) and mj (radius r2), indices into the per-world tables."""
+    """Contact parameters for materials mi (radius r1 [m]) and mj (radius r2 [m]), indices into the per-world
+    tables; pair: the pair's index into ``mats.pair_tan`` (its friction tangent)."""
     p = Phys()
     a1 = mats.young[mi] * r1
     a2 = mats.young[mj] * r2

@@ -82,7 +82,8 @@ class HertzMindlinMaterial:
 @wp.func
 def make_phys(mats: HertzMindlinMaterials, mi: int, mj: int, pair: int, r1: float, r2: float) -> Phys:
     """Ip2_FrictMat_FrictMat_MindlinPhys for materials mi (contact radius r1 [m]) and mj (r2 [m]), indices into the
-    per-world tables: kno in ``kn`` and kso in ``ks`` [N/m^1.5], the friction tangent; no cohesion, no moments."""
+    per-world tables (pair: the pair's index into ``mats.pair_tan``): kno in ``kn`` and kso in ``ks`` [N/m^1.5], the
+    friction tangent; no cohesion, no moments."""
     p = Phys()
     ea = mats.young[mi]
     eb = mats.young[mj]
