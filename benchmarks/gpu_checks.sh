@@ -19,6 +19,9 @@
 #
 #     sh benchmarks/gpu_checks.sh replicas   # instead: Table 3's replicas as worlds on CUDA: their tests, and a
 #                                            # paper-scale rigid run of 4 worlds on one bed and on 4 replica beds
+#     sh benchmarks/gpu_checks.sh split      # instead: where the paper-scale soil bin's GPU time goes (4 rigid
+#                                            # worlds, 0.2 m): activities with the step's graph, then every kernel
+#                                            # launched alone (--no-graphs), Warp's activity timing
 OUT=${OUT:-/tmp/gpu_checks}; mkdir -p "$OUT"
 export WARPDEM_TEST_DEVICE=cuda
 if [ "$1" = "replicas" ]; then
@@ -30,6 +33,15 @@ if [ "$1" = "replicas" ]; then
   for flag in "" --replicas; do
     timeout 200 python3 soil_bin_throughput.py --device cuda --scale paper --worlds 4 --travel 0.2 $flag \
       --json "$OUT/results_soil_bin_cuda.jsonl" | cut -c1-400
+  done
+  exit 0
+fi
+if [ "$1" = "split" ]; then
+  unset WARPDEM_TEST_DEVICE
+  cd benchmarks
+  for g in "" --no-graphs; do
+    timeout 280 python3 soil_bin_throughput.py --device cuda --scale paper --worlds 4 --travel 0.2 --kernel-times 40 \
+      $g --json "$OUT/soil_bin_split.jsonl" 2>&1 | grep -v -E "^Module|Kernel cache|cache/warp|^Warp|CUDA Toolkit|Devices:|\"c(pu|uda:0)\""
   done
   exit 0
 fi
