@@ -61,11 +61,18 @@ def _record_mesh_build_pose_kernel(meshes: Meshes, state: BodyState, build_pos_o
 
 
 @wp.kernel
-def allocate_blocks_kernel(count: wp.array(dtype=int), total: wp.array(dtype=int), start_out: wp.array(dtype=int)):
+def allocate_blocks_kernel(grid: wp.uint64, count: wp.array(dtype=int), total: wp.array(dtype=int),
+                           start_out: wp.array(dtype=int)):
     """Give each sphere a contiguous block of its ``count`` entries (an exclusive scan on the CPU, where threads
     run in order; on CUDA the blocks' order varies but each sphere's entries stay sorted). Unlike
-    ``wp.utils.array_scan`` it allocates nothing, so it can run inside a conditional CUDA graph node."""
+    ``wp.utils.array_scan`` it allocates nothing, so it can run inside a conditional CUDA graph node.
+
+    ``grid`` (not 0): thread t takes the grid's t-th sphere in cell order, so that the blocks lie roughly in the
+    cells' order and a thread per list entry reads spheres near its neighbours' (on CUDA, where the order of the
+    blocks is free anyway); 0: thread t takes sphere t (the CPU's threads cut the lists by sphere ranges)."""
     i = wp.tid()
+    if grid != wp.uint64(0):
+        i = wp.hash_grid_point_id(grid, i)
     start_out[i] = wp.atomic_add(total, 0, count[i])
 
 
@@ -113,8 +120,12 @@ def _ss_build_kernel(
 ):
     """Count (fill = 0) or fill (fill = 1) the sphere-sphere candidates of sphere i: the spheres of other bodies of
     its world with a higher index within the skin [m], and its existing contacts stretched beyond the skin (they
-    stay listed). Filling sorts them by partner and carries the old list's history over."""
-    i = wp.tid() + first
+    stay listed). Filling sorts them by partner and carries the old list's history over.
+
+    Thread t takes the grid's t-th sphere in cell order (``hash_grid_point_id``), not sphere t: neighbouring threads
+    then query neighbouring cells and read the same spheres, whatever the spheres' own order. A sphere's entries do
+    not depend on which thread builds them."""
+    i = wp.hash_grid_point_id(grid, wp.tid() + first)
     radius = spheres.radius
     other_out = built.other
     old_other = old.other
@@ -314,8 +325,9 @@ def build(grid: wp.HashGrid, cell: float, skin: float, model: object, state: obj
     ss_out = [ka.sphere_list_of(c.ss_new), c.list_stats[2:3]]
     per_sphere(_ss_build_kernel, [grid.id, spheres, m.max_radius, skin, 0, *ss_in], ss_out)
     c.alloc_total.zero_()
-    wp.launch(allocate_blocks_kernel, ns, inputs=[c.ss_new.count, c.alloc_total[0:1]], outputs=[c.ss_new.start],
-              device=dev)
+    order = wp.uint64(0) if dev.is_cpu else grid.id  # the blocks in the cells' order on CUDA
+    wp.launch(allocate_blocks_kernel, ns, inputs=[order, c.ss_new.count, c.alloc_total[0:1]],
+              outputs=[c.ss_new.start], device=dev)
     per_sphere(_ss_build_kernel, [grid.id, spheres, m.max_radius, skin, 1, *ss_in], ss_out)
     wp.launch(_list_total_kernel, 1, inputs=[c.alloc_total, 0, c.list_stats], device=dev)
     c.ss.copy_from(c.ss_new)
@@ -328,8 +340,8 @@ def build(grid: wp.HashGrid, cell: float, skin: float, model: object, state: obj
     st_in = [d.sphere_pos, bodies, ka.triangle_list_of(c.st)]
     st_out = [ka.triangle_list_of(c.st_new), c.list_stats[3:4]]
     per_sphere(_st_build_kernel, [spheres, meshes, skin, 0, *st_in], st_out)
-    wp.launch(allocate_blocks_kernel, ns, inputs=[c.st_new.count, c.alloc_total[1:2]], outputs=[c.st_new.start],
-              device=dev)
+    wp.launch(allocate_blocks_kernel, ns, inputs=[order, c.st_new.count, c.alloc_total[1:2]],
+              outputs=[c.st_new.start], device=dev)
     per_sphere(_st_build_kernel, [spheres, meshes, skin, 1, *st_in], st_out)
     wp.launch(_list_total_kernel, 1, inputs=[c.alloc_total, 1, c.list_stats], device=dev)
     c.st.copy_from(c.st_new)
