@@ -9,7 +9,7 @@ the rig supports all of its knobs.
 Built-in mechanisms (rationale in each entry): ``pivot_friction``, ``progressive_spring``, ``series_compliance``,
 ``extra_mass``, ``load_inertia``, ``pose_change``, ``sensor_offset``, ``sensor_drift``, ``stack_preload``,
 ``speed_dependence``, ``rigid_reference_speed``, ``progressive_stack``, ``lever_geometry``, ``sensor_lever``,
-``soil_tool_friction``.
+``soil_tool_friction``, ``mount_pitch``.
 
 Physical bounds (issue #39, item 1): every gene of a mechanism has a physical range, from the rig (its
 :class:`RigFacts`: the stacks' rates and travel, the tool's mass, the first swing) where the rig states one, with its
@@ -243,6 +243,18 @@ def _sensor_lever_bound(f: RigFacts) -> dict[str, Bound]:
                                   "SENSOR_MOUNT_TOLERANCE, an assumption: the paper gives no tolerance)")}
 
 
+MOUNT_PITCH_TOLERANCE = 3.0
+"""how far [deg] the sweep may sit turned on its hinge clamp against the drawing (an assumption: the paper gives no
+tolerance; a clamp bolted through holes with 1 mm of play over 40 mm turns by 1.4 deg, a shank bent in use more)."""
+
+
+def _mount_pitch_bound(f: RigFacts) -> dict[str, Bound]:
+    return {"mount_pitch": Bound(-MOUNT_PITCH_TOLERANCE, MOUNT_PITCH_TOLERANCE, f"the sweep within "
+                                 f"{MOUNT_PITCH_TOLERANCE:g} deg of its drawn attitude on the hinge clamp "
+                                 "(calibration.mechanisms.MOUNT_PITCH_TOLERANCE, an assumption: the paper gives no "
+                                 "tolerance)")}
+
+
 POTYONDY_RATIO = (0.5, 1.0)
 """soil-steel friction angle over the soil's internal friction angle: Potyondy (1961, Geotechnique 11(4)) measured
 about 0.54 (smooth steel) to 0.76 (rough) on sand; an interface cannot be stronger than the soil itself (1)."""
@@ -399,3 +411,14 @@ register(Mechanism(
     rigs=(SOIL_BIN.name,),
     signature="the draught and the deflection up together, rigid and passive alike",
     bounds=_tool_friction_bound))
+register(Mechanism(
+    "mount_pitch", "The sweep clamped at another attitude",
+    "The passive sweep is clamped to its hinge: turned back (or forward) on the clamp against the drawing, its blade "
+    "works at another attack angle and its weight hangs at another lever, while the stack's seat and the sensor's "
+    "target on the clamp stay where the drawing has them. The passive runs' draught and deflection change; the "
+    "rigid runs, whose tool is bolted to the carriage, do not.",
+    genes=(Gene("mount_pitch", -6.0, 6.0, unit="deg"),),
+    knobs=lambda p: {"mount_pitch": p["mount_pitch"]},
+    rigs=(SOIL_BIN.name,),
+    signature="reductions and deflections shifted together in every configuration, the rigid draught unchanged",
+    bounds=_mount_pitch_bound))

@@ -705,7 +705,7 @@ class SoilBinRigModel:
     uncertainty_defaults = SOIL_BIN_UNCERTAINTY
     knobs = frozenset({"pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
                        "stack_preload", "sensor_offset", "rigid_speed", "progressive_factor", "spring_lever",
-                       "sensor_lever", "tool_friction"})
+                       "sensor_lever", "tool_friction", "mount_pitch"})
     units = {"reduction": "%", "displacement_mean": "m", "displacement_trend": "m/s", "draught_mean": "N",
              "rigid_draught_mean": "N"}
     genes: tuple[Gene, ...] = ()

@@ -155,7 +155,7 @@ class RingingConfig:
 def check_per_world(name: str, values: tuple[float, ...]) -> None:
     """Check per-world values of a rig setting (ringing and soil bin): series_stiffness > 0 (inf: rigid),
     load_mass_fraction in [0, 1] (0 in every world or none), stiffness and tool_mass_scale finite and > 0,
-    hit_velocity finite and non-zero, anything else finite and >= 0."""
+    hit_velocity finite and non-zero, mount_pitch finite (either sign), anything else finite and >= 0."""
     if name == "series_stiffness":
         ok, rule = all(v > 0 and not math.isnan(v) for v in values), "positive (inf: rigid)"
     elif name == "load_mass_fraction":
@@ -167,6 +167,8 @@ def check_per_world(name: str, values: tuple[float, ...]) -> None:
         ok, rule = all(math.isfinite(v) and v != 0 for v in values), "finite and non-zero"
     elif name == "stiffness":
         ok, rule = all(math.isfinite(v) and v > 0 for v in values), "finite and positive"
+    elif name == "mount_pitch":
+        ok, rule = all(math.isfinite(v) for v in values), "finite"
     else:
         ok, rule = all(math.isfinite(v) and v >= 0 for v in values), "finite and non-negative"
     if not ok:

@@ -65,7 +65,7 @@ DEPOSIT_FRICTION = 30.0
 """contact friction [deg] of a bed's deposition (``SoilBinConfig.deposit_friction``'s default): porosity 0.456,
 coordination 4.9 at paper scale for assembly C (docs/fidelity.md)."""
 KNOBS = ("stiffness", "dashpot", "pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
-         "stack_preload", "tool_mass_scale", "tool_friction")
+         "stack_preload", "tool_mass_scale", "tool_friction", "mount_pitch")
 """per-world settings and extensions of the passive rig with linear springs (``run_soil_bin(knobs=...)``), SI:
 stiffness [N/m] (default DIN 2093 of the configuration), dashpot [N s/m] (default: Table 2's measured damping
 ratio for the hinged tool alone), pivot_friction [N m] (Coulomb torque at the hinge), extra_mass [kg] (added to the
@@ -78,7 +78,13 @@ tool takes soil_viscosity and tool_friction only (its motion is prescribed: the 
 tool_mass_scale [-] (> 0) multiplies the tool's mass and inertia (``scenes.passive_tool.PassiveTool.inertia_factor``).
 tool_friction [deg] (0 <= phi < 90): the soil-steel contacts' own friction angle (``ModelBuilder.set_pair_friction``;
 without it they take the smaller of the soil's and the tool's, i.e. the soil's), the sweep's and the bin walls' alike
-(both are of the "tool" material)."""
+(both are of the "tool" material). mount_pitch [deg] (within +-MAX_MOUNT_PITCH): the sweep clamped to its hinge turned
+backwards by this angle (``scenes.sweep.pitch_matrix``): its triangles and centre of mass turned about the pivot, the
+spring's seat and the sensor's target on the clamp where the drawing has them (the spring unloaded at the start as
+without it); the tool then works at another attack angle with another moment of its weight, and the displacement
+is the clamp's, read from the start."""
+MAX_MOUNT_PITCH = 15.0
+"""the largest mount_pitch knob [deg] taken (a clamping error of the shank on its hinge)."""
 RIGID_KNOBS = ("soil_viscosity", "tool_friction")
 """the knobs a rigid tool takes (its motion is prescribed)."""
 STOP_RATIO = 100.0
@@ -445,6 +451,8 @@ def _check_knobs(knobs: dict[str, object] | None, n_worlds: int, rigid: bool, sp
             raise ValueError(f"knobs: {name!r} needs spring_model 'linear', got {spring_model!r}")
         a = np.broadcast_to(np.asarray(values, dtype=np.float64), (n_worlds,)).copy()
         check_per_world(name, tuple(a.tolist()))
+        if name == "mount_pitch" and np.any(np.abs(a) > MAX_MOUNT_PITCH):
+            raise ValueError(f"knobs: mount_pitch must lie within +-{MAX_MOUNT_PITCH} deg, got {a.tolist()}")
         out[name] = a
     return out
 
@@ -476,7 +484,8 @@ def build_scene(config: SoilBinConfig, bed: Bed | list[Bed], tool: SweepTool, sp
     v0 = (0.0, speeds[0], 0.0)
     add_sweep(b, tool, "tool", mount="rigid" if rigid else "hinged", velocity=v0, group="tool")
     first_soil = sum(len(r) for r in b.sphere_radius)
-    poses = [tool] if pitch is None else [tool.pitched(a) for a in np.unique(pitch)]
+    turn = tool_turn(len(springs), pitch, knobs)
+    poses = [tool] if turn is None else [tool.pitched(a) for a in np.unique(turn)]
     if isinstance(bed, Bed):
         layout = None
         keep = np.logical_and.reduce([clear_start(bed, t) for t in poses])
@@ -534,6 +543,8 @@ def build_scene(config: SoilBinConfig, bed: Bed | list[Bed], tool: SweepTool, sp
                 overrides["spring:spring:stop_stiffness"] = STOP_RATIO * k_eff
             if "pivot_friction" in knobs:
                 overrides["body:sweep_lower:pivot_friction"] = knobs["pivot_friction"]
+            if "mount_pitch" in knobs:  # the seat on the clamp: where the drawing has it once the tool is turned
+                overrides["spring:spring:point_b"] = [tool.pitched(-a).sensor_point for a in knobs["mount_pitch"]]
             if "extra_mass" in knobs or "tool_mass_scale" in knobs:
                 scale = knobs.get("tool_mass_scale", np.ones(len(springs)))
                 overrides["body:sweep_lower:mass"] = scale * tool.mass + knobs.get("extra_mass", 0.0)
@@ -558,10 +569,18 @@ def build_scene(config: SoilBinConfig, bed: Bed | list[Bed], tool: SweepTool, sp
     model, state = b.finalize(device, n_worlds=len(springs), overrides=overrides)
     if layout is not None:
         replica_beds.place_worlds(model, state, layout, members, first_soil)
-    if pitch is not None:
-        pitch_tool(model, state, tool, pitch)
+    if turn is not None:
+        pitch_tool(model, state, tool, turn)
     info["pitch_deg"] = None if pitch is None else pitch.tolist()
     return model, state, info
+
+
+def tool_turn(n_worlds: int, pitch: np.ndarray | None, knobs: dict[str, np.ndarray]) -> np.ndarray | None:
+    """Each world's tool turned backwards at the start [deg] (n_worlds,): its start pitch and its mount_pitch knob
+    together; None where neither is given."""
+    if pitch is None and "mount_pitch" not in knobs:
+        return None
+    return (np.zeros(n_worlds) if pitch is None else pitch) + knobs.get("mount_pitch", np.zeros(n_worlds))
 
 
 def pitch_tool(model: wd.Model, state: wd.State, tool: SweepTool, pitch: np.ndarray) -> None:
@@ -747,6 +766,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
     # it is fixed on the body at the initial pose and read from the drawing pose (a pitched world's reading includes
     # its pitch, the tool's settling is part of the reading, the rest reading is taken off); otherwise it is the
     # point at the sensor after the settling, read from there. Either way it is fixed before a checkpoint is loaded.
+    # (a mount_pitch knob turns the sweep on its clamp, not the clamp: the sensor's point stays where it is drawn)
     drawing = passive_tool is not None or pitches is not None
     points = (np.tile(tool.sensor_point, (len(springs), 1)) if pitches is None
               else np.array([tool.pitched(a).sensor_point for a in pitches]))

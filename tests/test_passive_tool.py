@@ -7,7 +7,10 @@ References:
 - statics: a known backward moment about the pivot (a dashpot of rate b pulled at the carriage's speed v from the
   blade tip, M = b v L with L the tip's depth below the pivot) against the stack through its lever: the sensor's
   reading from the moment balance M + a T(o - r) + m g (y_c + z_c r / a) = 0, with and without a preload;
-- pose: a rigid rotation about the pivot's axis (the pitched tool's points against the rotation matrix).
+- pose: a rigid rotation about the pivot's axis (the pitched tool's points against the rotation matrix);
+- a mount pitch: the rest pose of the tool in the air from the exact moment balance about the pivot (the spring's
+  force along its line from the carriage's anchor to the seat, the weight at the turned centre of mass), solved here
+  by root finding.
 """
 
 from __future__ import annotations
@@ -118,6 +121,49 @@ def test_pitched_tool_starts_rotated_about_its_pivot(device: str) -> None:
         assert np.allclose(sweep.pitched(angle).tip, expected, atol=1e-12)
     # a backward pitch moves a point below the pivot against travel
     assert tip[1, 1] < sweep.tip[1] - 0.05
+
+
+def test_a_mount_pitch_turns_the_tool_but_not_its_seat_and_rests_where_the_moments_balance(device: str) -> None:
+    """The sweep clamped turned back and forward by 6 deg (knob mount_pitch), in the air on 16 springs, against the
+    same tool without it. At the start the clamp's seat and sensor target sit where the drawing has them (the spring
+    unloaded) while the blade is turned; after the ring-down the clamp's reading (from the start) equals the exact
+    moment balance about the pivot: k (|p - A| - L0) along the spring's line at the seat p turned by phi, and the
+    weight m g at the centre of mass turned by the mount and phi. Tolerance 1 um on readings of ~0.1-0.3 mm (the
+    record's residual ring-down after 1 s at Table 2's damping ratio 0.2 is below 1e-9 m; float32 offsets 1e-7 m)."""
+    from scipy.optimize import brentq
+
+    cfg = sb.SoilBinConfig(scale="ci", springs=(16,), speed=(0.5,), travel=0.5, steady_travel=0.4,
+                           support_offset=False)
+    sweep = build_sweep().moved(np.array([0.0, 0.3, 0.8]))
+    mounts = (0.0, 6.0, -6.0)
+    run = sb.run_soil_bin(cfg, [16, 16, 16], bed=_empty_bed(), device=device, tool=sweep, place=False,
+                          knobs={"mount_pitch": list(mounts)})
+    k, length, m, g = paper.ringing_row(16)["stiffness_n_per_m"], 0.1, sweep.mass, 9.81
+    pivot, seat = sweep.pivot, np.asarray(sweep.sensor_point)
+    anchor = seat - (0.0, length, 0.0)  # the carriage's end of the spring (it moves with the pivot)
+
+    def moment(phi: float, turn: float) -> float:
+        """Moment about +x on the tool [N m] turned by phi about +x from its start (a backward turn is -phi)."""
+        rot = pitch_matrix(-math.degrees(phi))
+        p = pivot + rot @ (seat - pivot)
+        d = p - anchor
+        force = -k * (np.linalg.norm(d) - length) * d / np.linalg.norm(d)
+        c = rot @ pitch_matrix(turn) @ (sweep.com - pivot)
+        weight = np.array([0.0, 0.0, -m * g])
+        return float(np.cross(p - pivot, force)[0] + np.cross(c, weight)[0])
+
+    for w, turn in enumerate(mounts):
+        phi = brentq(moment, -0.2, 0.2, args=(turn,), xtol=1e-14)
+        target = pivot + pitch_matrix(-math.degrees(phi)) @ (seat - pivot)
+        expected = -(target[1] - seat[1])  # the reading: the clamp's motion against travel since the start
+        assert run.steady[w]["displacement_mean"] == pytest.approx(expected, abs=1e-6), (w, expected)
+    # turned back, the centre of mass hangs further back and its weight turns the clamp forward (a negative
+    # reading); turned forward, the other way
+    assert run.steady[1]["displacement_mean"] < run.steady[0]["displacement_mean"] - 5e-5
+    assert run.steady[2]["displacement_mean"] > run.steady[0]["displacement_mean"] + 5e-5
+    with pytest.raises(ValueError, match="mount_pitch must lie within"):
+        sb.run_soil_bin(cfg, [16], bed=_empty_bed(), device=device, tool=sweep, place=False,
+                        knobs={"mount_pitch": [20.0]})
 
 
 def test_bounded_fit_stays_within_the_physical_ranges_and_reports_its_bounds() -> None:
