@@ -283,8 +283,8 @@ def world_steps_kernel(
     first step. A rebuild changes only the order of candidates, so this changes no bits."""
     t, lane = wp.tid()
     # Local copies of the struct arguments (``*_in``; ``mats`` keeps its name for the overloads): on CUDA the step
-    # loop otherwise loads every field again from the kernel's parameters at each use and redoes its index
-    # arithmetic (the PTX: the step's end 155 instructions with 23 parameter loads, with the copies 71 with 10).
+    # loop would otherwise load every field again from the kernel's parameters at each use and redo its index
+    # arithmetic (benchmarks/README.md, "The law chosen at compile time").
     ws = ws_in
     spheres = spheres_in
     meshes = meshes_in

@@ -43,6 +43,11 @@ Hidden effects (default off; each changes the output name unless --tag is given:
                         drawing pose (turned with --pitch). A point mass adds KG d^2 (d its distance from the pivot
                         axis) to I_p and its own weight's moment.
 
+Set-up: --no-support-offset reads passive_twin_spec_<A>_<n>_nooffset.npz (passive_twin_export.py
+--no-support-offset: Table 2's support offsets off, the rig model's baseline) and names its outputs
+passive_twin_yade_<A>_<n>_nooffset[tag]; --out-dir DIR writes the npz and log into DIR instead of beside the script
+(bulk runs, e.g. passive_twin_table.py).
+
 Diagnostics: --full-records (every recorded key, not only the compact set), --steps N (a shorter run), --every N
 (records every N steps), --verlet D (the collider's verletDist; 0: collide every step), --ring-time T (test mode's
 ringing, s).
@@ -130,7 +135,7 @@ import soil_bin_twin_common as common  # noqa: E402
 
 args = sys.argv[1:]
 VALUED = ("--perturb", "--seed", "--tag", "--steps", "--pitch", "--start-rotation", "--preload", "--pivot-friction",
-          "--extra-mass", "--extra-mass-at", "--ring-time", "--verlet", "--every")
+          "--extra-mass", "--extra-mass-at", "--ring-time", "--verlet", "--every", "--out-dir")
 words = [a for k, a in enumerate(args) if not a.startswith("--") and (k == 0 or args[k - 1] not in VALUED)]
 TEST = bool(words) and words[0] == "test"
 if TEST:
@@ -161,9 +166,13 @@ EFFECTS = "".join(s for s in (
     f"_mass{EXTRA_MASS:g}" + ("" if EXTRA_AT == "distributed" else "@" + EXTRA_AT.replace(",", "_"))
     if EXTRA_MASS else ""))
 TAG = opt("--tag", EFFECTS, str)
-NAME = f"{ASSEMBLY}_{SPRINGS}"
+NO_OFFSET = "--no-support-offset" in args  # the spec without Table 2's support offsets (export --no-support-offset)
+NAME = f"{ASSEMBLY}_{SPRINGS}" + ("_nooffset" if NO_OFFSET else "")
 SPEC = os.path.join(HERE, f"passive_twin_spec_{NAME}.npz")
-OUT = os.path.join(HERE, f"passive_twin_yade_{'test_' if TEST else ''}{NAME}{TAG}.npz")
+OUT_DIR = opt("--out-dir", HERE, str)  # where the npz and log go (default: beside the script)
+if not os.path.isdir(OUT_DIR):
+    os.makedirs(OUT_DIR)
+OUT = os.path.join(OUT_DIR, f"passive_twin_yade_{'test_' if TEST else ''}{NAME}{TAG}.npz")
 LOG = open(OUT[:-4] + ".log", "w")
 
 

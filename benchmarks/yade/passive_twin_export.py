@@ -8,17 +8,23 @@ Run from the repository root (the project's Python, warpdem installed; one CPU t
     python benchmarks/yade/passive_twin_export.py A --springs 16 --effects-check
         # -> benchmarks/yade/passive_twin_effects_A_16.npz: warpdem's own knobs (pitch, stack_preload,
         #    pivot_friction, extra_mass) over the first 0.012 m, for the Yade script's hidden-effect options
+    python benchmarks/yade/passive_twin_export.py A --springs 4 8 12 16 20 24 28 32 --no-support-offset
+        # -> benchmarks/yade/passive_twin_spec_A_<n>_nooffset.npz: Table 2's support offsets off
+        #    (SoilBinConfig(support_offset=False), the baseline of calibration.rig_models.SoilBinRigModel), same bed
+        #    and tool pose, with warpdem's main-bed run (--seeds adds realizations; --no-warpdem: the scene only);
+        #    read by passive_twin.py --no-support-offset and passive_twin_table.py
 
 The scene is ``scenes.soil_bin.run_soil_bin``'s for ``SoilBinConfig(scale="ci", assembly=X, springs=(n,),
-parameter_set=11, speed=(0.62,))`` (spring_model "linear", support offsets on: the config's defaults), one passive
-world, no knobs, no ``passive_tool``, no pitch. Its bed and tool pose are the RIGID twin's
-(``soil_bin_twin_spec_X.npz``, through ``soil_bin_twin_compare.spec_bed_and_tool``: the deposited bed's centres and
-the sweep moved to the exported tip), so that both twins cut the same bed (a deposition repeated on another CPU or
-Warp build is another bed) and ``run_soil_bin`` is called with ``place=False``. The spec is read back from the model
-that ``scenes.soil_bin.build_scene`` makes with run_soil_bin's own arguments (nothing re-derived by hand), and
-``run_soil_bin`` itself is then run (main bed, and every ``--seeds k``: the bed with every particle displaced by
-RandomState(k).uniform(-1e-9, 1e-9) m, as the rigid twin) with a hook that checks its scene is the exported one and
-records the tool's rotation, angular velocity and the spring's force besides run_soil_bin's own series.
+parameter_set=11, speed=(0.62,))`` (spring_model "linear", support offsets on: the config's defaults; off with
+``--no-support-offset``), one passive world, no knobs, no ``passive_tool``, no pitch. Its bed and tool pose are the
+RIGID twin's (``soil_bin_twin_spec_X.npz``, through ``soil_bin_twin_compare.spec_bed_and_tool``: the deposited bed's
+centres and the sweep moved to the exported tip), so that both twins cut the same bed (a deposition repeated on
+another CPU or Warp build is another bed) and ``run_soil_bin`` is called with ``place=False``. The spec is read back
+from the model that ``scenes.soil_bin.build_scene`` makes with run_soil_bin's own arguments (nothing re-derived by
+hand), and ``run_soil_bin`` itself is then run (main bed, and every ``--seeds k``: the bed with every particle
+displaced by RandomState(k).uniform(-1e-9, 1e-9) m, as the rigid twin) with a hook that checks its scene is the
+exported one and records the tool's rotation, angular velocity and the spring's force besides run_soil_bin's own
+series.
 
 Keys of the npz (SI units) besides the rigid export's bed and material keys (``sphere_*``, ``particle_*``,
 ``soil_*``, ``tool_*`` materials, ``bin_tri``, ``tool_lower_tri``, ``tool_upper_tri``, ``gravity``, ``dt``, ...;
@@ -82,13 +88,14 @@ SPEED = rigid_ex.SPEED
 PARAMETER_SET = rigid_ex.PARAMETER_SET
 
 
-def config_for(assembly: str, springs: int) -> sb.SoilBinConfig:
+def config_for(assembly: str, springs: int, support_offset: bool = True) -> sb.SoilBinConfig:
     return sb.SoilBinConfig(scale="ci", assembly=assembly, springs=(springs,), parameter_set=PARAMETER_SET,
-                            speed=(SPEED,))
+                            speed=(SPEED,), support_offset=support_offset)
 
 
-def spec_name(assembly: str, springs: int) -> str:
-    return f"passive_twin_spec_{assembly}_{springs}.npz"
+def spec_name(assembly: str, springs: int, support_offset: bool = True) -> str:
+    """``passive_twin_spec_<A>_<n>.npz``; without the support offset ``passive_twin_spec_<A>_<n>_nooffset.npz``."""
+    return f"passive_twin_spec_{assembly}_{springs}{'' if support_offset else '_nooffset'}.npz"
 
 
 def rotation_x(q: np.ndarray, q0: np.ndarray) -> float:
@@ -154,10 +161,10 @@ class Hook:
         pass
 
 
-def scene_spec(assembly: str, springs: int) -> dict[str, np.ndarray]:
+def scene_spec(assembly: str, springs: int, support_offset: bool = True) -> dict[str, np.ndarray]:
     """The passive scene as run_soil_bin builds it (build_scene with its arguments), read back from the model."""
     rigid = rigid_cmp.load(HERE / rigid_ex.spec_name(assembly))
-    config = config_for(assembly, springs)
+    config = config_for(assembly, springs, support_offset)
     bed, tool = rigid_cmp.spec_bed_and_tool(assembly, rigid)
     # run_soil_bin's prologue (place=False, no knobs, no passive_tool, no pitch)
     model, state, info = sb.build_scene(config, bed, tool, [springs], [SPEED], "cpu", None, {}, None)
@@ -254,10 +261,11 @@ def scene_spec(assembly: str, springs: int) -> dict[str, np.ndarray]:
     return data
 
 
-def warpdem_runs(assembly: str, springs: int, spec: dict[str, np.ndarray], seeds: list[int]) -> dict[str, np.ndarray]:
+def warpdem_runs(assembly: str, springs: int, spec: dict[str, np.ndarray], seeds: list[int],
+                 support_offset: bool = True) -> dict[str, np.ndarray]:
     """run_soil_bin itself on the exported bed (and each seed's shifted bed); its series and the hook's records."""
     rigid = rigid_cmp.load(HERE / rigid_ex.spec_name(assembly))
-    config = config_for(assembly, springs)
+    config = config_for(assembly, springs, support_offset)
     keys = ("draught", "displacement", "rotation", "spring_force", "ke_tool")
     out: dict[str, list] = {k: [] for k in keys}
     steady_d, steady_x, walls, checks = [], [], [], []
@@ -433,13 +441,20 @@ def effects_check(assembly: str, springs: int) -> Path:
     return path
 
 
-def export(assembly: str, springs: int, seeds: list[int], per_facet: bool = False) -> Path:
+def export(assembly: str, springs: int, seeds: list[int], per_facet: bool = False, support_offset: bool = True,
+           warpdem: bool = True) -> Path:
+    """The spec (scene_spec) with warpdem's runs (main bed and ``seeds``; none with ``warpdem=False``: the scene
+    only) and, with ``per_facet``, the per-facet rebuild's; ``support_offset=False``: Table 2's support offsets off
+    (SoilBinConfig(support_offset=False), the rig model's baseline) -> passive_twin_spec_<A>_<n>_nooffset.npz."""
     t0 = time.perf_counter()
-    data = scene_spec(assembly, springs)
-    data.update(warpdem_runs(assembly, springs, data, seeds))
+    data = scene_spec(assembly, springs, support_offset)
+    if warpdem:
+        data.update(warpdem_runs(assembly, springs, data, seeds, support_offset))
     if per_facet:
+        if not (warpdem and support_offset):
+            raise SystemExit("--per-facet needs warpdem's runs and the support offsets (the report's set-up)")
         data.update(per_facet_runs(assembly, springs, data, seeds))
-    out = HERE / spec_name(assembly, springs)
+    out = HERE / spec_name(assembly, springs, support_offset)
     np.savez_compressed(out, **data)
     print(f"  {assembly} {springs} springs: {int(data['n_particles'])} particles, dt = {float(data['dt']):.6e} s, "
           f"{int(data['n_steps'])} steps; k = {float(data['spring_stiffness']):.0f} N/m, c = "
@@ -458,6 +473,10 @@ if __name__ == "__main__":
                     help="also run the diagnostic rebuild with one mesh per sweep triangle (Yade's facets)")
     ap.add_argument("--effects-check", action="store_true",
                     help="only the hidden-effect check (effects_check) for the existing specs")
+    ap.add_argument("--no-support-offset", action="store_true",
+                    help="Table 2's support offsets off (the rig model's baseline): "
+                         "passive_twin_spec_<A>_<n>_nooffset.npz")
+    ap.add_argument("--no-warpdem", action="store_true", help="the scene only: no run_soil_bin runs")
     a = ap.parse_args()
     for asm in a.assemblies:
         for n in a.springs:
@@ -466,4 +485,5 @@ if __name__ == "__main__":
             if a.effects_check:
                 effects_check(asm.upper(), n)
             else:
-                export(asm.upper(), n, a.seeds, a.per_facet)
+                export(asm.upper(), n, a.seeds, a.per_facet, support_offset=not a.no_support_offset,
+                       warpdem=not a.no_warpdem)
