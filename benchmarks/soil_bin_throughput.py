@@ -117,7 +117,8 @@ def main() -> None:
 
 def watch_rebuilds(out: list) -> None:
     """Wrap the broad phase's build (a benchmark's probe, for this process): before each rebuild, append the
-    spheres' displacements since the previous build [m] (ns,), the skin [m] and the sphere positions (ns, 3)."""
+    spheres' displacements since the previous build [m] (ns,), the skin [m] and the position of the sphere that moved
+    most [m] (3,)."""
     import numpy as np
 
     import warpdem.broadphase as bp
