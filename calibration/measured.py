@@ -21,7 +21,14 @@ draught_mean/_std      passive tool's draught mean / std           N, kN
 rigid_draught_mean/_std rigid tool's draught mean / std            N, kN
 displacement_mean/_std tool displacement at the sensor             m, mm
 reduction              draught reduction vs the rigid tool         %, -
+<observable>_se        standard error of the row's reduction,      the observable's units
+                       draught_mean, rigid_draught_mean or
+                       displacement_mean (e.g. over repeated runs)
 =====================  ==========================================  =========================================
+
+A standard-error column is that row's uncertainty of its observable: a fit weighs the row by it instead of the
+rig's stated default (``calibration.rig_models.SOIL_BIN_UNCERTAINTY``; an ``uncertainty=`` given by the caller still
+overrides both).
 
 Any other column is refused with its name (nothing reads it: a note belongs in a ``#`` comment line).
 
@@ -59,6 +66,10 @@ UNITS: dict[str, dict[str, float]] = {
     "displacement_mean": {"m": 1.0, "mm": 1e-3},
     "displacement_std": {"m": 1.0, "mm": 1e-3},
     "reduction": {"%": 1.0, "-": 100.0},
+    "reduction_se": {"%": 1.0, "-": 100.0},
+    "draught_mean_se": {"N": 1.0, "kN": 1e3},
+    "rigid_draught_mean_se": {"N": 1.0, "kN": 1e3},
+    "displacement_mean_se": {"m": 1.0, "mm": 1e-3},
     "time": {"s": 1.0, "ms": 1e-3},
     "force": {"N": 1.0, "kN": 1e3},
     "displacement": {"m": 1.0, "mm": 1e-3},
@@ -82,6 +93,10 @@ RANGES: dict[str, tuple[float, float, str]] = {
     "displacement_mean": (-1.0, 1.0, "m"),
     "displacement_std": (0.0, 1.0, "m"),
     "reduction": (-100.0, 100.0, "%"),
+    "reduction_se": (1e-12, 100.0, "% (a standard error: positive)"),
+    "draught_mean_se": (1e-12, 1e6, "N (a standard error: positive)"),
+    "rigid_draught_mean_se": (1e-12, 1e6, "N (a standard error: positive)"),
+    "displacement_mean_se": (1e-12, 1.0, "m (a standard error: positive)"),
 }
 """plausible open range (low, high) of each known quantity in SI (reduction in %), and what it is: a value outside
 is refused with its column and row, so that a unit slip or a typo fails at once instead of as a meaningless fit."""

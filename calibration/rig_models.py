@@ -654,6 +654,45 @@ SOIL_BIN_ABSOLUTE = frozenset({"reduction", "displacement_mean", "displacement_t
 """observables whose stated uncertainty is absolute (in their unit); the others' is relative."""
 
 
+def combine_realizations(run: object, r: int) -> object:
+    """A soil-bin run of n x ``r`` worlds (each configuration's ``r`` realizations consecutive) as one of n worlds:
+    each steady statistic's mean over its realizations, its standard error (``*_sem``) the larger of the
+    realizations' scatter, std(ddof=1) / sqrt(r), and their own, sqrt(sum sem^2) / r (a few chaotic realizations can
+    agree by chance; a run's own SE can miss slow drifts); the series' mean over the realizations. ``run``: a
+    ``scenes.soil_bin.SoilBinRun``."""
+    from dataclasses import replace
+
+    n = len(run.steady) // r
+    if n * r != len(run.steady) or r < 2:
+        raise ValueError(f"combine_realizations: {len(run.steady)} worlds are not a multiple of r = {r} >= 2")
+    steady = []
+    for j in range(n):
+        rows = run.steady[j * r:(j + 1) * r]
+        out: dict[str, float] = {}
+        for k, v in rows[0].items():
+            if k.endswith("_sem"):
+                continue
+            if not isinstance(v, (int, float, np.floating, np.integer)):
+                out[k] = v
+                continue
+            x = np.array([float(row[k]) for row in rows])
+            out[k] = float(x.mean())
+            sem = f"{k.removesuffix('_mean')}_sem"  # draught_mean's is draught_sem, displacement_trend's _trend_sem
+            if sem in rows[0]:
+                own = math.sqrt(sum(float(row[sem]) ** 2 for row in rows)) / r
+                out[sem] = max(float(x.std(ddof=1)) / math.sqrt(r), own)
+        for k in rows[0]:  # a standard error without its statistic: the runs' own combined
+            if k.endswith("_sem") and k not in out:
+                out[k] = math.sqrt(sum(float(row[k]) ** 2 for row in rows)) / r
+        steady.append(out)
+
+    def mean(a: np.ndarray) -> np.ndarray:
+        return a.reshape(a.shape[0], n, r, *a.shape[2:]).mean(axis=2)
+
+    return replace(run, springs=tuple(run.springs[::r]), speeds=tuple(run.speeds[::r]), travel=mean(run.travel),
+                   series={k: mean(v) for k, v in run.series.items()}, steady=steady)
+
+
 class SoilBinRigModel:
     """The soil bin (``scenes.soil_bin``, linear spring model) against measured soil-bin data (like Table 3).
 
@@ -661,7 +700,10 @@ class SoilBinRigModel:
     of Table 2). Observables: those of ``reduction`` [%] (draught reduction of the passive tool against a rigid run
     at the same speed), ``displacement_mean`` [m] (mean displacement at the sensor), ``draught_mean`` and
     ``rigid_draught_mean`` [N] that the summary has; by default the reduction and the displacement, which do not
-    depend on the soil's absolute strength (a reduced-scale bed draws less than the laboratory's soil).
+    depend on the soil's absolute strength (a reduced-scale bed draws less than the laboratory's soil). Their stated
+    uncertainty: ``uncertainty`` (absolute in their unit for the reduction and displacements, relative for draughts;
+    default :data:`SOIL_BIN_UNCERTAINTY`), or each row's own where the summary has a column ``<observable>_se`` (a
+    standard error, e.g. over repeated runs; the caller's ``uncertainty`` still wins).
 
     Baseline: the scene as calibrated (the soil's GA set, Table 2's spring rates and measured damping ratios); no
     fitted gene (``fixed`` may set a baseline knob for every case, e.g. ``dashpot``). Table 2's support offsets (the
@@ -695,7 +737,14 @@ class SoilBinRigModel:
     ``scenes.soil_bin.SoilBinConfig`` of the simulations;
     ``soil``: soil contact parameters replacing the GA set's in every run (``friction_angle`` [deg],
     ``normal_cohesion``, ``shear_cohesion`` [Pa], ``eta_roll``, ``eta_twist`` [-]; e.g. a set calibrated at the
-    simulation's scale); ``bed``: a deposited bed to use (else made or read from ``cache_dir``); ``max_worlds``:
+    simulation's scale); ``bed``: a deposited bed to use (else made or read from ``cache_dir``), or realizations:
+    a list of beds that can be worlds of one simulation (replica beds of one population,
+    ``scenes.replica_beds.perturbed`` copies of one bed), every case then run on each and its observables the
+    realizations' mean, its standard error the larger of their scatter's (std / sqrt(n)) and the runs' own combined
+    (sqrt(sum sem^2) / n); ``tool``: the
+    sweep (``scenes.sweep.SweepTool``) already placed on that bed, used where it is (``run_soil_bin``'s
+    ``place=False``; e.g. a twin's exported scene, with its ``bed``; default: the sweep placed on the bed's surface
+    by every run); ``max_worlds``:
     passive worlds per simulation; ``simulator``: what runs the soil bin instead of the DEM,
     ``simulator(config, springs, speeds, knobs, soil_overrides) -> scenes.soil_bin.SoilBinRun``
     (``run_soil_bin``'s arguments and result; for tests with an independent model).
@@ -717,7 +766,7 @@ class SoilBinRigModel:
                  fragile: bool = True, deposit_friction: float = 30.0, soil: dict[str, float] | None = None,
                  observables: tuple[str, ...] | None = None,
                  uncertainty: dict[str, float] | None = None, max_worlds: int = 64, bed: object | None = None,
-                 cache_dir: str | None = None, measured_steady_travel: float | None = None,
+                 tool: object | None = None, cache_dir: str | None = None, measured_steady_travel: float | None = None,
                  runs_from: SoilBinRigModel | None = None, simulator: Callable[..., object] | None = None) -> None:
         from scenes import paper
         from scenes import soil_bin as sb
@@ -785,9 +834,15 @@ class SoilBinRigModel:
         self.measured = np.column_stack([columns[k] for k in self.observables])
         unc = _stated(SOIL_BIN_UNCERTAINTY, uncertainty)
         self.uncertainty = {k: unc[k] for k in self.observables}
+        # a row's own standard error (a summary column <observable>_se) replaces the default; the caller's wins
+        self.row_se = tuple(k for k in self.observables if f"{k}_se" in columns and k not in (uncertainty or {}))
         self.stated_sigma = np.column_stack([
+            columns[f"{k}_se"] if k in self.row_se else
             np.full(len(springs), unc[k]) if k in SOIL_BIN_ABSOLUTE else unc[k] * np.abs(columns[k])
             for k in self.observables])
+        if not np.all(np.isfinite(self.stated_sigma)):
+            raise InputError("measured soil-bin data: a standard-error column has an empty cell for an observable's "
+                             "row")
         fields = ("friction_angle", "normal_cohesion", "shear_cohesion", "eta_roll", "eta_twist")
         self.soil = {k: float(v) for k, v in (soil or {}).items()}
         for k, v in self.soil.items():
@@ -795,7 +850,13 @@ class SoilBinRigModel:
                 raise InputError(f"soil: unknown parameter {k!r}; known {fields}")
             if not (math.isfinite(v) and v >= 0):
                 raise InputError(f"soil: {k} must be finite and non-negative, got {v!r}")
-        self._bed = bed
+        if tool is not None and bed is None:
+            raise InputError("tool: a placed tool needs the bed it was placed on (bed=...)")
+        self._beds = list(bed) if isinstance(bed, (list, tuple)) else None
+        if self._beds is not None and not self._beds:
+            raise InputError("bed: an empty list of realizations")
+        self._bed = self._beds[0] if self._beds else bed
+        self.tool = tool
         self.cache_dir = cache_dir
         self.max_worlds = int(max_worlds)
         self._rigid: dict[float, dict[str, float]] = {}
@@ -809,6 +870,8 @@ class SoilBinRigModel:
             if runs_from.settings() != self.settings():
                 raise ValueError("runs_from: the other rig model simulates another scene (settings differ)")
             self._bed, self._rigid, self._passive = runs_from._bed, runs_from._rigid, runs_from._passive
+            self._beds = runs_from._beds
+            self.tool = runs_from.tool
             self._rigid_tool = runs_from._rigid_tool
             self.simulator = runs_from.simulator
 
@@ -822,7 +885,11 @@ class SoilBinRigModel:
 
     def describe_uncertainty(self) -> dict[str, str]:
         out = {}
-        for k, u in self.uncertainty.items():
+        for i, (k, u) in enumerate(self.uncertainty.items()):
+            if k in self.row_se:
+                se = self.stated_sigma[:, i]
+                out[k] = f"the data's standard errors, {se.min():.3g}-{se.max():.3g} {self.units[k]}"
+                continue
             out[k] = f"{u:.3g} {self.units[k]} (absolute)" if k in SOIL_BIN_ABSOLUTE else f"{100 * u:.3g} %"
         if self._sim_sigma is not None:
             for i, k in enumerate(self.observables):
@@ -847,8 +914,18 @@ class SoilBinRigModel:
         """What the simulations depend on besides the cases (a diagnosis checkpoint must match it)."""
         from dataclasses import asdict
 
-        return {"fixed": self.fixed, "config": asdict(self.config), "soil": self.soil, "max_worlds": self.max_worlds,
-                "bed": None if self._bed is None or self.cache_dir else "given", "device": str(self.device)}
+        out = {"fixed": self.fixed, "config": asdict(self.config), "soil": self.soil, "max_worlds": self.max_worlds,
+               "bed": None if self._bed is None or self.cache_dir else "given", "device": str(self.device)}
+        if self.tool is not None:
+            out["tool"] = "given"
+        if self.realizations > 1:
+            out["realizations"] = self.realizations
+        return out
+
+    @property
+    def realizations(self) -> int:
+        """Runs per case (the beds given as realizations; 1 for one bed)."""
+        return len(self._beds) if self._beds else 1
 
     def state(self) -> dict[str, object]:
         """The simulation's standard errors and the rigid runs, which a resumed diagnosis must reuse (a new
@@ -878,6 +955,7 @@ class SoilBinRigModel:
         return out
 
     def bed(self) -> object:
+        """The bed (with realizations: the first)."""
         from scenes import soil_bin as sb
 
         if self._bed is None:
@@ -898,11 +976,18 @@ class SoilBinRigModel:
         """One simulation of the soil bin (the DEM, or ``simulator``): a ``scenes.soil_bin.SoilBinRun``."""
         from scenes import soil_bin as sb
 
+        r = self.realizations
+        if r > 1:  # every world once per realization, realization-minor
+            springs, speeds = [n for n in springs for _ in range(r)], [v for v in speeds for _ in range(r)]
+            knobs = {k: [x for x in v for _ in range(r)] for k, v in (knobs or {}).items()} or None
         soil = self._soil(len(springs))
         if self.simulator is not None:
-            return self.simulator(self.config, springs, speeds, knobs, soil)
-        return sb.run_soil_bin(self.config, springs, bed=self.bed(), device=self.device, speeds=speeds, knobs=knobs,
-                               progress=progress, soil_overrides=soil)
+            run = self.simulator(self.config, springs, speeds, knobs, soil)
+        else:
+            bed = self._beds * (len(springs) // r) if r > 1 else self.bed()
+            run = sb.run_soil_bin(self.config, springs, bed=bed, device=self.device, speeds=speeds, knobs=knobs,
+                                  progress=progress, soil_overrides=soil, tool=self.tool, place=self.tool is None)
+        return run if r == 1 else combine_realizations(run, r)
 
     def _tool_friction_off(self) -> float:
         """The soil-steel friction angle [deg] of the scene without the knob: the smaller of the soil's and the
@@ -973,8 +1058,9 @@ class SoilBinRigModel:
 
         todo = [k for k in dict.fromkeys(keys) if k not in self._passive
                 or (keep_series and "series" not in self._passive[k])]
-        for start in range(0, len(todo), self.max_worlds):
-            chunk = todo[start:start + self.max_worlds]
+        per_run = max(1, self.max_worlds // self.realizations)
+        for start in range(0, len(todo), per_run):
+            chunk = todo[start:start + per_run]
             cfgs = [self.configs[k[0]] for k in chunk]
             params = [dict(k[1:]) for k in chunk]
             for p, c in zip(params, cfgs, strict=True):  # a stack's hardening by its own rate and DIN travel

@@ -14,7 +14,7 @@ bodies: integration and the broad phase, no contacts.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -50,6 +50,28 @@ class ReplicaLayout:
     parked: np.ndarray
     n_particles: np.ndarray
     garage_bottom: float
+
+
+def perturbed(bed: Bed, seeds: list[int], amplitude: float = 1e-9) -> list[Bed]:
+    """Realizations of one bed that can be worlds of one simulation: each particle of copy k moved by a uniform random
+    displacement in [-amplitude, amplitude) [m] per axis (``np.random.RandomState(seeds[k])``; seed 0: no move, the
+    bed itself). A soil bin's dynamics are chaotic, so runs on such copies scatter as independent runs of one bed
+    do, with no bed-to-bed scatter (the Yade twins' ``--perturb 1e-9 --seed k`` draws the same displacements).
+    ``amplitude`` [m] must be below the bed's smallest radius / 100. Returns len(seeds) beds (shared population:
+    the bed's own particles, in order)."""
+    if not (0.0 < amplitude < 0.01 * float(np.min(bed.radii))):
+        raise InputError(f"amplitude must be positive and below 1 % of the smallest radius "
+                         f"({0.01 * float(np.min(bed.radii)):.3g} m), got {amplitude!r}")
+    if len(set(seeds)) != len(seeds) or any(int(s) < 0 for s in seeds):
+        raise InputError(f"seeds must be distinct non-negative integers, got {list(seeds)}")
+    n = bed.n_particles
+    out = []
+    for seed in seeds:
+        shift = np.zeros((n, 3)) if seed == 0 else np.random.RandomState(int(seed)).uniform(-amplitude, amplitude,
+                                                                                             (n, 3))
+        out.append(replace(bed, centres=bed.centres + shift[bed.particle], population_seed=bed.seed,
+                           population_index=np.arange(n)))
+    return out
 
 
 def check_replicas(beds: list[Bed]) -> None:

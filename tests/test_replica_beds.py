@@ -218,3 +218,24 @@ def test_study_on_replica_beds_pairs_each_replica_and_averages_them(beds: list, 
         sb.run_study(cfg, device=DEVICE, cache_dir=tmp_path, replicas=0)
     with pytest.raises(InputError, match="pass no bed"):
         sb.run_study(cfg, device=DEVICE, bed=beds[0], replicas=2)
+
+
+def test_perturbed_copies_are_realizations_of_one_bed() -> None:
+    # References: (1) the Yade twins' perturbation (soil_bin_twin.py --perturb 1e-9 --seed k): each particle moved
+    # by np.random.RandomState(k).uniform(-1e-9, 1e-9, (n_particles, 3)), its members together; seed 0 is the bed
+    # itself; (2) the bed run alone, as the shared layout's world 0 must run (same draught to the bit); (3) chaos:
+    # world 1, 1e-9 m away, draws another draught by the end of the run.
+    plain = sb.bed_for(CFG, device=DEVICE)
+    copies = replica_beds.perturbed(plain, [0, 3], 1e-9)
+    np.testing.assert_array_equal(copies[0].centres, plain.centres)
+    shift = np.random.RandomState(3).uniform(-1e-9, 1e-9, (plain.n_particles, 3))
+    np.testing.assert_allclose(copies[1].centres - plain.centres, shift[plain.particle], rtol=0, atol=1e-15)
+    for bad, words in (({"amplitude": 0.0}, "amplitude must be positive"), ({"seeds": [1, 1]}, "distinct")):
+        with pytest.raises(InputError, match=words):
+            replica_beds.perturbed(plain, **{"seeds": [0, 1], **bad})
+    tool = sb.place_tool(plain, CFG.working_depth)
+    run = sb.run_soil_bin(CFG, [0, 0], bed=copies, device=DEVICE, speeds=[0.68, 0.68], tool=tool, place=False)
+    alone = sb.run_soil_bin(CFG, [0], bed=plain, device=DEVICE, speeds=[0.68], tool=tool, place=False)
+    assert np.count_nonzero(alone.series["draught"][:, 0]) >= 1
+    np.testing.assert_array_equal(run.series["draught"][:, 0], alone.series["draught"][:, 0])
+    assert not np.array_equal(run.series["draught"][:, 1], run.series["draught"][:, 0])

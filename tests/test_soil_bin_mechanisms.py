@@ -153,3 +153,66 @@ def test_the_soil_steel_friction_knob_reaches_the_rigid_and_the_passive_runs() -
     assert rough[1] / base[1] == pytest.approx(ratio)
     bound = mech.get("soil_tool_friction").physical(rig.facts())["tool_friction"]
     assert (bound.low, bound.high) == pytest.approx((0.5 * 32.3, 32.3)) and "Potyondy" in bound.source
+
+
+def test_a_rows_own_standard_error_weighs_it_in_the_fit() -> None:
+    """Reference: weighted least squares in closed form. Quasi-static data (written here) read 0.3 mm low at every
+    spring count, and the 4-spring row is 1 mm off besides but says so: its ``displacement_mean_se`` is 2 mm
+    against 0.02 mm for the others. A sensor offset, which shifts every reading alike, is then the weighted mean of
+    the residuals, sum(r / s^2) / sum(1 / s^2) with s the rig's sigma (the row's SE and the runs' SEM in quadrature):
+    -0.3 mm within the noise, where equal weights would be pulled 0.125 mm towards the bad row. A caller's
+    ``uncertainty`` replaces the column."""
+    data = _measured(1.0, 1.0, seed=5)
+    x = data.summary["displacement_mean"]
+    x += -3e-4 + np.where(data.summary["springs"] == 4, 1e-3, 0.0)
+    data.summary["displacement_mean_se"] = np.where(data.summary["springs"] == 4, 2e-3, 2e-5)
+    rig = SoilBinRigModel(data, simulator=_quasi_static(1.0, 1.0))
+    assert rig.row_se == ("displacement_mean",)
+    np.testing.assert_array_equal(rig.stated_sigma[:, 0], data.summary["displacement_mean_se"])
+    d = diagnosis.diagnose(rig, diagnosis.DiagnosisSettings(rounds=3, mechanisms=("sensor_offset",)))
+    fit = d.fits["sensor_offset"]
+    offset = fit.candidate.values(fit.z_all)["sensor_offset"]
+    model = np.array([r["displacement_mean"] for r in _quasi_static(1.0, 1.0)(
+        None, [c["springs"] for c in rig.configs], [c["speed"] for c in rig.configs],
+        {"stiffness": [c["stiffness"] for c in rig.configs]}, None).steady])
+    w = 1.0 / rig.sigma[:, 0] ** 2
+    expected = float(np.sum(w * (x - model)) / np.sum(w))
+    assert offset == pytest.approx(expected, abs=2e-6)
+    assert offset == pytest.approx(-3e-4, abs=3e-5)
+    equal = SoilBinRigModel(data, simulator=_quasi_static(1.0, 1.0), uncertainty={"displacement_mean": 2e-5})
+    assert equal.row_se == () and np.all(equal.stated_sigma == 2e-5)
+
+
+def test_realizations_are_averaged_with_the_larger_standard_error() -> None:
+    """Reference: numpy's mean and standard deviation of what an independent model (written here) returns for each
+    world. The rig model given three realizations runs every case three times (consecutive worlds) and takes each
+    observable's mean, and as its standard error the larger of the realizations' scatter, std(ddof=1) / sqrt(3),
+    and their own SEs combined, sqrt(sum sem^2) / 3: here the scatter's for the displacement (0.1 mm noise, own SE
+    1e-5 m) and the own SE's for the draught (no scatter, own SE 0.5 N each)."""
+    rng = np.random.default_rng(11)
+    seen: list[np.ndarray] = []
+
+    def run(config, springs, speeds, knobs, soil):  # noqa: ANN001, ANN202
+        out = _quasi_static(1.0, 1.0)(config, springs, speeds, knobs, soil)
+        noise = 1e-4 * rng.standard_normal(len(springs)) * np.array([n != 0 for n in springs])
+        for row, e in zip(out.steady, noise, strict=True):
+            row["displacement_mean"] += e
+        seen.append(np.array([r["displacement_mean"] for r in out.steady]))
+        return out
+
+    data = _measured(1.0, 1.0, seed=1)
+    data.summary["draught_mean"] = np.full(len(data.summary["springs"]), 250.0)
+    rig = SoilBinRigModel(data, simulator=run, bed=["a", "b", "c"], observables=("draught_mean", "displacement_mean"))
+    assert rig.realizations == 3
+    from calibration.rig_models import Case
+
+    cases = [Case(j, {}) for j in range(rig.n_configs)]
+    values = rig.simulate(cases).values
+    sem = rig.simulate(cases, _sem=True).values
+    passive = seen[-1].reshape(rig.n_configs, 3)  # the passive simulation (after the rigid one), realization-minor
+    np.testing.assert_allclose(values[:, 1], passive.mean(axis=1), rtol=1e-12)
+    np.testing.assert_allclose(sem[:, 1], np.maximum(passive.std(axis=1, ddof=1) / math.sqrt(3),
+                                                     math.sqrt(3) * 1e-5 / 3), rtol=1e-12)
+    np.testing.assert_allclose(sem[:, 0], math.sqrt(3) * 0.5 / 3, rtol=1e-12)
+    f = 300.0 * (1 - 0.002 * data.summary["springs"])
+    np.testing.assert_allclose(values[:, 0], f, rtol=1e-12)
