@@ -16,6 +16,9 @@
 #     sh benchmarks/gpu_checks.sh suite      # instead: the whole test suite on CUDA but tests/test_diagnosis.py,
 #                                            # a test per worker (340 s on one H100 in session 24)
 #     sh benchmarks/gpu_checks.sh suite diagnosis  # then tests/test_diagnosis.py in a call of its own (51 s)
+#     sh benchmarks/gpu_checks.sh suite twin  # tests/test_twin_diagnosis.py (the Yade twin's hidden effects), its
+#                                            # diagnoses checkpointed in WARPDEM_TWIN_DIAGNOSIS_DIR (default
+#                                            # /root/twin_diagnosis): calls again on the warm machine resume them
 #
 #     sh benchmarks/gpu_checks.sh replicas   # instead: Table 3's replicas as worlds on CUDA: their tests, and a
 #                                            # paper-scale rigid run of 4 worlds on one bed and on 4 replica beds
@@ -47,7 +50,11 @@ if [ "$1" = "split" ]; then
 fi
 if [ "$1" = "suite" ]; then
   part=${2:-main}
-  if [ "$part" = diagnosis ]; then what="tests/test_diagnosis.py"; else what="tests --ignore tests/test_diagnosis.py"; fi
+  if [ "$part" = twin ]; then  # checkpointed: call again until it passes (about 13 minutes on one H100)
+    export WARPDEM_TWIN_DIAGNOSIS_DIR=${WARPDEM_TWIN_DIAGNOSIS_DIR:-/root/twin_diagnosis}; mkdir -p "$WARPDEM_TWIN_DIAGNOSIS_DIR"
+    what="tests/test_twin_diagnosis.py"
+  elif [ "$part" = diagnosis ]; then what="tests/test_diagnosis.py"
+  else what="tests --ignore tests/test_diagnosis.py --ignore tests/test_twin_diagnosis.py"; fi
   timeout -s INT 570 python3 -m pytest -q -n 15 --dist load --tb=short -p no:cacheprovider -W ignore $what \
     > "$OUT/pytest_cuda_suite_$part.txt" 2>&1
   echo "suite $part rc=$?" >> "$OUT/pytest_cuda_suite_$part.txt"
