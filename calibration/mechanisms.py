@@ -58,7 +58,8 @@ class RigFacts:
 
     rig: "ringing" or "soil-bin"; springs (n_configs,): units per stack; rates (n_configs,) [N/m]: the stated rates;
     travel (n_configs,) [m]: each stack's service travel (DIN 2093: 0.75 h0 per unit); working_deflection
-    (n_configs,) [m]: each stack's static deflection under the rig's load (nominal); swing_moment [N m]: the
+    (n_configs,) [m]: each stack's static deflection under the rig's load (ringing: nominal; soil bin: the measured
+    mean displacement at the sensor, where the stacks' stated lever is); swing_moment [N m]: the
     smallest moment of the springs at a configuration's first swing (K theta_1); tool_mass [kg]; lever [m]: the
     stacks' and the sensor's stated lever about the pivot; seat_radius [m]: how far from its axis a stack's seat may
     bear on the shank (the discs' outer radius); sensor_tolerance [m]: how far the sensor's contact point may sit
@@ -173,12 +174,19 @@ def _finite(xs: tuple[float, ...]) -> list[float]:
 
 
 def _friction_bound(f: RigFacts) -> dict[str, Bound]:
-    if f.rig != RINGING.name or not math.isfinite(f.swing_moment):
+    if f.rig == RINGING.name and math.isfinite(f.swing_moment):
+        return {"pivot_friction": Bound(0.0, f.swing_moment, "a Coulomb oscillator stops where the springs' moment "
+                                        "K theta falls below the friction torque: above the smallest first-swing "
+                                        "moment K theta_1 of the measured configurations a decay could not be "
+                                        "recorded (closed form)")}
+    moments = [k * abs(x) * f.lever for k, x in zip(f.rates, f.working_deflection, strict=False)
+               if math.isfinite(k * x * f.lever)]
+    if f.rig != SOIL_BIN.name or not moments:
         return {}
-    return {"pivot_friction": Bound(0.0, f.swing_moment, "a Coulomb oscillator stops where the springs' moment "
-                                    "K theta falls below the friction torque: above the smallest first-swing moment "
-                                    "K theta_1 of the measured configurations a decay could not be recorded (closed "
-                                    "form)")}
+    return {"pivot_friction": Bound(0.0, min(moments), "the springs turn the tool back against the friction: their "
+                                    "moment at the measured mean deflection, k x a (the smallest over the "
+                                    "configurations), above the friction torque, or a tool the soil pushed back "
+                                    "could not swing forward again")}
 
 
 def _progressive_bound(f: RigFacts) -> dict[str, Bound]:
@@ -275,7 +283,7 @@ register(Mechanism(
     "The shank turns about a pin in a bore; a dry (Coulomb) friction torque there takes a fixed amount of "
     "amplitude per cycle instead of a fixed fraction, so the decay is linear, damping grows as the amplitude falls "
     "and the tool can stop short of its equilibrium.",
-    genes=(Gene("pivot_friction", 1e-3, 3.0, log=True, unit="N m"),),
+    genes=(Gene("pivot_friction", 1e-3, 100.0, log=True, unit="N m"),),
     knobs=lambda p: {"pivot_friction": p["pivot_friction"]},
     signature="damping that rises late in a decay and for small swings; equal for all stiffnesses",
     bounds=_friction_bound, ridge={"pivot_friction": 1.0}))

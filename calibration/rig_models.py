@@ -1038,8 +1038,9 @@ class SoilBinRigModel:
 
     def facts(self) -> object:
         """What the soil-bin rig states that bounds the mechanisms (``calibration.mechanisms.RigFacts``): the stated
-        rates, each stack's DIN 2093 travel, the sweep's mass, its stacks' and sensor's lever, the discs' radius and
-        the sensor's mounting tolerance, the laboratory's internal friction angle."""
+        rates, each stack's DIN 2093 travel, the measured mean displacements (the stacks' working deflection), the
+        sweep's mass, its stacks' and sensor's lever, the discs' radius and the sensor's mounting tolerance, the
+        laboratory's internal friction angle."""
         from scenes.passive_tool import DISC_OUTER_RADIUS, SENSOR_MOUNT_TOLERANCE, lever, stack_travel
         from scenes.shear_box import lab_strength
         from scenes.sweep import build_sweep
@@ -1047,9 +1048,12 @@ class SoilBinRigModel:
         from . import mechanisms as mech
 
         tool = build_sweep()
+        deflection = (tuple(map(float, self.measured[:, self.observables.index("displacement_mean")]))
+                      if "displacement_mean" in self.observables else ())
         return mech.RigFacts(self.rig, tuple(c["springs"] for c in self.configs),
                              tuple(float(c["stiffness"]) for c in self.configs),
-                             tuple(stack_travel(c["springs"]) for c in self.configs), tool_mass=float(tool.mass),
+                             tuple(stack_travel(c["springs"]) for c in self.configs), deflection,
+                             tool_mass=float(tool.mass),
                              lever=lever(tool), seat_radius=DISC_OUTER_RADIUS,
                              sensor_tolerance=SENSOR_MOUNT_TOLERANCE, soil_friction=lab_strength()[1])
 

@@ -216,3 +216,18 @@ def test_realizations_are_averaged_with_the_larger_standard_error() -> None:
     np.testing.assert_allclose(sem[:, 0], math.sqrt(3) * 0.5 / 3, rtol=1e-12)
     f = 300.0 * (1 - 0.002 * data.summary["springs"])
     np.testing.assert_allclose(values[:, 0], f, rtol=1e-12)
+
+
+def test_the_pivot_friction_is_bounded_by_the_springs_moment_at_work() -> None:
+    """Reference: the moment balance at the measured mean deflection x (at the sensor, where the DEM's spring is):
+    the springs' moment k x a must exceed a Coulomb friction torque for a tool pushed back by the soil to swing
+    forward again, so the bound is the smallest k x a over the configurations (in this quasi-static model k x a is
+    the draught's moment F H, smallest at 32 springs: 280.8 N x 0.25 m = 70.2 N m, noise aside)."""
+    data = _measured(1.0, 1.0, 0)
+    rig = SoilBinRigModel(data, simulator=_quasi_static(1.0, 1.0))
+    facts = rig.facts()
+    bound = mech.get("pivot_friction").physical(facts)["pivot_friction"]
+    k, x = data.summary["stiffness"], data.summary["displacement_mean"]
+    assert bound.high == pytest.approx(float(np.min(k * np.abs(x) * facts.lever)), rel=1e-12)
+    assert bound.high == pytest.approx(300.0 * (1 - 0.002 * 32) * H, rel=0.01)
+    assert bound.low == pytest.approx(1e-3) and "moment" in bound.source
