@@ -102,13 +102,14 @@ def test_hidden_sensor_offset_in_the_soil_bin() -> None:
     # 3's speeds; the truth reads the displacement 1.5 mm low (the zero set with the tool leaning on a stop), its
     # springs scatter by 2 % and its observables carry noise of 1 percentage point and 0.1 mm. The uncertainties
     # are the defaults plus the simulation's own standard errors (rig_models.SOIL_BIN_UNCERTAINTY). One grid round
-    # (9 points per gene, the offset's spacing 1.25 mm) and one Levenberg-Marquardt round, about 6 minutes on the
-    # 2-core CPU: with the grid alone the truth, between two grid points, and a preloaded spring stack (which also
-    # lowers the readings by a constant) came out within the noise of each other on one build of the bed (held-out
-    # losses 13.6 and 11.6; session 14); refined, the offset is named clearly (6.7 against 15.2). The candidates are
-    # the offset and the mechanisms that also move the mean reading by a near-constant or a proportional amount (its
-    # confounders) and pivot friction (a sticking tool reads low): the other soil-bin mechanisms change the draught
-    # or the vibration, which the offset leaves alone, and each one more costs about a minute of the CI's 2 cores.
+    # (9 points per gene, the offset's spacing 1.25 mm) and one Levenberg-Marquardt round, 177 s alone on the
+    # 2-core CPU (session 32): with the grid alone the truth, between two grid points, and a preloaded spring stack
+    # (which also lowers the readings by a constant) came out within the noise of each other on one build of the
+    # bed (held-out losses 13.6 and 11.6; session 14); refined, the offset is named clearly (6.7 against 15.2). The
+    # candidates are the offset and the mechanisms that also move the mean reading by a near-constant or a
+    # proportional amount (its confounders) and pivot friction (a sticking tool reads low): the other soil-bin
+    # mechanisms change the draught or the vibration, which the offset leaves alone (all 15 candidates took 867 s in
+    # session 31's loaded CI).
     from scenes import paper
     from scenes import soil_bin as sb
 
