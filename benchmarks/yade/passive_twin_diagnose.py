@@ -11,10 +11,11 @@ resumes there (and tests/test_twin_diagnosis.py, given WARPDEM_TWIN_DIAGNOSIS_DI
 The rig model is ``calibration.rig_models.SoilBinRigModel`` on the data set's summary (reduction and displacement,
 weighted by the data's own conservative standard errors, its ``*_se`` columns), simulating the scene the Yade twin
 ran: assembly A at ci scale, GA set 11, no support offsets, the rigid twin's exported bed (681 spheres) and tool pose
-(``soil_bin_twin_spec_A.npz``), 0.30 m of travel, steady after 0.15 m, linear springs at the DIN 2093 rates with
-Table 2's dashpot. Like the Yade data (passive_twin_table.py), every point is the mean of 9 realizations (the main
-bed and copies perturbed by 1e-9 m, ``scenes.replica_beds.perturbed``, as worlds of one simulation), its standard
-error the larger of their scatter's and the runs' own. Every registered soil-bin mechanism is a candidate.
+(``soil_bin_twin_spec_A.npz``), 0.30 m of travel, steady after 0.15 m, linear springs at the DIN 2093 rates with Table
+2's dashpot. Every point is the mean of ``--realizations`` runs (default 9, as the Yade data, passive_twin_table.py;
+the committed reports and tests/test_twin_diagnosis.py: 4): the main bed and copies perturbed by 1e-9 m
+(``scenes.replica_beds.perturbed``) as worlds of one simulation, its standard error the larger of their scatter's and
+the runs' own. Every registered soil-bin mechanism is a candidate (``--mechanisms`` narrows them).
 
 Expected names (the hidden effects, passive_twin_table_notes.md): clean and mass (a null case: 3 kg do not move the
 steady means beyond their SE) -> no cause; pitch -> mount_pitch; preload -> stack_preload; friction20 (20 N m)
