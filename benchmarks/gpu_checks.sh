@@ -50,12 +50,12 @@ if [ "$1" = "split" ]; then
 fi
 if [ "$1" = "suite" ]; then
   part=${2:-main}
-  if [ "$part" = twin ]; then  # checkpointed: call again until it passes (about 13 minutes on one H100)
+  if [ "$part" = twin ]; then  # checkpointed: call again until it passes (about 14 minutes on one H100)
     export WARPDEM_TWIN_DIAGNOSIS_DIR=${WARPDEM_TWIN_DIAGNOSIS_DIR:-/root/twin_diagnosis}; mkdir -p "$WARPDEM_TWIN_DIAGNOSIS_DIR"
-    what="tests/test_twin_diagnosis.py"
+    what="tests/test_twin_diagnosis.py"; workers=0  # one process: its module fixture diagnoses every set once
   elif [ "$part" = diagnosis ]; then what="tests/test_diagnosis.py"
   else what="tests --ignore tests/test_diagnosis.py --ignore tests/test_twin_diagnosis.py"; fi
-  timeout -s INT 570 python3 -m pytest -q -n 15 --dist load --tb=short -p no:cacheprovider -W ignore $what \
+  timeout -s INT 570 python3 -m pytest -q -n ${workers:-15} --dist load --tb=short -p no:cacheprovider -W ignore $what \
     > "$OUT/pytest_cuda_suite_$part.txt" 2>&1
   echo "suite $part rc=$?" >> "$OUT/pytest_cuda_suite_$part.txt"
   grep -E "FAILED|ERROR|passed|failed|rc=" "$OUT/pytest_cuda_suite_$part.txt" | tail -30
