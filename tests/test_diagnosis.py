@@ -279,6 +279,30 @@ def test_a_fit_at_the_end_of_its_range_is_reported(extra: float, tmp_path: pytes
         assert "At its bound: the cause is likely outside this mechanism:** extra_mass" in text
 
 
+@pytest.mark.parametrize(("extra", "named"), [(0.3, False), (0.4, True)])
+def test_a_baseline_within_the_noise_gets_no_name(extra: float, named: bool) -> None:
+    # Closed form (no DEM). Reference: the baseline's chi^2 computed here from the formula, f(k, 0) against the data,
+    # in their stated 0.5 % (the baseline has no genes: its held-out residuals are its residuals); p from chi^2 with
+    # one dof per configuration. A hidden 0.3 kg shifts each frequency by 0.75 % (1.5 sigma): p = 0.05, the baseline
+    # is within the stated uncertainties, and although extra_mass fits it (0.3 kg, significant by the likelihood
+    # ratio) nothing is named. 0.4 kg (2 sigma each): p = 0.0015 < noise_p = 0.01, named.
+    from scipy import stats
+
+    rig = _MassOnSpring(extra)
+    k = np.array([c["stiffness"] for c in rig.configs])
+    chi2 = float(np.sum(((rig._f(k, 0.0)[:, None] - rig.measured) / rig.sigma) ** 2))
+    p = float(stats.chi2.sf(chi2, rig.n_configs))
+    d = diagnosis.diagnose(rig)
+    assert d.noise_p_baseline == pytest.approx(p, rel=1e-4)
+    assert (p < diagnosis.DiagnosisSettings().noise_p) == named
+    fit = d.fits["extra_mass"]
+    assert fit.significant and fit.params_all()["extra_mass"] == pytest.approx(extra, abs=0.02)
+    if named:
+        assert d.cause == ("extra_mass",), (d.verdict, d.ranking)
+    else:
+        assert d.cause == () and d.verdict == "no significant discrepancy", (d.verdict, d.ranking)
+
+
 class _Counting:
     """A rig that counts the worlds its fits simulate (one per configuration per point; the verification's
     re-simulation, with series kept, is not counted: it runs after every diagnosis)."""
