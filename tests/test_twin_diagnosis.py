@@ -3,9 +3,12 @@
 Reference: Yade 2023.02a runs of the passive soil-bin twin (benchmarks/yade/passive_twin_table_<effect>/: Table 3's
 format, 8 spring counts, 9 realizations each, their conservative standard errors per row), each data set with one
 effect that Yade simulated and warpdem's baseline lacks: a 3 deg mounting pitch, a 1.5 mm stack preload, 20 N m of
-pivot friction, none (clean), or 3 kg of extra mass, which moves no steady mean beyond its SE (a null case). The
+pivot friction, none (clean), 3 kg of extra mass, which moves no steady mean beyond its SE (a null case), or 10 N m
+of pivot friction, which clears 3 conservative SE at no spring count (no name, or pivot_friction). The
 diagnosis (benchmarks/yade/passive_twin_diagnose.py: every soil-bin mechanism a candidate, every point the mean of 4
 warpdem realizations of the twin's bed) must name the hidden effect, and nothing where the data cannot show one.
+Only the names are asserted: the sizes came out 25 % (pitch), 12 % (preload) and 51 % (friction) under the hidden
+ones on one H100, and the friction set's name wins narrowly over two indistinguishable ones (docs/case-studies.md).
 Thousands of soil-bin runs per data set: CUDA only (minutes on one H100, hours on the CI's 2 cores). With
 WARPDEM_TWIN_DIAGNOSIS_DIR naming a folder, the diagnoses checkpoint there and resume (or reuse the points of
 ``passive_twin_diagnose.py all --out`` that folder).
@@ -39,20 +42,16 @@ def diagnosed(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
     given = os.environ.get("WARPDEM_TWIN_DIAGNOSIS_DIR")  # checkpoints of a run of passive_twin_diagnose.py
     out = Path(given) if given else tmp_path_factory.mktemp("twin_diagnosis")
     found, rig = {}, None
-    for effect in ("pitch", "preload", "friction20", "clean", "mass"):  # passive_twin_diagnose.py's order
+    for effect in ("pitch", "preload", "friction20", "clean", "mass", "friction"):
         found[effect], rig = ptd.diagnose(effect, DEVICE, out, rounds=ROUNDS, realizations=REALIZATIONS, runs_from=rig)
     return found
 
 
-MISSED = pytest.mark.xfail(strict=True, reason=(
-    "with pivot_friction's search range ending at 3 N m, below the hidden 20 N m, the diagnosis named mount_pitch = "
-    "2.27 deg instead on one H100 (c65307a, benchmarks/yade/passive_twin_diagnosis/friction20); the range now reaches "
-    "the soil bin's bound (the springs' moment at work, 35 N m here) but is not yet re-run on CUDA"))
-
-
-@pytest.mark.parametrize(("effect", "cause"), [("clean", ()), ("mass", ()), ("pitch", ("mount_pitch",)),
-                                               ("preload", ("stack_preload",)),
-                                               pytest.param("friction20", ("pivot_friction",), marks=MISSED)])
-def test_the_diagnosis_names_yades_hidden_effect(diagnosed: dict[str, object], effect: str, cause: tuple) -> None:
+@pytest.mark.parametrize(("effect", "causes"), [
+    ("clean", [()]), ("mass", [()]), ("pitch", [("mount_pitch",)]), ("preload", [("stack_preload",)]),
+    ("friction20", [("pivot_friction",)]),
+    # 10 N m clears 3 conservative SE at no spring count: no name, or the right one, but no other
+    ("friction", [(), ("pivot_friction",)])])
+def test_the_diagnosis_names_yades_hidden_effect(diagnosed: dict[str, object], effect: str, causes: list) -> None:
     d = diagnosed[effect]
-    assert d.cause == cause, (effect, d.verdict, d.cause, d.ranking[:4], d.at_bound)
+    assert d.cause in causes, (effect, d.verdict, d.cause, d.ranking[:4], d.at_bound)
