@@ -50,7 +50,7 @@ if [ "$1" = "split" ]; then
 fi
 if [ "$1" = "suite" ]; then
   part=${2:-main}
-  if [ "$part" = twin ]; then  # checkpointed: call again until it passes (about 14 minutes on one H100)
+  if [ "$part" = twin ]; then  # checkpointed: call again until it passes (2.5-3.5 min a data set on one H100, 6 sets)
     export WARPDEM_TWIN_DIAGNOSIS_DIR=${WARPDEM_TWIN_DIAGNOSIS_DIR:-/root/twin_diagnosis}; mkdir -p "$WARPDEM_TWIN_DIAGNOSIS_DIR"
     what="tests/test_twin_diagnosis.py"; workers=0  # one process: its module fixture diagnoses every set once
   elif [ "$part" = diagnosis ]; then what="tests/test_diagnosis.py"
