@@ -627,8 +627,10 @@ def _pattern(cov: dict[str, np.ndarray], rig: object, fit: Fit, bound: np.ndarra
 
 def mechanisms_for(rig: object, settings: DiagnosisSettings) -> list[mech.Mechanism]:
     """The registered mechanisms (or ``settings.mechanisms``) that apply to the rig: it has their knobs (and their
-    series, where they need them)."""
+    series, where they need them), and the data vary in the covariates that tell their effect
+    (``Mechanism.varies``; not checked for mechanisms named in ``settings.mechanisms``)."""
     names = settings.mechanisms or tuple(mech.REGISTRY)
+    cov = rig.covariates() if hasattr(rig, "covariates") else {}
     out = []
     for n in names:
         m = mech.get(n)
@@ -640,6 +642,9 @@ def mechanisms_for(rig: object, settings: DiagnosisSettings) -> list[mech.Mechan
                                  f"{rig.rig} rig does not have (or that its fitted baseline already covers)")
             continue
         if m.needs_series and not getattr(rig, "has_series", False):
+            continue
+        if not settings.mechanisms and any(k in cov and np.ptp(np.asarray(cov[k], dtype=float)) == 0.0
+                                           for k in m.varies):
             continue
         out.append(m)
     return out

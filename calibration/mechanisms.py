@@ -85,7 +85,9 @@ class Mechanism:
     name: identifier (``[a-z_]+``); title: a short human name; rationale: why it could be there, physically;
     genes: its parameters (SI, with ranges the fit searches); knobs: parameter values -> the rig knobs to set
     (knob name -> value in SI); rigs: the rigs it is meant for (documentation; applicability is decided by the
-    knobs a rig supports); needs_series: it only shows in time series (skipped on summary-only data).
+    knobs a rig supports); needs_series: it only shows in time series (skipped on summary-only data); varies: the
+    configurations' covariates (``rig.covariates()``) its effect is told by (skipped on data where one of them is
+    the same in every configuration: there it is a free offset that would absorb any other cause under its name).
     """
 
     name: str
@@ -95,6 +97,7 @@ class Mechanism:
     knobs: Callable[[dict[str, float]], dict[str, float]]
     rigs: tuple[str, ...] = (RINGING.name, SOIL_BIN.name)
     needs_series: bool = False
+    varies: tuple[str, ...] = ()
     signature: str = ""
     """what it does to the observables, for the report."""
     extra: dict[str, object] = field(default_factory=dict)
@@ -365,7 +368,7 @@ register(Mechanism(
     "b v on the tool adds draught in proportion to the speed of each run.",
     genes=(Gene("soil_viscosity", 1.0, 1e3, log=True, unit="N s/m"),),
     knobs=lambda p: {"soil_viscosity": p["soil_viscosity"]},
-    rigs=(SOIL_BIN.name,),
+    rigs=(SOIL_BIN.name,), varies=("speed",),
     signature="draught residuals growing with the speed of the run"))
 register(Mechanism(
     "rigid_reference_speed", "Rigid reference at another speed",
@@ -375,7 +378,7 @@ register(Mechanism(
     "a faster one an increase.",
     genes=(Gene("rigid_speed", 0.4, 0.8, unit="m/s"),),
     knobs=lambda p: {"rigid_speed": p["rigid_speed"]},
-    rigs=(SOIL_BIN.name,),
+    rigs=(SOIL_BIN.name,), varies=("speed",),
     signature="reduction residuals falling with the configuration's speed, zero at the reference's speed"))
 register(Mechanism(
     "progressive_stack", "Progressive stacks, each by its own rate",

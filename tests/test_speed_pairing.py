@@ -202,3 +202,21 @@ def test_the_speed_sweep_reports_what_this_means_from_its_numbers() -> None:
     assert "cannot tell the rigid draught's speed dependence from none" in text
     assert "by +0.8 percentage points" in text and "matters little" in text
     assert "reduced chi^2 3.5" in text
+
+
+def test_the_speed_mechanisms_are_candidates_only_where_the_speeds_differ() -> None:
+    # At one speed a rigid reference at another speed moves every reduction by nearly one amount (the analytic
+    # soil above: the rigid draught is one number, the passive ones differ by 1.6-5.8 %), and a resistance b v is one
+    # force: each is a free offset that would absorb any other cause under its name, and its signature (residuals
+    # with the speed) cannot show. So they are candidates on Table 3's speeds (0.57-0.70 m/s; the test above names
+    # one there) and not on the same configurations run at one speed, unless named explicitly.
+    speed_mechanisms = {"rigid_reference_speed", "speed_dependence"}
+    varied = _table7_like(0.68, seed=5)
+    one = Measured({**varied.summary, "speed": np.full(varied.n_configs, 0.62)}, {})
+    for data, expected in ((varied, speed_mechanisms), (one, set())):
+        rig = SoilBinRigModel(data, simulator=analytic_soil_bin)
+        names = {m.name for m in diagnosis.mechanisms_for(rig, diagnosis.DiagnosisSettings())}
+        assert names & speed_mechanisms == expected and "sensor_offset" in names
+    rig = SoilBinRigModel(one, simulator=analytic_soil_bin)
+    asked = diagnosis.DiagnosisSettings(mechanisms=("speed_dependence",))
+    assert [m.name for m in diagnosis.mechanisms_for(rig, asked)] == ["speed_dependence"]
