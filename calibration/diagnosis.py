@@ -811,10 +811,10 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
         # can raise its held-out loss above a runner-up's that had fewer rounds: then the runner-up is refined
         # too, and the one named is the best of the candidates fitted alike
         refined: dict[str, Fit] = {}
-        conv: dict[str, dict[str, object]] = {}
+        refinements: dict[str, dict[str, object]] = {}
         nxt: Fit | None = pool[0]
         while nxt is not None:
-            conv[nxt.name] = fitter.refine(nxt.candidate, label)
+            refinements[nxt.name] = fitter.refine(nxt.candidate, label)
             refined[nxt.name] = fitter._result(nxt.candidate)
             lead = min(refined.values(), key=lambda f: f.heldout_loss.sum())
             nxt = next((f for f in pool if f.name not in refined
@@ -822,7 +822,7 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
         tried = [refined.get(f.name, f) for f in tried]
         _compare(tried, current, s)
         fits.update(refined)
-        convergence.update(conv)
+        convergence.update(refinements)
         top = fits[lead.name]
         if not steps:
             loss = {f.name: f.heldout_loss.sum() for f in tried}

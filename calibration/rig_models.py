@@ -654,6 +654,11 @@ SOIL_BIN_ABSOLUTE = frozenset({"reduction", "displacement_mean", "displacement_t
 """observables whose stated uncertainty is absolute (in their unit); the others' is relative."""
 
 
+def _own_sem(rows: list[dict[str, float]], sem: str) -> float:
+    """The realizations' own standard errors ``sem`` combined: sqrt(sum sem^2) / len(rows)."""
+    return math.sqrt(sum(float(row[sem]) ** 2 for row in rows)) / len(rows)
+
+
 def combine_realizations(run: object, r: int) -> object:
     """A soil-bin run of n x ``r`` worlds (each configuration's ``r`` realizations consecutive) as one of n worlds:
     each steady statistic's mean over its realizations, its standard error (``*_sem``) the larger of the
@@ -679,11 +684,10 @@ def combine_realizations(run: object, r: int) -> object:
             out[k] = float(x.mean())
             sem = f"{k.removesuffix('_mean')}_sem"  # draught_mean's is draught_sem, displacement_trend's _trend_sem
             if sem in rows[0]:
-                own = math.sqrt(sum(float(row[sem]) ** 2 for row in rows)) / r
-                out[sem] = max(float(x.std(ddof=1)) / math.sqrt(r), own)
+                out[sem] = max(float(x.std(ddof=1)) / math.sqrt(r), _own_sem(rows, sem))
         for k in rows[0]:  # a standard error without its statistic: the runs' own combined
             if k.endswith("_sem") and k not in out:
-                out[k] = math.sqrt(sum(float(row[k]) ** 2 for row in rows)) / r
+                out[k] = _own_sem(rows, k)
         steady.append(out)
 
     def mean(a: np.ndarray) -> np.ndarray:

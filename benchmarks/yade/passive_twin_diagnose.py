@@ -72,7 +72,8 @@ def diagnose(effect: str, device: str | None, out: Path, rounds: int = 3, realiz
     d = diagnosis.diagnose(rig, diagnosis.DiagnosisSettings(rounds=rounds, mechanisms=mechanisms),
                            checkpoint=out / f"{effect}.ckpt.json")
     d.wall_s = time.perf_counter() - t0
-    diagnosis_report.write(d, out / effect, command=f"passive_twin_diagnose.py {effect} --rounds {rounds}")
+    diagnosis_report.write(d, out / effect, command=f"passive_twin_diagnose.py {effect} --rounds {rounds} "
+                                                      f"--realizations {realizations}")
     return d, rig
 
 
