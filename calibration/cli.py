@@ -503,16 +503,24 @@ def run_speed_sweep_cmd(args: argparse.Namespace) -> int:
 
 def run_passive_tool_cmd(args: argparse.Namespace) -> int:
     """``warpdem passive-tool``: Table 2 fitted within bounds, the rigid pitch sweep and Table 3 with the tool."""
-    from calibration.passive_study import PITCHES, VARIANTS, PassiveStudy, write_report
+    from calibration.passive_study import DEFAULT_VARIANTS, PITCHES, PassiveStudy, write_report
     from warpdem.errors import BudgetExhausted
 
+    if args.joint_from:
+        return _passive_joint(args)
     device = _setup(args)
-    variants = args.variants or VARIANTS
+    variants = args.variants or (DEFAULT_VARIANTS + (("described",) if args.tool else ()))
+    if "described" in variants and not args.tool:
+        raise InputError("--variants described needs --tool TOML (the tool to run)")
+    if args.tool:
+        from scenes.passive_tool import load_toml
+
+        load_toml(args.tool)  # a bad file is refused before the folder is claimed
     out = _claim(args, args.out)
     study = PassiveStudy(out, scale=args.scale, device=device, seed=args.seed, travel=args.travel,
                          steady_travel=args.steady_travel, shank_length=args.shank_length, soil=args.soil,
                          pitches=PITCHES if args.pitches is None else args.pitches,
-                         log=lambda m: print(m, flush=True))
+                         log=lambda m: print(m, flush=True), tool_file=args.tool)
     t0 = time.perf_counter()
     try:
         study.run(args.budget, variants)
@@ -522,6 +530,46 @@ def run_passive_tool_cmd(args: argparse.Namespace) -> int:
         return 3
     print(f"results in {out} (report.md), this call {time.perf_counter() - t0:.0f} s on {device}")
     return 0
+
+
+def _passive_joint(args: argparse.Namespace) -> int:
+    """``warpdem passive-tool --joint-from``: Table 2 and Table 3 fitted with one tool, the soil's levers from the
+    named passive runs; writes joint.json and joint.md into --out."""
+    from calibration.passive_study import joint_lines, joint_record
+
+    shanks = set()
+    for folder in args.joint_from:
+        p = Path(folder) / "passive_din_preload.json"
+        if not p.is_file():
+            raise InputError(f"--joint-from: {folder!r} holds no finished 'din_preload' passive run ({p.name})")
+        try:
+            shanks.add(json.loads(p.read_text())["tool"]["shank_length"])
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            raise InputError(f"--joint-from: {str(p)!r} cannot be read as a passive run: {e}") from None
+    if len(shanks) != 1:
+        raise InputError(f"--joint-from: the runs' shank lengths differ ({sorted(shanks)} m); give runs of one shank")
+    out = _claim(args, args.out)
+    t0 = time.perf_counter()
+    rec = joint_record(args.joint_from)
+    from scenes.soil_bin import json_safe
+
+    write_text_atomic(out / "joint.json", json.dumps(json_safe(rec), indent=1))
+    text = "\n".join(["# Table 2 and Table 3 fitted with one tool", "",
+                      "Runs: " + ", ".join(f"`{f}`" for f in args.joint_from), "", *joint_lines(rec)])
+    write_text_atomic(out / "joint.md", text + "\n")
+    from scenes.passive_tool import from_dict
+
+    tool = from_dict(rec["per rig"]["at_run_shank"]["tool"])
+    write_text_atomic(out / "tool_joint.toml", tool.to_toml())
+    print(f"results in {out} (joint.md), {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+def _folders(text: str) -> tuple[str, ...]:
+    v = tuple(x.strip() for x in text.split(",") if x.strip())
+    if not v:
+        raise argparse.ArgumentTypeError(f"must name one or more folders, comma-separated, got {text!r}")
+    return v
 
 
 def _pitches(text: str) -> tuple[float, ...]:
@@ -1004,7 +1052,16 @@ def main(argv: list[str] | None = None) -> int:
                    help="the rigid tool's backward pitches [deg] besides 0, comma-separated, or 'none' (default "
                         "-4,-2,2,4,6,8,9)")
     t.add_argument("--variants", type=_variants, default=None,
-                   help="tool variants of the passive runs, comma-separated (default fitted,din_preload)")
+                   help="tool variants of the passive runs, comma-separated (default fitted,din_preload, and "
+                        "described with --tool)")
+    t.add_argument("--tool", default=None, metavar="TOML",
+                   help="a described tool (variant 'described'), e.g. the tool_joint.toml that --joint-from writes; "
+                        "its shank_length must be --shank-length")
+    t.add_argument("--joint-from", type=_folders, default=None, metavar="DIR,...",
+                   help="instead of running stages: fit Table 2's frequencies and Table 3's displacements with one "
+                        "tool, the soil's levers read from these finished passive-tool folders (their 'din_preload' "
+                        "runs, one shank length); writes joint.json, joint.md and tool_joint.toml (the per-rig fit "
+                        "at the runs' shank length) into --out")
     t.add_argument("--soil", choices=("workflow", "bonded", "dense"), default="workflow",
                    help="workflow: the paper-scale workflow's calibrated soil (default); bonded: GA set 11 with 4x its "
                         "cohesions, yielding bonds on a settled bed (its draught and shear box match the lab's); "

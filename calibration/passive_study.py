@@ -8,11 +8,13 @@ resumes where a deadline or a kill left it, so the same call continues):
 2. ``rigid``: the rigid tool at each distinct speed of Table 3, plus the pitch sweep (the rigid tool turned back
    about its pivot by ``PITCHES`` degrees at ``PITCH_SPEED``): worlds of one simulation on one bed;
 3. one stage per tool variant (``VARIANTS``): the eight passive configurations at Table 3's speeds, the
-   displacement read as the lab reads it (zeroed on the tool at rest on its springs).
+   displacement read as the lab reads it (zeroed on the tool at rest on its springs);
+4. ``joint`` (CPU, after a "din_preload" stage): Table 2's frequencies and Table 3's displacements fitted with one
+   tool (:func:`joint_record`), the soil's levers read off this run; :func:`joint_record` over several runs (beds)
+   is ``warpdem passive-tool --joint-from``.
 
-The soil is the paper-scale workflow's calibrated soil (``docs/runs/table3-paper-h100``, its shear-box rank 1:
-friction 29.52 deg, normal cohesion 430 Pa, eta 0.0015; rigid draught 342-346 N in its 1 m bin), so the stack sees
-forces of the laboratory's size. :func:`write_report` writes ``report.md`` and the figures.
+The soil is one of :data:`SOILS` (default the paper-scale workflow's calibrated soil). :func:`write_report` writes
+``report.md`` and the figures.
 """
 
 from __future__ import annotations
@@ -26,12 +28,13 @@ import numpy as np
 
 from scenes import paper
 from scenes import soil_bin as sb
-from scenes.passive_tool import PassiveTool, from_dict, lever
+from scenes.passive_tool import G, PassiveTool, from_dict, lever, load_toml
 from scenes.sweep import SweepParams, build_sweep
+from warpdem.errors import InputError
 from warpdem.files import write_atomic
 
 from .genes import soil_overrides
-from .tool_fit import fit_table2, simulate
+from .tool_fit import MOUNTS, fit_joint, fit_table2, simulate
 
 PITCHES = (-4.0, -2.0, 2.0, 4.0, 6.0, 8.0, 9.0)
 """backward rotations of the rigid tool about its pivot [deg] besides 0 (the lab's displacements, 0.2-12.5 mm at
@@ -59,9 +62,11 @@ SOILS = {
 PRELOAD_TABLE3 = 1.44e-3
 """the stack preload [m] that Table 3's own displacements imply (d = 1.18 kN / k_DIN - 1.44 mm, r = 0.98): a
 variant with it is not an independent prediction of the displacements."""
-VARIANTS = ("fitted", "din_preload")
+VARIANTS = ("fitted", "din_preload", "described")
 """the tool variants of the passive stages: "fitted" (Table 2 fitted within bounds, one rate factor; no preload,
-no offsets) and "din_preload" (DIN 2093 rates, CAD inertia, no series compliance, PRELOAD_TABLE3)."""
+no offsets), "din_preload" (DIN 2093 rates, CAD inertia, no series compliance, PRELOAD_TABLE3) and "described"
+(the study's ``tool_file``, e.g. the joint fit's ``tool_joint.toml``; not run by default)."""
+DEFAULT_VARIANTS = ("fitted", "din_preload")
 
 
 def _genes(soil: dict) -> dict:
@@ -84,7 +89,7 @@ class PassiveStudy:
     def __init__(self, out: str | Path, *, scale: str = "paper", device: str | None = None, seed: int = 0,
                  travel: float | None = None, steady_travel: float | None = None, soil: str = "workflow",
                  shank_length: float = SweepParams.shank_length, pitches: tuple[float, ...] = PITCHES,
-                 log: object = print) -> None:
+                 log: object = print, tool_file: str | Path | None = None) -> None:
         if soil not in SOILS:
             raise ValueError(f"soil must be one of {sorted(SOILS)}, got {soil!r}")
         self.soil = SOILS[soil]
@@ -93,6 +98,10 @@ class PassiveStudy:
         self.out.mkdir(parents=True, exist_ok=True)
         self.device, self.log = device, log
         self.shank_length = float(shank_length)
+        self.described = None if tool_file is None else load_toml(tool_file)
+        if self.described is not None and self.described.shank_length != self.shank_length:
+            raise InputError(f"tool file {str(tool_file)!r}: its shank_length {self.described.shank_length!r} m is "
+                             f"not the study's --shank-length {self.shank_length!r} m (the rigid reference's)")
         self.pitches = tuple(float(p) for p in pitches if p != 0.0)
         self.sweep = PassiveTool(shank_length=self.shank_length).sweep()
         self.config = sb.SoilBinConfig(scale=scale, assembly="C", springs=(0,), seed=seed, travel=travel,
@@ -133,6 +142,10 @@ class PassiveStudy:
             return from_dict(self.ringing()["fits"]["one rate"]["tool"])  # fitted on this study's geometry
         if variant == "din_preload":
             return PassiveTool(preload=PRELOAD_TABLE3, shank_length=self.shank_length)
+        if variant == "described":
+            if self.described is None:
+                raise InputError("variant 'described' needs a tool file (--tool)")
+            return self.described
         raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
 
     def _run(self, stage: str, springs: list[int], speeds: list[float], deadline: float | None,
@@ -171,7 +184,7 @@ class PassiveStudy:
         return self._run(f"passive_{variant}", springs, [t3[n]["speed_mean_m_s"] for n in springs], deadline,
                          passive_tool=self.tool(variant))
 
-    def run(self, budget: float | None = None, variants: tuple[str, ...] = VARIANTS) -> None:
+    def run(self, budget: float | None = None, variants: tuple[str, ...] = DEFAULT_VARIANTS) -> None:
         """Every stage not yet done, in order; with ``budget`` [s] a soil-bin stage stops at its deadline into its
         checkpoint (``warpdem.errors.BudgetExhausted``) and the same call continues it."""
         deadline = None if budget is None else time.time() + budget
@@ -179,6 +192,8 @@ class PassiveStudy:
         self.rigid(deadline)
         for v in variants:
             self.passive(v, deadline)
+        if not (self.out / "joint.json").exists() and (self.out / "passive_din_preload.json").exists():
+            _json(self.out / "joint.json", joint_record([self.out]))
         write_report(self.out)
 
 
@@ -268,6 +283,91 @@ def moment_arms(rows: list[dict[str, float]], tool: PassiveTool) -> list[dict[st
         out.append({"springs": n, "force_n": f_sim, "arm_m": f_sim * a / r["passive_n"], "lab_force_n": f_lab,
                     "lab_arm_m": f_lab * a / t3[n]["passive_draught_mean_n"]})
     return out
+
+
+def soil_levers(folders: list[str | Path], variant: str = "din_preload") -> tuple[dict[int, float], float]:
+    """The soil's moment about the pivot per unit of draught [m], per spring count, from passive runs: at each
+    configuration's mean displacement, the moment that balances the tool's stack and weight there (the closed
+    form's statics, :meth:`PassiveTool.sensor_reading`'s balance) over the mean draught; averaged over the folders
+    (beds). Returns (levers, the runs' shank length [m]); the folders must share their shank length."""
+    levers: dict[int, list[float]] = {}
+    shanks = set()
+    for folder in folders:
+        data = json.loads((Path(folder) / f"passive_{variant}.json").read_text())
+        tool = from_dict(data["tool"])
+        shanks.add(tool.shank_length)
+        sweep = tool.sweep()
+        a, c = lever(sweep), sweep.com - sweep.pivot
+        weight = tool.inertia_factor * sweep.mass * G
+        for r in data["rows"]:
+            n = int(r["springs"])
+            reading = tool.sensor_reading(n, 0.0, sweep) + r["displacement_mean"]
+            moment = a * tool.stack_force(n, r["displacement_mean"], sweep) - weight * (c[1] + c[2] * reading / a)
+            levers.setdefault(n, []).append(moment / r["draught_mean"])
+    if len(shanks) != 1:
+        raise ValueError(f"soil_levers: the runs' shank lengths differ: {sorted(shanks)}")
+    return {n: float(np.mean(v)) for n, v in sorted(levers.items())}, shanks.pop()
+
+
+NO_COMPLIANCE = 1e8
+"""a fitted series stiffness above this [N/m] (133x the stiffest stack, 7.5e5 N/m: under 1 % of its compliance)
+is reported as none."""
+
+
+def joint_record(folders: list[str | Path], variant: str = "din_preload") -> dict[str, object]:
+    """Table 2 and Table 3 fitted jointly (:func:`calibration.tool_fit.fit_joint`) with both mount hypotheses,
+    the soil's levers measured in ``folders``' passive runs (:func:`soil_levers`), and for each hypothesis a
+    leave-one-out check: each configuration's displacement predicted by a fit without it."""
+    levers, shank = soil_levers(folders, variant)
+    out: dict[str, object] = {"folders": [str(f) for f in folders], "variant": variant, "levers": levers,
+                              "lever_shank_length": shank}
+    for mounts in MOUNTS:
+        fit = fit_joint(levers, shank, mounts).to_dict()
+        fit["at_run_shank"] = fit_joint(levers, shank, mounts, profile=(), shank_length=shank).to_dict()
+        loo = []
+        for n in paper.SPRING_COUNTS:
+            held = fit_joint(levers, shank, mounts, profile=(), held_out=(n,))
+            row = next(r for r in held.displacement_rows if r["springs"] == n)
+            loo.append({**row, "shank_length": held.tool.shank_length})
+        fit["leave_one_out"] = loo
+        out[mounts] = fit
+    return out
+
+
+def joint_lines(rec: dict) -> list[str]:
+    """The report's section on a :func:`joint_record`."""
+    lines = ["## Table 2 and Table 3 with one tool", "",
+             f"Levers of the soil's moment about the pivot per unit of draught, measured in {len(rec['folders'])} "
+             f"passive run(s) with the shank {rec['lever_shank_length']:.3f} m and moved to any other shank length "
+             "(+dL): " + ", ".join(f"{n}: {v:.3f}" for n, v in rec["levers"].items()) + " m. Residuals in units of "
+             "the issue's tolerances (frequency 5 %; displacement 1 mm or 25 %). The displacements are fitted here, "
+             "so only the leave-one-out column predicts them.", ""]
+    for mounts in MOUNTS:
+        f = rec[mounts]
+        t = f["tool"]
+        loo = f["leave_one_out"]
+        bin_ks = t["bin_series_stiffness"]
+        bin_text = ("the same" if bin_ks is None else "none" if bin_ks == "inf" or bin_ks > NO_COMPLIANCE
+                    else f"{bin_ks:.3g} N/m")
+        lines += [f"### Mounts {mounts}: cost {f['cost']:.2f}", "",
+                  f"shank length {t['shank_length']:.3f} m; rate factor {t['rate_factor']:.3f}; inertia factor "
+                  f"{t['inertia_factor']:.3f}; series stiffness (ringing) {t['series_stiffness']:.3g} N/m; soil bin's "
+                  f"{bin_text}; preload (soil bin) {1e3 * t['preload']:.2f} mm; "
+                  f"riding load fraction {t['load_mass_fraction']:.3f}", "",
+                  "Bounds: " + "; ".join(f"{k} {v}" for k, v in f["bounds"].items()), "",
+                  f"Frequencies within 5 %: {sum(abs(r['error_pct']) <= 5 for r in f['frequency_rows'])} of 8. "
+                  f"Displacements within 1 mm or 25 %: {int(sum(r['within'] for r in f['displacement_rows']))} of 8 "
+                  f"fitted, {int(sum(r['within'] for r in loo))} of 8 left out.", "",
+                  "| springs | lab f [Hz] | fit f [Hz] | error [%] | lever [m] | lab disp [mm] | fit disp [mm] | "
+                  "left out [mm] |", "|---:|---:|---:|---:|---:|---:|---:|---:|"]
+        lines += [f"| {fr['springs']} | {fr['measured_freq_hz']:.2f} | {fr['fit_freq_hz']:.2f} | "
+                  f"{fr['error_pct']:+.1f} | {dr['lever_m']:.3f} | {dr['lab_disp_mm']:.2f} | {dr['fit_disp_mm']:.2f} | "
+                  f"{lo['fit_disp_mm']:.2f} |" for fr, dr, lo in zip(f["frequency_rows"], f["displacement_rows"], loo,
+                                                                    strict=True)]
+        lines += ["", "Profile over the shank length (the fit repeated with it held): " + "; ".join(
+            f"{p['shank_length']:.2f} m: {p['cost']:.1f} ({p['frequency_cost']:.1f} + {p['displacement_cost']:.1f})"
+            for p in f["profile"]) + " (cost = frequencies' + displacements').", ""]
+    return lines
 
 
 def quasi_static_sensitivity(tool: PassiveTool, springs: int, draught: float, arm: float,
@@ -411,6 +511,8 @@ def write_report(out: str | Path) -> Path:
         fig.tight_layout()
         fig.savefig(out / "fig_pitch_sweep.png", dpi=120)
         plt.close(fig)
+    if "joint" in load:
+        lines += joint_lines(load["joint"])
     for v in VARIANTS:
         if f"passive_{v}" not in load or "rigid" not in load:
             continue

@@ -65,6 +65,10 @@ INERTIA_TOLERANCE = (0.9, 1.1)
 """bounds of the tool's inertia about the pivot relative to warpdem's sweep (the paper's CAD mass and inertia about
 its centre of mass on warpdem's parametric geometry, whose pivot-to-centre-of-mass distance the paper does not
 give): +-10 %."""
+SHANK_LENGTH_RANGE = (0.30, 0.80)
+"""range of the pivot's height above the blade tip [m] a fit may use (the paper gives no value): at the low end the
+sensor point (0.1 m below the pivot) sits 0.05 m above the soil surface at the 0.15 m working depth; the high end is
+a long cultivator shank. warpdem's assumption, like its 0.6 m default."""
 SERIES_STIFFNESS_MIN = 1.0e5
 """the softest frame and mounting in series with a stack [N/m] a fit may use: softer than the softest stack (32
 units, 0.94e5 N/m) it would set every configuration's frequency by itself, which Table 2's spread rules out."""
@@ -100,10 +104,11 @@ BOUNDS: dict[str, tuple[float, float]] = {
     "series_stiffness": (SERIES_STIFFNESS_MIN, math.inf),
     "preload": (0.0, stack_travel(min(paper.SPRING_COUNTS))),
     "load_mass_fraction": (0.0, 1.0),
+    "shank_length": SHANK_LENGTH_RANGE,
 }
 """physical range of every number a fit may change: rate factor (DIN 2093 tolerance), inertia factor (CAD estimate),
-series stiffness [N/m], preload [m] (within the stiffest stack's service travel, 2.1 mm for 4 units) and the load's
-riding fraction."""
+series stiffness [N/m], preload [m] (within the stiffest stack's service travel, 2.1 mm for 4 units), the load's
+riding fraction and the shank length [m] (:data:`SHANK_LENGTH_RANGE`)."""
 
 
 @dataclass(frozen=True)
@@ -115,9 +120,15 @@ class PassiveTool:
         rate_factors: per stack (spring count -> factor), overriding ``rate_factor`` for that stack [-].
         inertia_factor: the tool's mass and inertia about the pivot per unit of warpdem's sweep's [-] (the mass
             distributed like the sweep's).
-        series_stiffness: a compliance in series with each stack (frame, shank, mounting) [N/m]; inf: none.
-        preload: the stack's compression at assembly [m], against a stop at the drawing pose: the tool rests on the
-            stop until the stack's load exceeds rate x preload. 0: none.
+        series_stiffness: a compliance in series with each stack (frame, shank, mounting) [N/m]; inf: none. It
+            acts in the ringing rig, and in the soil bin unless ``bin_series_stiffness`` is given.
+        bin_series_stiffness: the soil bin's own compliance in series with each stack [N/m] (inf: none), where its
+            stack holder is not the ringing instrument's (Table 2's ringing test stands the stacks "between two
+            supporting surfaces of the instrument", section 2.1.1); None: ``series_stiffness``.
+        preload: the stack's compression at assembly in the soil bin's holder [m], against a stop at the drawing
+            pose: the tool rests on the stop until the stack's load exceeds rate x preload. 0: none. The ringing
+            rig has none: a preload above the load's moment would hold the ringing tool on its stop, and Table 2
+            shows it ringing on its stack.
         load_mass_fraction: of the ringing test's load F / g, the part that swings with the tool [-] (1: a hanging
             dead weight; 0: a pull without mass, e.g. a cable over a spring balance).
         damping_ratio: per stack (spring count -> damping ratio [-] of the ringing rig on that stack, load
@@ -135,6 +146,7 @@ class PassiveTool:
     rate_factors: dict[int, float] = field(default_factory=dict)
     inertia_factor: float = 1.0
     series_stiffness: float = math.inf
+    bin_series_stiffness: float | None = None
     preload: float = 0.0
     load_mass_fraction: float = 0.0
     damping_ratio: dict[int, float] = field(default_factory=dict)
@@ -147,6 +159,11 @@ class PassiveTool:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0 and not math.isnan(v)):
                 raise InputError(f"tool description: {name} must be a positive number, got {v!r}")
+        b = self.bin_series_stiffness
+        if b is not None and not (isinstance(b, (int, float)) and not isinstance(b, bool) and b > 0
+                                  and not math.isnan(b)):
+            raise InputError(f"tool description: bin_series_stiffness must be a positive number [N/m] (inf: none), "
+                             f"got {b!r}")
         if not math.isfinite(self.rate_factor) or not math.isfinite(self.inertia_factor):
             raise InputError(f"tool description: rate_factor and inertia_factor must be finite, got "
                              f"{self.rate_factor!r}, {self.inertia_factor!r}")
@@ -177,10 +194,16 @@ class PassiveTool:
         """The stack's own rate [N/m]: its factor times DIN 2093's."""
         return self.rate_factors.get(springs, self.rate_factor) * din_rate(springs)
 
-    def effective_rate(self, springs: int) -> float:
-        """The stack and the series compliance together [N/m]: k k_s / (k + k_s)."""
+    def bin_series(self) -> float:
+        """The soil bin's compliance in series with each stack [N/m] (inf: none)."""
+        return self.series_stiffness if self.bin_series_stiffness is None else float(self.bin_series_stiffness)
+
+    def effective_rate(self, springs: int, rig: str = "ringing") -> float:
+        """The stack and the series compliance of ``rig`` ("ringing" or "soil bin") together [N/m]:
+        k k_s / (k + k_s)."""
         k = self.rate(springs)
-        return k if math.isinf(self.series_stiffness) else k * self.series_stiffness / (k + self.series_stiffness)
+        k_s = self.series_stiffness if rig == "ringing" else self.bin_series()
+        return k if math.isinf(k_s) else k * k_s / (k + k_s)
 
     def zeta(self, springs: int) -> float:
         """The ringing rig's damping ratio on this stack [-], load included (Table 2's measured where not given)."""
@@ -226,10 +249,10 @@ class PassiveTool:
         return math.sqrt(k_rot / inertia) * math.sqrt(max(0.0, 1.0 - zeta**2)) / (2.0 * math.pi)
 
     def tension(self, springs: int, stretch: float) -> float:
-        """The stack's tension [N] (> 0 pulls the tool back) at ``stretch`` u [m] from its rest length: the engine's
-        spring law with preload P = -k_e preload (a compression), F = P + k_e u, and the stop (STOP_RATIO k_e) on
-        the side the preload drives (u > 0)."""
-        k = self.effective_rate(springs)
+        """The soil bin's stack's tension [N] (> 0 pulls the tool back) at ``stretch`` u [m] from its rest length:
+        the engine's spring law with preload P = -k_e preload (a compression), F = P + k_e u, and the stop
+        (STOP_RATIO k_e) on the side the preload drives (u > 0); k_e with the soil bin's series compliance."""
+        k = self.effective_rate(springs, "soil bin")
         p = -k * self.preload
         f = p + k * stretch
         if p * stretch < 0.0:
@@ -293,8 +316,8 @@ class PassiveTool:
             "stiffness": [self.rate(s) for s in springs],
             "dashpot": [self.dashpot(s, tool) for s in springs],
         }
-        if not math.isinf(self.series_stiffness):
-            knobs["series_stiffness"] = [self.series_stiffness] * len(springs)
+        if not math.isinf(self.bin_series()):
+            knobs["series_stiffness"] = [self.bin_series()] * len(springs)
         if self.preload > 0:
             knobs["stack_preload"] = [self.preload] * len(springs)
         if self.inertia_factor != 1.0:
@@ -321,7 +344,7 @@ class PassiveTool:
         lines = ["# the passive tool (scenes/passive_tool.py): SI units"]
         for f in fields(self):
             v = getattr(self, f.name)
-            if f.name == "source" or isinstance(v, dict):
+            if f.name == "source" or isinstance(v, dict) or v is None:
                 continue
             if isinstance(v, bool):
                 lines.append(f"{f.name} = {'true' if v else 'false'}")
@@ -340,6 +363,8 @@ class PassiveTool:
         d = asdict(self)
         for name in ("rate_factors", "damping_ratio"):
             d[name] = {str(k): v for k, v in d[name].items()}
+        if d["bin_series_stiffness"] is not None and math.isinf(d["bin_series_stiffness"]):
+            d["bin_series_stiffness"] = "inf"  # JSON's null means "the ringing rig's"
         return d
 
 
@@ -392,10 +417,15 @@ def parse(data: dict[str, object], source: str = "") -> PassiveTool:
 
 
 def from_dict(data: dict[str, object]) -> PassiveTool:
-    """A description from :meth:`PassiveTool.to_dict` as JSON stores it (an infinite series stiffness as null)."""
+    """A description from :meth:`PassiveTool.to_dict` as JSON stores it (an infinite series stiffness as null, an
+    infinite soil-bin series stiffness as "inf")."""
     d = {k: v for k, v in data.items() if k != "source"}
     if d.get("series_stiffness") is None:
         d["series_stiffness"] = math.inf
+    if d.get("bin_series_stiffness", 0.0) is None:
+        del d["bin_series_stiffness"]
+    elif d.get("bin_series_stiffness") == "inf":
+        d["bin_series_stiffness"] = math.inf
     return parse(d, str(data.get("source", "")))
 
 

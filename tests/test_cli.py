@@ -100,6 +100,8 @@ BAD = [
     ("soil-bin --springs 0,17", "argument --springs: must list one or more of"),
     ("passive-tool --variants fitted,stiff", "argument --variants: must name tool variants among"),
     ("passive-tool --travel -1", "argument --travel: must be > 0 m"),
+    ("passive-tool --joint-from nowhere", "error: --joint-from: 'nowhere' holds no finished 'din_preload' passive run"),
+    ("passive-tool --variants described", "error: --variants described needs --tool TOML"),
     ("soil-bin --seed -3", "argument --seed: must be >= 0"),
     ("soil-bin --scale huge", "argument --scale: invalid choice: 'huge'"),
     ("soil-bin --vtk 0", "argument --vtk: must be >= 1"),

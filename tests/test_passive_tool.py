@@ -8,6 +8,8 @@ References:
   blade tip, M = b v L with L the tip's depth below the pivot) against the stack through its lever: the sensor's
   reading from the moment balance M + a T(o - r) + m g (y_c + z_c r / a) = 0, with and without a preload;
 - pose: a rigid rotation about the pivot's axis (the pitched tool's points against the rotation matrix);
+- the soil's lever about the pivot: a force's moment about a point raised by dL grows by its horizontal component
+  times dL (rigid-body statics), read on two committed paper-scale runs that differ only in the shank length;
 - a mount pitch: the rest pose of the tool in the air from the exact moment balance about the pivot (the spring's
   force along its line from the carriage's anchor to the seat, the weight at the turned centre of mass), solved here
   by root finding.
@@ -22,8 +24,8 @@ import numpy as np
 import pytest
 
 import warpdem as wd
-from calibration.passive_study import PRELOAD_TABLE3, displacement_noise, quasi_static_sensitivity
-from calibration.tool_fit import fit_table2
+from calibration.passive_study import PRELOAD_TABLE3, displacement_noise, quasi_static_sensitivity, soil_levers
+from calibration.tool_fit import fit_joint, fit_table2
 from scenes import paper
 from scenes import soil_bin as sb
 from scenes.assemblies import AssemblySpec, Bed
@@ -181,6 +183,88 @@ def test_bounded_fit_stays_within_the_physical_ranges_and_reports_its_bounds() -
     row24 = next(r for r in fit.rows if r["springs"] == 24)
     assert abs(row24["error_pct"]) > 5.0
     assert fit.within_5pct < 8
+
+
+def test_the_soil_bins_own_series_compliance_acts_only_in_the_soil_bin() -> None:
+    """A ringing instrument's compliance (3e5 N/m) with a soil-bin holder of none: the ringing rig's rate is
+    k k_s / (k + k_s), the soil bin's stack law the bare rate (F = k u with no preload), and no series knob reaches
+    the soil bin; JSON keeps "none" (inf) apart from "the ringing rig's" (None)."""
+    import json
+
+    from scenes.passive_tool import from_dict
+
+    k_s, n = 3e5, 8
+    tool = PassiveTool(series_stiffness=k_s, bin_series_stiffness=math.inf)
+    k = tool.rate(n)
+    sweep = tool.sweep()
+    assert tool.effective_rate(n) == pytest.approx(k * k_s / (k + k_s), rel=1e-12)
+    shared = PassiveTool(series_stiffness=k_s)
+    assert tool.ringing_stiffness_inertia(n, sweep) == shared.ringing_stiffness_inertia(n, sweep)
+    assert tool.tension(n, 1e-3) == pytest.approx(k * 1e-3, rel=1e-12)
+    assert "series_stiffness" not in tool.soil_bin_knobs([n], sweep)
+    assert shared.tension(n, 1e-3) == pytest.approx(k * k_s / (k + k_s) * 1e-3, rel=1e-12)
+    assert shared.soil_bin_knobs([n], sweep)["series_stiffness"] == [k_s]
+    for t in (tool, shared):
+        assert from_dict(json.loads(json.dumps(sb.json_safe(t.to_dict())))) == t
+    with pytest.raises(InputError, match="bin_series_stiffness"):
+        PassiveTool(bin_series_stiffness=-1.0)
+
+
+def test_the_soils_lever_about_the_pivot_moves_with_the_pivot() -> None:
+    """Statics: raising the pivot by dL (a longer shank, the blade and the soil unchanged) raises the soil's moment
+    about it by the draught times dL, so its lever per unit of draught grows by dL. Read on two committed runs of
+    one H100 (docs/runs/passive-tool-paper-h100 and -short-shank-h100: the workflow soil, bed seed 0, the DIN +
+    preload tool, shank 0.6 and 0.44 m): their levers differ by dL = 0.16 m within 0.02 m a configuration and
+    0.01 m on average. The tolerance is the tool's pose: at the same sensor reading the longer shank's blade has
+    moved back 0.6 / 0.44 times as far, which changes the soil's force (the pitch sweep: under 2 % over 9 deg)."""
+    long, shank_long = soil_levers(["docs/runs/passive-tool-paper-h100"])
+    short, shank_short = soil_levers(["docs/runs/passive-tool-short-shank-h100"])
+    d_l = shank_long - shank_short
+    assert d_l == pytest.approx(0.16)
+    diff = np.array([long[n] - short[n] for n in paper.SPRING_COUNTS])
+    assert np.all(np.abs(diff - d_l) < 0.02)
+    assert abs(float(diff.mean()) - d_l) < 0.01
+
+
+def test_joint_fit_recovers_the_tables_of_a_tool_within_its_bounds() -> None:
+    """Table 2's frequencies and Table 3's displacements computed by the closed forms for a known tool (its own
+    ringing compliance, a soil-bin holder without one, a preload) are fitted back to within 1e-3 of each
+    tolerance, every number within BOUNDS; with one shared mount the same data are missed. This checks that the
+    fit inverts its own forward model and its bookkeeping, not the physics (the closed forms are checked against
+    the simulated rigs above)."""
+    truth = PassiveTool(rate_factor=1.1, inertia_factor=0.95, series_stiffness=4e5, bin_series_stiffness=math.inf,
+                        preload=0.8e-3, load_mass_fraction=0.2, shank_length=0.5)
+    sweep = truth.sweep()
+    arms = {n: 0.40 + 0.001 * i for i, n in enumerate(paper.SPRING_COUNTS)}
+    draught = [330.0 + 2.0 * i for i in range(8)]
+    lever_at = {n: arms[n] + truth.shank_length - 0.44 for n in paper.SPRING_COUNTS}
+    targets = {"freq_hz": [truth.ringing_frequency(n, sweep) for n in paper.SPRING_COUNTS],
+               "disp_m": [truth.lab_reading(n, d * lever_at[n], sweep) for n, d in zip(paper.SPRING_COUNTS, draught,
+                                                                                      strict=True)],
+               "draught_n": draught}
+    fit = fit_joint(arms, 0.44, "per rig", starts=3, profile=(), targets=targets)
+    assert fit.cost < 1e-6
+    assert all(abs(r["error_pct"]) < 5e-3 for r in fit.frequency_rows)
+    assert all(r["within"] == 1.0 for r in fit.displacement_rows)
+    t = fit.tool
+    for name in ("shank_length", "rate_factor", "inertia_factor", "preload", "load_mass_fraction"):
+        lo, hi = BOUNDS[name]
+        assert lo * (1 - 1e-9) - 1e-12 <= getattr(t, name) <= hi * (1 + 1e-9), name
+    shared = fit_joint(arms, 0.44, "shared", starts=3, profile=(), targets=targets)
+    assert shared.cost > 100 * fit.cost + 1e-3
+
+
+def test_a_described_tool_of_another_shank_than_the_study_is_refused(tmp_path) -> None:
+    """The rigid reference is built with the study's shank: a described tool with another shank is refused, naming
+    both lengths; the same shank is taken as the variant 'described'."""
+    from calibration.passive_study import PassiveStudy
+
+    p = tmp_path / "tool.toml"
+    p.write_text(PassiveTool(shank_length=0.5, preload=1e-3).to_toml())
+    with pytest.raises(InputError, match="shank_length 0.5 m is not the study's --shank-length 0.44 m"):
+        PassiveStudy(tmp_path / "a", scale="ci", shank_length=0.44, tool_file=p)
+    study = PassiveStudy(tmp_path / "b", scale="ci", shank_length=0.5, tool_file=p)
+    assert study.tool("described") == load_toml(p)
 
 
 def test_description_file_round_trip_and_refusals(tmp_path) -> None:
