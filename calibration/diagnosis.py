@@ -744,6 +744,27 @@ def cause_sizes(rig: object, fit: Fit) -> list[dict[str, object]]:
     return out
 
 
+
+def refine_equally(pool: list[Fit], refine: Callable[[Fit], tuple[Fit, dict[str, object]]]
+                   ) -> tuple[dict[str, Fit], dict[str, dict[str, object]], Fit]:
+    """Refine the leader of ``pool`` (ordered by held-out loss), then any candidate whose held-out loss is below the
+    best refined one's, until none is: refinement (more rounds about a best point) fits a candidate's training
+    folds better and can raise its held-out loss above a runner-up's that had fewer rounds, so the one named is
+    the best of the candidates fitted alike.
+
+    ``refine(fit)`` returns (the refined fit, its convergence record). Returns (refined fits by name, their
+    convergence records by name, the best refined fit).
+    """
+    refined: dict[str, Fit] = {}
+    records: dict[str, dict[str, object]] = {}
+    nxt: Fit | None = pool[0]
+    while nxt is not None:
+        refined[nxt.name], records[nxt.name] = refine(nxt)
+        lead = min(refined.values(), key=lambda f: f.heldout_loss.sum())
+        nxt = next((f for f in pool if f.name not in refined and f.heldout_loss.sum() < lead.heldout_loss.sum()),
+                   None)
+    return refined, records, lead
+
 def diagnose(rig: object, settings: DiagnosisSettings | None = None,
              log: Callable[[str], None] = lambda s: None, checkpoint: str | Path | None = None) -> Diagnosis:
     """Fit, compare, name and verify (module docstring) for a rig model (``calibration.rig_models``).
@@ -807,18 +828,12 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
         preferred = [f for f in eligible if f.candidate.mechanisms[-1].name in priority
                      and f.heldout_loss.sum() - top.heldout_loss.sum() < margin]
         pool = preferred or eligible
-        # the leader is refined (more rounds about its best point); that fits its folds' training data better and
-        # can raise its held-out loss above a runner-up's that had fewer rounds: then the runner-up is refined
-        # too, and the one named is the best of the candidates fitted alike
-        refined: dict[str, Fit] = {}
-        refinements: dict[str, dict[str, object]] = {}
-        nxt: Fit | None = pool[0]
-        while nxt is not None:
-            refinements[nxt.name] = fitter.refine(nxt.candidate, label)
-            refined[nxt.name] = fitter._result(nxt.candidate)
-            lead = min(refined.values(), key=lambda f: f.heldout_loss.sum())
-            nxt = next((f for f in pool if f.name not in refined
-                        and f.heldout_loss.sum() < lead.heldout_loss.sum()), None)
+
+        def refine_one(f: Fit, label: str = label) -> tuple[Fit, dict[str, object]]:
+            record = fitter.refine(f.candidate, label)
+            return fitter._result(f.candidate), record
+
+        refined, refinements, lead = refine_equally(pool, refine_one)
         tried = [refined.get(f.name, f) for f in tried]
         _compare(tried, current, s)
         fits.update(refined)

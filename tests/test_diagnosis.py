@@ -357,3 +357,31 @@ def test_another_number_of_rounds_refits_from_the_checkpoint(tmp_path: pytest.Te
     again, n = fresh(2, ck2)
     assert n == 0
     same(two_alone, again)
+
+
+@pytest.mark.parametrize(("after", "named", "refined"), [
+    ({"A": 9.0}, "A", {"A"}),                            # the leader improves: nobody else is refined
+    ({"A": 12.0, "B": 10.5}, "B", {"A", "B"}),           # refined, the leader falls behind B; B refined wins
+    ({"A": 12.0, "B": 13.0, "C": 11.0}, "C", {"A", "B", "C"}),  # each one below the best refined gets its turn
+    ({"A": 11.2, "B": 12.0}, "A", {"A", "B"}),           # B's rounds cost it: A, refined first, stays named
+])
+def test_the_cause_is_named_among_candidates_refined_alike(after: dict, named: str, refined: set) -> None:
+    """The naming rule of equal refinement (calibration.diagnosis.refine_equally), isolated: candidates A, B, C
+    with held-out losses 10, 11, 11.5 before refinement and the losses refinement gives them (``after``). The
+    leader is refined; any candidate below the best refined loss is refined next; the best refined is named; one
+    never below it is never refined. Reference: the rule as docs/case-studies.md states it, on losses given by hand
+    (no rig)."""
+    from types import SimpleNamespace
+
+    before = {"A": 10.0, "B": 11.0, "C": 11.5}
+    pool = [SimpleNamespace(name=n, heldout_loss=np.array([v / 2, v / 2])) for n, v in before.items()]
+    calls = []
+
+    def refine(f: SimpleNamespace) -> tuple[SimpleNamespace, dict]:
+        calls.append(f.name)
+        return SimpleNamespace(name=f.name, heldout_loss=np.array([after[f.name]])), {"converged": True}
+
+    fits, records, lead = diagnosis.refine_equally(pool, refine)
+    assert lead.name == named
+    assert set(fits) == set(records) == refined == set(calls)
+    assert len(calls) == len(set(calls))  # each at most once
