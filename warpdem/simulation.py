@@ -81,11 +81,11 @@ def _thread_count(threads: object) -> int:
     return int(threads)
 
 
-def _contact_threads(contact_threads: str | None, world_steps: bool) -> str:
+def _contact_threads(contact_threads: str | None, world_steps: bool, cuda: bool) -> str:
     """How the sphere-sphere contacts are shared out (Simulation's ``contact_threads``): the choice, checked, or the
-    default ("sphere" with ``world_steps``, else "pair")."""
+    default ("pair" on CUDA without ``world_steps``, else "sphere")."""
     if contact_threads is None:
-        contact_threads = "sphere" if world_steps else "pair"
+        contact_threads = "pair" if cuda and not world_steps else "sphere"
     if contact_threads not in Simulation.CONTACT_THREADS:
         raise InputError(f"contact_threads must be one of {Simulation.CONTACT_THREADS}, got {contact_threads!r}")
     if contact_threads != "sphere" and world_steps:
@@ -175,13 +175,15 @@ class Simulation:
             items (it divides ``world_lanes``; default 1). Both left out: on CUDA ``world_steps.lane_layout`` (a
             small world gives each item a warp of its own; a larger one, one warp of 32 threads), on the CPU one
             thread.
-        contact_threads: how the sphere-sphere contacts are shared out between threads. "pair" (the default
-            without ``world_steps``): a thread per candidate (``contacts.sphere_pair_kernel``), each contact adding
-            its own wrench to both bodies. "sphere" (the default and only choice with ``world_steps``): a thread
-            per sphere over its candidates, which sums its own contacts in float32 before adding them to its body.
-            Results differ by that float32 rounding of a sphere's sum (the same bits where no sphere has two
-            contacts in its list); both are deterministic. On an H100 "pair" does 12-27 % more sphere-steps per
-            second on deposited beds of 0.1-4 M spheres (benchmarks/README.md); on the CPU the two are as fast.
+        contact_threads: how the sphere-sphere contacts are shared out between threads. "pair" (the default on
+            CUDA without ``world_steps``): a thread per candidate (``contacts.sphere_pair_kernel``), each contact
+            adding its own wrench to both bodies. "sphere" (the default on the CPU, and the only choice with
+            ``world_steps``): a thread per sphere over its candidates, which sums its own contacts in float32
+            before adding them to its body. Results differ by that float32 rounding of a sphere's sum (the same
+            bits where no sphere has two contacts in its list); both are deterministic. On an H100 "pair" does
+            12-27 % more sphere-steps per second on deposited beds of 0.1-4 M spheres; on the 2-core CPU "sphere"
+            does 7.5-8.7 % more on the cpu-scale bed and its copies, 7-29 k spheres (medians of 3 runs;
+            benchmarks/README.md).
     """
 
     CONTACT_THREADS = ("sphere", "pair")
@@ -210,7 +212,7 @@ class Simulation:
         contact_threads: str | None = None,
     ) -> None:
         check_positive("dt", dt)
-        self.contact_threads = _contact_threads(contact_threads, world_steps)
+        self.contact_threads = _contact_threads(contact_threads, world_steps, model.device.is_cuda)
         check_positive("max_speed", max_speed)
         laws.check_settings(model.contact_law, always_use_moment_law=always_use_moment_law,
                             cohesion_on_new_contacts=cohesion_on_new_contacts,
