@@ -201,6 +201,8 @@ class PassiveTool:
     def effective_rate(self, springs: int, rig: str = "ringing") -> float:
         """The stack and the series compliance of ``rig`` ("ringing" or "soil bin") together [N/m]:
         k k_s / (k + k_s)."""
+        if rig not in ("ringing", "soil bin"):
+            raise ValueError(f"rig must be 'ringing' or 'soil bin', got {rig!r}")
         k = self.rate(springs)
         k_s = self.series_stiffness if rig == "ringing" else self.bin_series()
         return k if math.isinf(k_s) else k * k_s / (k + k_s)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -217,8 +218,9 @@ def test_the_soils_lever_about_the_pivot_moves_with_the_pivot() -> None:
     preload tool, shank 0.6 and 0.44 m): their levers differ by dL = 0.16 m within 0.02 m a configuration and
     0.01 m on average. The tolerance is the tool's pose: at the same sensor reading the longer shank's blade has
     moved back 0.6 / 0.44 times as far, which changes the soil's force (the pitch sweep: under 2 % over 9 deg)."""
-    long, shank_long = soil_levers(["docs/runs/passive-tool-paper-h100"])
-    short, shank_short = soil_levers(["docs/runs/passive-tool-short-shank-h100"])
+    runs = Path(__file__).resolve().parents[1] / "docs" / "runs"
+    long, shank_long = soil_levers([runs / "passive-tool-paper-h100"])
+    short, shank_short = soil_levers([runs / "passive-tool-short-shank-h100"])
     d_l = shank_long - shank_short
     assert d_l == pytest.approx(0.16)
     diff = np.array([long[n] - short[n] for n in paper.SPRING_COUNTS])
