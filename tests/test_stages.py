@@ -14,7 +14,8 @@ from warpdem import stages
 def test_free_step_gives_the_bits_of_simulation_step() -> None:
     def make() -> wd.Simulation:
         model, state = packing_scene(np.zeros(3)).finalize(DEVICE, n_worlds=2)
-        return wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True, track_energy=True)
+        return wd.Simulation(model, state, dt=2e-5, cohesion_on_new_contacts=True, track_energy=True,
+                             contact_threads="pair")
 
     a, b = make(), make()
     layout = stages.Layout(parts=1, sphere_cut=[0, b.model.n_spheres], body_cut=[0, b.model.n_bodies],
