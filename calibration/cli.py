@@ -534,33 +534,16 @@ def run_passive_tool_cmd(args: argparse.Namespace) -> int:
 
 def _passive_joint(args: argparse.Namespace) -> int:
     """``warpdem passive-tool --joint-from``: Table 2 and Table 3 fitted with one tool, the soil's levers from the
-    named passive runs; writes joint.json and joint.md into --out."""
-    from calibration.passive_study import joint_lines, joint_record
+    named passive runs; writes joint.json, joint.md and tool_joint.toml into --out."""
+    from calibration.passive_study import passive_runs, write_joint
 
-    shanks = set()
-    for folder in args.joint_from:
-        p = Path(folder) / "passive_din_preload.json"
-        if not p.is_file():
-            raise InputError(f"--joint-from: {folder!r} holds no finished 'din_preload' passive run ({p.name})")
-        try:
-            shanks.add(json.loads(p.read_text())["tool"]["shank_length"])
-        except (OSError, ValueError, KeyError, TypeError) as e:
-            raise InputError(f"--joint-from: {str(p)!r} cannot be read as a passive run: {e}") from None
-    if len(shanks) != 1:
-        raise InputError(f"--joint-from: the runs' shank lengths differ ({sorted(shanks)} m); give runs of one shank")
+    try:
+        passive_runs(args.joint_from)  # refused before the folder is claimed
+    except InputError as e:
+        raise InputError(f"--joint-from: {e}") from None
     out = _claim(args, args.out)
     t0 = time.perf_counter()
-    rec = joint_record(args.joint_from)
-    from scenes.soil_bin import json_safe
-
-    write_text_atomic(out / "joint.json", json.dumps(json_safe(rec), indent=1))
-    text = "\n".join(["# Table 2 and Table 3 fitted with one tool", "",
-                      "Runs: " + ", ".join(f"`{f}`" for f in args.joint_from), "", *joint_lines(rec)])
-    write_text_atomic(out / "joint.md", text + "\n")
-    from scenes.passive_tool import from_dict
-
-    tool = from_dict(rec["per rig"]["at_run_shank"]["tool"])
-    write_text_atomic(out / "tool_joint.toml", tool.to_toml())
+    write_joint(out, args.joint_from)
     print(f"results in {out} (joint.md), {time.perf_counter() - t0:.0f} s")
     return 0
 

@@ -744,7 +744,6 @@ def cause_sizes(rig: object, fit: Fit) -> list[dict[str, object]]:
     return out
 
 
-
 def refine_equally(pool: list[Fit], refine: Callable[[Fit], tuple[Fit, dict[str, object]]]
                    ) -> tuple[dict[str, Fit], dict[str, dict[str, object]], Fit]:
     """Refine the leader of ``pool`` (ordered by held-out loss), then any candidate whose held-out loss is below the
@@ -764,6 +763,7 @@ def refine_equally(pool: list[Fit], refine: Callable[[Fit], tuple[Fit, dict[str,
         nxt = next((f for f in pool if f.name not in refined and f.heldout_loss.sum() < lead.heldout_loss.sum()),
                    None)
     return refined, records, lead
+
 
 def diagnose(rig: object, settings: DiagnosisSettings | None = None,
              log: Callable[[str], None] = lambda s: None, checkpoint: str | Path | None = None) -> Diagnosis:

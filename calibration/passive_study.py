@@ -31,7 +31,7 @@ from scenes import soil_bin as sb
 from scenes.passive_tool import G, PassiveTool, from_dict, lever, load_toml
 from scenes.sweep import SweepParams, build_sweep
 from warpdem.errors import InputError
-from warpdem.files import write_atomic
+from warpdem.files import write_atomic, write_text_atomic
 
 from .genes import soil_overrides
 from .tool_fit import MOUNTS, fit_joint, fit_table2, simulate
@@ -285,17 +285,33 @@ def moment_arms(rows: list[dict[str, float]], tool: PassiveTool) -> list[dict[st
     return out
 
 
-def soil_levers(folders: list[str | Path], variant: str = "din_preload") -> tuple[dict[int, float], float]:
-    """The soil's moment about the pivot per unit of draught [m], per spring count, from passive runs: at each
-    configuration's mean displacement, the moment that balances the tool's stack and weight there (the closed
-    form's statics, :meth:`PassiveTool.sensor_reading`'s balance) over the mean draught; averaged over the folders
-    (beds). Returns (levers, the runs' shank length [m]); the folders must share their shank length."""
-    levers: dict[int, list[float]] = {}
-    shanks = set()
+def passive_runs(folders: list[str | Path], variant: str = "din_preload") -> list[dict]:
+    """The finished passive stage ``variant`` of each folder (its ``passive_<variant>.json``), all of one shank
+    length; a folder without one, an unreadable record or runs of different shanks are refused by name."""
+    runs, shanks = [], set()
     for folder in folders:
-        data = json.loads((Path(folder) / f"passive_{variant}.json").read_text())
+        p = Path(folder) / f"passive_{variant}.json"
+        if not p.is_file():
+            raise InputError(f"{str(folder)!r} holds no finished {variant!r} passive run ({p.name})")
+        try:
+            data = json.loads(p.read_text())
+            shanks.add(from_dict(data["tool"]).shank_length)  # runs older than the field: its default
+        except (OSError, ValueError, KeyError, TypeError, InputError) as e:
+            raise InputError(f"{str(p)!r} cannot be read as a passive run: {e}") from None
+        runs.append(data)
+    if len(shanks) != 1:
+        raise InputError(f"the runs' shank lengths differ ({sorted(shanks)} m); give runs of one shank")
+    return runs
+
+
+def soil_levers(folders: list[str | Path], variant: str = "din_preload") -> tuple[dict[int, float], float]:
+    """The soil's moment about the pivot per unit of draught [m], per spring count, from passive runs
+    (:func:`passive_runs`): at each configuration's mean displacement, the moment that balances the tool's stack and
+    weight there (the closed form's statics, :meth:`PassiveTool.sensor_reading`'s balance) over the mean draught;
+    averaged over the folders (beds). Returns (levers, the runs' shank length [m])."""
+    levers: dict[int, list[float]] = {}
+    for data in passive_runs(folders, variant):
         tool = from_dict(data["tool"])
-        shanks.add(tool.shank_length)
         sweep = tool.sweep()
         a, c = lever(sweep), sweep.com - sweep.pivot
         weight = tool.inertia_factor * sweep.mass * G
@@ -304,9 +320,7 @@ def soil_levers(folders: list[str | Path], variant: str = "din_preload") -> tupl
             reading = tool.sensor_reading(n, 0.0, sweep) + r["displacement_mean"]
             moment = a * tool.stack_force(n, r["displacement_mean"], sweep) - weight * (c[1] + c[2] * reading / a)
             levers.setdefault(n, []).append(moment / r["draught_mean"])
-    if len(shanks) != 1:
-        raise ValueError(f"soil_levers: the runs' shank lengths differ: {sorted(shanks)}")
-    return {n: float(np.mean(v)) for n, v in sorted(levers.items())}, shanks.pop()
+    return {n: float(np.mean(v)) for n, v in sorted(levers.items())}, tool.shank_length
 
 
 NO_COMPLIANCE = 1e8
@@ -368,6 +382,19 @@ def joint_lines(rec: dict) -> list[str]:
             f"{p['shank_length']:.2f} m: {p['cost']:.1f} ({p['frequency_cost']:.1f} + {p['displacement_cost']:.1f})"
             for p in f["profile"]) + " (cost = frequencies' + displacements').", ""]
     return lines
+
+
+def write_joint(out: str | Path, folders: list[str | Path]) -> dict[str, object]:
+    """:func:`joint_record` of ``folders`` into ``out``: joint.json, joint.md and tool_joint.toml (the per-rig fit
+    with the shank held at the runs' own). Returns the record."""
+    out = Path(out)
+    rec = joint_record(folders)
+    _json(out / "joint.json", rec)
+    text = "\n".join(["# Table 2 and Table 3 fitted with one tool", "",
+                      "Runs: " + ", ".join(f"`{f}`" for f in folders), "", *joint_lines(rec)])
+    write_text_atomic(out / "joint.md", text + "\n")
+    write_text_atomic(out / "tool_joint.toml", from_dict(rec["per rig"]["at_run_shank"]["tool"]).to_toml())
+    return rec
 
 
 def quasi_static_sensitivity(tool: PassiveTool, springs: int, draught: float, arm: float,

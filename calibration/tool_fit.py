@@ -67,10 +67,15 @@ class ToolFit:
                 "rms_pct": self.rms_pct, "within_5pct": self.within_5pct}
 
 
+def _stiffness(compliance: float) -> float:
+    """A series stiffness [N/m] from the compliance a fit varies [m/N] (0: none, inf)."""
+    return math.inf if compliance <= 0 else 1.0 / compliance
+
+
 def _unpack(x: np.ndarray, base: PassiveTool, model: str) -> PassiveTool:
     inertia, compliance, phi = float(x[0]), float(x[1]), float(x[2])
     kw: dict[str, object] = {"inertia_factor": inertia, "load_mass_fraction": phi,
-                             "series_stiffness": math.inf if compliance <= 0 else 1.0 / compliance}
+                             "series_stiffness": _stiffness(compliance)}
     if model == "one rate":
         kw["rate_factor"] = float(x[3])
     else:
@@ -172,8 +177,7 @@ _JOINT_NAMES = {"shared": ("shank_length", "rate_factor", "inertia_factor", "ser
 def _joint_tool(x: np.ndarray, mounts: str, base: PassiveTool) -> PassiveTool:
     kw: dict[str, object] = {}
     for name, v in zip(_JOINT_NAMES[mounts], x, strict=True):
-        v = float(v)
-        kw[name] = (math.inf if v <= 0 else 1.0 / v) if name.endswith("series_stiffness") else v
+        kw[name] = _stiffness(float(v)) if name.endswith("series_stiffness") else float(v)
     return replace(base, **kw)
 
 
@@ -273,8 +277,7 @@ def fit_joint(arms: dict[int, float], arm_shank_length: float, mounts: str = "pe
     bounds = {}
     for name, v in zip(names, best.x, strict=True):
         if name.endswith("series_stiffness"):
-            value = getattr(tool, name) if name == "series_stiffness" else tool.bin_series()
-            bounds[name] = bound_status(value, BOUNDS["series_stiffness"], BOUND_RTOL)
+            bounds[name] = bound_status(getattr(tool, name), BOUNDS["series_stiffness"], BOUND_RTOL)
         else:
             bounds[name] = bound_status(float(v), BOUNDS[name], BOUND_RTOL)
     return JointFit(mounts, tool, freq_rows, disp_rows, bounds, float(best.cost), prof)
