@@ -506,8 +506,12 @@ def run_passive_tool_cmd(args: argparse.Namespace) -> int:
     from calibration.passive_study import DEFAULT_VARIANTS, PITCHES, PassiveStudy, write_report
     from warpdem.errors import BudgetExhausted
 
+    if args.joint_from and args.beds_from:
+        raise InputError("--joint-from and --beds-from are two jobs; give one")
     if args.joint_from:
         return _passive_joint(args)
+    if args.beds_from:
+        return _passive_beds(args)
     device = _setup(args)
     variants = args.variants or (DEFAULT_VARIANTS + (("described",) if args.tool else ()))
     if "described" in variants and not args.tool:
@@ -545,6 +549,24 @@ def _passive_joint(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     write_joint(out, args.joint_from)
     print(f"results in {out} (joint.md), {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+def _passive_beds(args: argparse.Namespace) -> int:
+    """``warpdem passive-tool --beds-from``: Table 3 over several beds, from finished passive-tool folders (one
+    variant: ``--variants`` names it, default "described"); writes beds.json, beds.md and fig_table3_beds.png."""
+    from calibration.passive_study import beds_table, write_beds
+
+    variants = args.variants or ("described",)
+    if len(variants) != 1:
+        raise InputError(f"--beds-from combines one tool variant; --variants names {len(variants)}: {list(variants)}")
+    try:
+        beds_table(args.beds_from, variants[0])  # refused before the folder is claimed
+    except InputError as e:
+        raise InputError(f"--beds-from: {e}") from None
+    out = _claim(args, args.out)
+    rows = write_beds(out, args.beds_from, variants[0])
+    print(f"results in {out} (beds.md): {len(args.beds_from)} bed(s), {len(rows)} configurations")
     return 0
 
 
@@ -1045,6 +1067,10 @@ def main(argv: list[str] | None = None) -> int:
                         "tool, the soil's levers read from these finished passive-tool folders (their 'din_preload' "
                         "runs, one shank length); writes joint.json, joint.md and tool_joint.toml (the per-rig fit "
                         "at the runs' shank length) into --out")
+    t.add_argument("--beds-from", type=_folders, default=None, metavar="DIR,...",
+                   help="instead of running stages: Table 3 over several beds, from these finished passive-tool "
+                        "folders (the variant --variants names, default described; each reduction against its own "
+                        "bed's rigid run); writes beds.json, beds.md and fig_table3_beds.png into --out")
     t.add_argument("--soil", choices=("workflow", "bonded", "dense"), default="workflow",
                    help="workflow: the paper-scale workflow's calibrated soil (default); bonded: GA set 11 with 4x its "
                         "cohesions, yielding bonds on a settled bed (its draught and shear box match the lab's); "

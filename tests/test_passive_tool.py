@@ -17,6 +17,7 @@ References:
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -25,12 +26,19 @@ import numpy as np
 import pytest
 
 import warpdem as wd
-from calibration.passive_study import PRELOAD_TABLE3, displacement_noise, quasi_static_sensitivity, soil_levers
+from calibration.passive_study import (
+    PRELOAD_TABLE3,
+    beds_table,
+    displacement_noise,
+    passive_table,
+    quasi_static_sensitivity,
+    soil_levers,
+)
 from calibration.tool_fit import fit_joint, fit_table2
 from scenes import paper
 from scenes import soil_bin as sb
 from scenes.assemblies import AssemblySpec, Bed
-from scenes.passive_tool import BOUNDS, PassiveTool, lever, load_toml, parse
+from scenes.passive_tool import BOUNDS, PassiveTool, from_dict, lever, load_toml, parse
 from scenes.ringing import analytic_frequency, build_ringing, run_ringing
 from scenes.sweep import build_sweep, pitch_matrix
 from warpdem.errors import InputError
@@ -226,6 +234,57 @@ def test_the_soils_lever_about_the_pivot_moves_with_the_pivot() -> None:
     diff = np.array([long[n] - short[n] for n in paper.SPRING_COUNTS])
     assert np.all(np.abs(diff - d_l) < 0.02)
     assert abs(float(diff.mean()) - d_l) < 0.01
+
+
+def test_the_soils_lever_measured_with_one_tool_predicts_another_tools_displacement() -> None:
+    """The soil's moment about the pivot per unit of draught belongs to the soil and the blade, not to the springs:
+    read off the DIN + preload tool's runs on four beds (docs/runs/passive-tool-bonded-short-shank-h100*), it gives
+    through the closed-form statics (:meth:`PassiveTool.lab_reading` under the run's own draught times that lever)
+    the mean displacement of another tool (the joint fit's: rates 1.2x DIN, preload 0.93 mm instead of 1.44,
+    inertia 1.1x) simulated on three other runs (docs/runs/passive-tool-described-h100, one H100). Tolerance 0.05 mm
+    (the displacement's own standard error) + 2 % (twice the levers' largest bed-to-bed spread, 1.1 %)."""
+    runs = Path(__file__).resolve().parents[1] / "docs" / "runs"
+    levers, shank = soil_levers([runs / f"passive-tool-bonded-short-shank-h100{s}" for s in ("", "_s1", "_s2", "_s3")])
+    for bed in ("s0", "s1", "s3"):
+        data = json.loads((runs / "passive-tool-described-h100" / bed / "passive_described.json").read_text())
+        tool = from_dict(data["tool"])
+        assert tool.shank_length == shank and tool.preload != PRELOAD_TABLE3
+        sweep = tool.sweep()
+        for r in data["rows"]:
+            n = int(r["springs"])
+            predicted = tool.lab_reading(n, r["draught_mean"] * levers[n], sweep)
+            assert abs(r["displacement_mean"] - predicted) <= 5e-5 + 0.02 * abs(predicted), (bed, n)
+
+
+def test_table3_over_beds_pairs_each_bed_with_its_own_rigid_run(tmp_path) -> None:
+    """Table 3 over several beds (:func:`beds_table`) against the arithmetic done here from the records: each
+    reduction 100 (R - P) / R with R the rigid draught of the same bed at the passive run's speed, then the beds'
+    mean and sample standard error. A folder without its rigid stage is refused by name."""
+    runs = Path(__file__).resolve().parents[1] / "docs" / "runs" / "passive-tool-described-h100"
+    folders = [runs / b for b in ("s0", "s1", "s3")]
+    rows = beds_table(folders)
+    per_bed = []
+    for f in folders:
+        stage = json.loads((f / "rigid.json").read_text())
+        pitch = stage["pitch"] or [0.0] * len(stage["rows"])
+        rigid = {round(r["speed"], 2): r["draught_mean"] for r, p in zip(stage["rows"], pitch, strict=True) if p == 0}
+        passive = json.loads((f / "passive_described.json").read_text())["rows"]
+        per_bed.append([100.0 * (rigid[round(r["speed"], 2)] - r["draught_mean"]) / rigid[round(r["speed"], 2)]
+                        for r in passive])
+    per_bed = np.array(per_bed)
+    assert [r["springs"] for r in rows] == list(paper.SPRING_COUNTS)
+    np.testing.assert_allclose([r["per_bed_pct"] for r in rows], per_bed.T, rtol=1e-12)
+    np.testing.assert_allclose([r["reduction_pct"] for r in rows], per_bed.mean(axis=0), rtol=1e-12)
+    np.testing.assert_allclose([r["reduction_se"] for r in rows], per_bed.std(axis=0, ddof=1) / math.sqrt(3),
+                               rtol=1e-12)
+    one = passive_table(json.loads((folders[0] / "rigid.json").read_text()),
+                        json.loads((folders[0] / "passive_described.json").read_text()))
+    assert [r["disp_mm"] for r in beds_table(folders[:1])] == [r["disp_mm"] for r in one]
+    lone = tmp_path / "lone"
+    lone.mkdir()
+    (lone / "passive_described.json").write_text((folders[0] / "passive_described.json").read_text())
+    with pytest.raises(InputError, match="holds no finished rigid stage"):
+        beds_table([folders[0], lone])
 
 
 def test_joint_fit_recovers_the_tables_of_a_tool_within_its_bounds() -> None:
