@@ -27,29 +27,25 @@ the contact lists with their history, per scene. The scenes (all on the CPU, a f
     python benchmarks/golden_bits.py --record   # write golden_bits.json
     python benchmarks/golden_bits.py --only packing_sphere,checkpoint
 
-The bodies' principal axes come from LAPACK (``np.linalg.eigh`` in ``warpdem.mass``), whose OpenBLAS picks its
-kernels by the CPU: their last bits, and so every scene with a body of its own inertia, differed between two x86-64
-machines (SkylakeX and Haswell kernels). The script pins ``OPENBLAS_CORETYPE`` to Prescott (SSE3, which every x86-64
-CPU runs; it overrides the caller's), so the hashes hold on any x86-64 machine whose numpy uses OpenBLAS built for
-several CPUs (as numpy's wheels are).
+The model is built with machine-independent arithmetic: the bodies' principal axes by Jacobi rotations
+(``warpdem.mass.symmetric_eigen``) and the builder's frame changes element-wise (``warpdem.mass.rows_times``), not
+by LAPACK / BLAS, whose OpenBLAS kernels (chosen by the CPU) rounded the last bits differently on two x86-64 machines.
+The hashes are the same with ``OPENBLAS_CORETYPE`` Prescott, Haswell, SkylakeX and unset (checked on this project's
+machine).
 """
 
 from __future__ import annotations
 
-import os
+import argparse
+import hashlib
+import json
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
 
-os.environ["OPENBLAS_CORETYPE"] = "Prescott"  # before numpy loads OpenBLAS (module docstring)
-
-import argparse  # noqa: E402
-import hashlib  # noqa: E402
-import json  # noqa: E402
-import sys  # noqa: E402
-import tempfile  # noqa: E402
-import time  # noqa: E402
-from collections.abc import Callable  # noqa: E402
-from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
+import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))

@@ -590,9 +590,9 @@ def pitch_tool(model: wd.Model, state: wd.State, tool: SweepTool, pitch: np.ndar
     for w, angle in enumerate(pitch):
         b = model.body_index("sweep_lower", w)
         rot = pitch_matrix(float(angle))
-        host["body_pos"][b] = tool.pivot + rot @ (host["body_pos"][b] - tool.pivot)
+        host["body_pos"][b] = tool.pivot + massprops.rows_times(host["body_pos"][b] - tool.pivot, rot.T)
         q = host["body_quat"][b]
-        host["body_quat"][b] = massprops.matrix_to_quat(rot @ massprops.quat_to_matrix(q))
+        host["body_quat"][b] = massprops.matrix_to_quat(massprops.rows_times(rot, massprops.quat_to_matrix(q)))
     for k in ("body_pos", "body_quat"):
         getattr(state, k).assign(host[k])
 

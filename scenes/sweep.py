@@ -112,7 +112,7 @@ def inertia_about_point(inertia_com: np.ndarray, mass: float, com: np.ndarray, p
     """
     check_positive("mass", mass)
     d = check_vec3("com", com) - check_vec3("point", point)
-    return np.asarray(inertia_com, dtype=np.float64) + mass * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
+    return np.asarray(inertia_com, dtype=np.float64) + mass * (massprops.dot3(d, d) * np.eye(3) - np.outer(d, d))
 
 
 def paper_inertia_about_com() -> np.ndarray:
@@ -339,17 +339,17 @@ class SweepTool:
         pivot = self.pivot
 
         def turn(p: np.ndarray) -> np.ndarray:
-            return (np.asarray(p, dtype=np.float64) - pivot) @ rot.T + pivot
+            return massprops.rows_times(np.asarray(p, dtype=np.float64) - pivot, rot.T) + pivot
 
         return dataclasses.replace(
             self,
             lower=Mesh(turn(self.lower.vertices), self.lower.faces.copy()),
             upper=Mesh(turn(self.upper.vertices), self.upper.faces.copy()),
             sensor_point=turn(self.sensor_point),
-            spring_direction=rot @ self.spring_direction,
+            spring_direction=massprops.rows_times(self.spring_direction, rot.T),
             tip=turn(self.tip),
             com=turn(self.com),
-            inertia=rot @ self.inertia @ rot.T,
+            inertia=massprops.rows_times(massprops.rows_times(rot, self.inertia), rot.T),
             split_height=None,
         )
 

@@ -475,3 +475,67 @@ def test_mesh_force_sum_adds_each_steps_mesh_force(world_steps: bool) -> None:
     np.testing.assert_array_equal(many.data.mesh_force_sum.numpy(), total)
     np.testing.assert_array_equal(one.data.mesh_force_sum.numpy(), total)
     assert np.abs(total).max() > 0.0  # the mesh carries load
+
+
+_MODEL_BITS = """
+import hashlib, numpy as np
+from scenes.sweep import build_sweep
+from warpdem import mass
+rng = np.random.default_rng(7)
+a = rng.normal(size=(500, 3, 3))
+a = a + a.transpose(0, 2, 1) + 8 * np.eye(3)
+w, v = mass.symmetric_eigen(a)
+sweep = build_sweep()
+moments, quat = mass.principal_axes(sweep.inertia)
+rot = mass.quat_to_matrix(quat)
+local = mass.rows_times(sweep.lower.vertices - sweep.com, rot)
+print(hashlib.sha256(b"".join(np.ascontiguousarray(x).tobytes() for x in (w, v, moments, quat, local))).hexdigest())
+"""
+
+
+def _blas_kernels() -> list[str]:
+    """OpenBLAS core types this CPU can run: Prescott (SSE3) always, Haswell with AVX2, SkylakeX with AVX-512."""
+    try:
+        flags = set(open("/proc/cpuinfo").read().split())
+    except OSError:
+        flags = set()
+    return ["Prescott"] + [k for k, f in (("Haswell", "avx2"), ("SkylakeX", "avx512f")) if f in flags]
+
+
+def test_principal_axes_match_lapack_and_keep_their_bits_whatever_blas_kernel_runs() -> None:
+    """The principal axes (``mass.symmetric_eigen``, Jacobi rotations in element-wise arithmetic) against LAPACK's
+    ``eigh``: eigenvalues within 8 ulp of the largest, residual |A v - v w| and orthonormality within 1e-14 (a
+    backward-stable solver's bound at this size), a right-handed frame; degenerate tensors (a two-sphere clump's
+    equal moments, a sphere's three) included. Then the model's numbers that LAPACK / BLAS computed before (eigen-
+    decompositions, a body's principal frame, its mesh in that frame) are hashed in fresh interpreters under each
+    OpenBLAS kernel this CPU runs: the same bits under all of them (LAPACK's differed in the last bits between the
+    Prescott and Haswell kernels, and so did every run with a body in it)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from warpdem.mass import symmetric_eigen
+
+    rng = np.random.default_rng(3)
+    g = rng.normal(size=(300, 3, 3))
+    rot = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    a = np.concatenate([g @ g.transpose(0, 2, 1) + 1e-3 * np.eye(3),
+                        np.stack([np.diag([1.0, 1.0, 2.0]), rot @ np.diag([1.0, 1.0, 2.0]) @ rot.T, 5.0 * np.eye(3),
+                                  rot @ np.diag([1e-9, 1.0, 1.0]) @ rot.T])])
+    w, v = symmetric_eigen(a)
+    scale = np.abs(a).max(axis=(1, 2))
+    assert np.all(np.abs(w - np.linalg.eigh(a)[0]) <= 8 * np.finfo(float).eps * scale[:, None])
+    assert np.all(np.abs(np.einsum("cij,cjk->cik", a, v) - v * w[:, None, :]) <= 1e-14 * scale[:, None, None])
+    assert np.all(np.abs(np.einsum("cji,cjk->cik", v, v) - np.eye(3)) <= 1e-14)
+    assert np.all(np.abs(np.linalg.det(v) - 1.0) <= 1e-14)
+    one_w, one_v = symmetric_eigen(a[7])
+    assert np.array_equal(one_w[0], w[7]) and np.array_equal(one_v[0], v[7])  # alone as in a batch
+
+    root = Path(__file__).resolve().parents[1]
+    hashes = {}
+    for kernel in _blas_kernels():
+        env = {**os.environ, "OPENBLAS_CORETYPE": kernel, "PYTHONPATH": str(root)}
+        out = subprocess.run([sys.executable, "-c", _MODEL_BITS], env=env, capture_output=True, text=True, check=True)
+        hashes[kernel] = out.stdout.strip()
+    assert len(set(hashes.values())) == 1, hashes

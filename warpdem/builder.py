@@ -452,7 +452,7 @@ class ModelBuilder:
             if body >= self._n_bodies:
                 raise InputError(f"body {body} does not exist (have {self._n_bodies})")
         rot = massprops.quat_to_matrix(self.body_array("quat")[body])
-        local = (vertices - self.body_array("pos")[body]) @ rot
+        local = massprops.rows_times(vertices - self.body_array("pos")[body], rot)
         self.meshes.append(_Mesh(name, body, mat, local, faces))
         return body
 
@@ -506,8 +506,9 @@ class ModelBuilder:
         check_nonnegative("rest_length", length)
         if any(s.name == name for s in self.springs):
             raise InputError(f"spring name {name!r} is already used")
-        la = (pa - self.body_array("pos")[body_a]) @ massprops.quat_to_matrix(self.body_array("quat")[body_a])
-        lb = (pb - self.body_array("pos")[body_b]) @ massprops.quat_to_matrix(self.body_array("quat")[body_b])
+        pos, quat = self.body_array("pos"), self.body_array("quat")
+        la = massprops.rows_times(pa - pos[body_a], massprops.quat_to_matrix(quat[body_a]))
+        lb = massprops.rows_times(pb - pos[body_b], massprops.quat_to_matrix(quat[body_b]))
         self.springs.append(_Spring(name, body_a, la, body_b, lb, stiffness, damping, length, float(preload),
                                     float(progressive), float(stop_stiffness)))
         return len(self.springs) - 1
@@ -600,7 +601,8 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
             body = spring.body_a if parts[2] == "point_a" else spring.body_b
             points = _per_world(key, values, n_worlds, (3,))
             rot = massprops.quat_to_matrix(b.body_array("quat")[body])
-            t["spring_" + parts[2]][:, spring_names[parts[1]]] = (points - b.body_array("pos")[body]) @ rot
+            local = massprops.rows_times(points - b.body_array("pos")[body], rot)
+            t["spring_" + parts[2]][:, spring_names[parts[1]]] = local
         elif parts[0] == "spring" and len(parts) == 3:
             if parts[1] not in spring_names:
                 raise InputError(f"override {key!r}: unknown spring {parts[1]!r}")

@@ -90,10 +90,25 @@ def mesh_mass(vertices: np.ndarray, faces: np.ndarray, density: float) -> tuple[
     return float(mesh.mass), np.asarray(mesh.center_mass, dtype=np.float64), np.asarray(mesh.moment_inertia)
 
 
+def rows_times(p: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """``p @ m`` for rows p (..., 3) and a 3x3 matrix m, in element-wise arithmetic (machine-independent bits).
+
+    numpy's ``@`` and ``dot`` of float64 go to BLAS, whose kernels (chosen by the CPU) round differently on
+    different x86-64 machines; a model built from the same input must be the same to the bit everywhere."""
+    p, m = np.asarray(p, dtype=np.float64), np.asarray(m, dtype=np.float64)
+    return p[..., 0, None] * m[0] + p[..., 1, None] * m[1] + p[..., 2, None] * m[2]
+
+
+def dot3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot products of 3-vectors (..., 3) in element-wise arithmetic (see :func:`rows_times`)."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+
+
 def parallel_axis(inertia_origin: np.ndarray, mass: float, com: np.ndarray) -> np.ndarray:
     """Move an inertia tensor from the origin to the centre of mass: I_c = I_o - m (|c|^2 1 - c c^T)."""
     com = np.asarray(com, dtype=np.float64)
-    return np.asarray(inertia_origin, dtype=np.float64) - mass * (np.dot(com, com) * np.eye(3) - np.outer(com, com))
+    return np.asarray(inertia_origin, dtype=np.float64) - mass * (dot3(com, com) * np.eye(3) - np.outer(com, com))
 
 
 def principal_axes(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -105,13 +120,12 @@ def principal_axes(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     check_finite("inertia", inertia)
     if inertia.shape != (3, 3) or not np.allclose(inertia, inertia.T, rtol=1e-9, atol=1e-14 * np.abs(inertia).max()):
         raise InputError(f"inertia must be a symmetric 3x3 tensor, got {inertia.tolist()}")
-    moments, axes = np.linalg.eigh(inertia)
+    moments, axes = symmetric_eigen(inertia[None])
+    moments, axes = moments[0], axes[0]
     check_positive("inertia principal moments", moments)
     tol = 1e-9 * moments.max()
     if moments[0] + moments[1] < moments[2] - tol:
         raise InputError(f"inertia principal moments {moments.tolist()} violate I1 + I2 >= I3")
-    if np.linalg.det(axes) < 0:
-        axes[:, 2] *= -1.0
     return moments, matrix_to_quat(axes)
 
 
@@ -119,14 +133,71 @@ def principal_axes_many(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`principal_axes` of many tensors (c, 3, 3): principal moments [kg m^2] (c, 3), quaternions (c, 4)."""
     inertia = np.asarray(inertia, dtype=np.float64)
     check_finite("inertia", inertia)
-    moments, axes = np.linalg.eigh(inertia)
+    moments, axes = symmetric_eigen(inertia)
     check_positive("inertia principal moments", moments)
     bad = moments[:, 0] + moments[:, 1] < moments[:, 2] - 1e-9 * moments.max(axis=1)
     if bad.any():
         raise InputError(f"inertia principal moments {moments[bad][0].tolist()} violate I1 + I2 >= I3")
-    flip = np.linalg.det(axes) < 0
-    axes[flip, :, 2] *= -1.0
     return moments, matrices_to_quats(axes)
+
+
+JACOBI_SWEEPS = 8
+"""sweeps of :func:`symmetric_eigen`, always all of them: Jacobi's rotations converge quadratically, and a 3x3
+tensor is diagonal to the last bit after four or five; a fixed count keeps a tensor's result independent of the
+others computed with it."""
+
+
+def symmetric_eigen(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues (ascending) and eigenvectors of many symmetric 3x3 matrices, by cyclic Jacobi rotations.
+
+    Written with numpy's element-wise arithmetic only (no BLAS or LAPACK), so its bits are the same on every machine:
+    LAPACK's ``eigh`` picks its kernels by the CPU and its last bits differ between x86-64 machines, and the
+    principal axes' last bits reach every result with a body in it.
+
+    Args:
+        a: symmetric matrices (c, 3, 3) (only the upper triangle is read).
+
+    Returns:
+        (eigenvalues (c, 3), ascending; eigenvectors (c, 3, 3), column j for eigenvalue j, a right-handed frame:
+        determinant +1).
+    """
+    a = np.array(a, dtype=np.float64).reshape(-1, 3, 3)
+    d = [a[:, 0, 0].copy(), a[:, 1, 1].copy(), a[:, 2, 2].copy()]
+    off = {(0, 1): a[:, 0, 1].copy(), (0, 2): a[:, 0, 2].copy(), (1, 2): a[:, 1, 2].copy()}
+    v = np.zeros_like(a)
+    v[:, 0, 0] = v[:, 1, 1] = v[:, 2, 2] = 1.0
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        for _ in range(JACOBI_SWEEPS):
+            for p, q in ((0, 1), (0, 2), (1, 2)):
+                r = 3 - p - q
+                apq = off[(p, q)]
+                # skip a rotation whose angle would not change the diagonal (Numerical Recipes' rule)
+                small = (np.abs(apq) * 1e18 <= np.abs(d[p])) & (np.abs(apq) * 1e18 <= np.abs(d[q]))
+                skip = small | (apq == 0.0)
+                theta = np.where(skip, 0.0, (d[q] - d[p]) / np.where(skip, 1.0, 2.0 * apq))
+                t = np.where(skip, 0.0, np.where(theta >= 0.0, 1.0, -1.0) / (np.abs(theta)
+                                                                            + np.sqrt(theta * theta + 1.0)))
+                t = np.where(np.isfinite(theta * theta), t, 0.5 / np.where(skip, 1.0, theta))  # huge theta: 1 / 2theta
+                c = 1.0 / np.sqrt(t * t + 1.0)
+                s = t * c
+                d[p] = d[p] - t * apq
+                d[q] = d[q] + t * apq
+                arp, arq = off[tuple(sorted((r, p)))], off[tuple(sorted((r, q)))]
+                off[tuple(sorted((r, p)))] = c * arp - s * arq
+                off[tuple(sorted((r, q)))] = s * arp + c * arq
+                off[(p, q)] = np.zeros_like(apq)
+                vp, vq = v[:, :, p].copy(), v[:, :, q].copy()
+                v[:, :, p] = c[:, None] * vp - s[:, None] * vq
+                v[:, :, q] = s[:, None] * vp + c[:, None] * vq
+    w = np.stack(d, axis=1)
+    order = np.argsort(w, axis=1, kind="stable")
+    w = np.take_along_axis(w, order, axis=1)
+    v = np.take_along_axis(v, order[:, None, :], axis=2)
+    det = (v[:, 0, 0] * (v[:, 1, 1] * v[:, 2, 2] - v[:, 1, 2] * v[:, 2, 1])
+           - v[:, 0, 1] * (v[:, 1, 0] * v[:, 2, 2] - v[:, 1, 2] * v[:, 2, 0])
+           + v[:, 0, 2] * (v[:, 1, 0] * v[:, 2, 1] - v[:, 1, 1] * v[:, 2, 0]))
+    v[det < 0, :, 2] *= -1.0
+    return w, v
 
 
 def matrices_to_quats(m: np.ndarray) -> np.ndarray:
