@@ -535,7 +535,9 @@ def test_principal_axes_match_lapack_and_keep_their_bits_whatever_blas_kernel_ru
     root = Path(__file__).resolve().parents[1]
     hashes = {}
     for kernel in _blas_kernels():
-        env = {**os.environ, "OPENBLAS_CORETYPE": kernel, "PYTHONPATH": str(root)}
-        out = subprocess.run([sys.executable, "-c", _MODEL_BITS], env=env, capture_output=True, text=True, check=True)
+        path = os.pathsep.join(p for p in (str(root), os.environ.get("PYTHONPATH", "")) if p)
+        env = {**os.environ, "OPENBLAS_CORETYPE": kernel, "PYTHONPATH": path}
+        out = subprocess.run([sys.executable, "-c", _MODEL_BITS], env=env, capture_output=True, text=True)
+        assert out.returncode == 0, out.stderr
         hashes[kernel] = out.stdout.strip()
     assert len(set(hashes.values())) == 1, hashes
