@@ -356,6 +356,16 @@ def _folder_rounds(args: argparse.Namespace) -> int:
         return 3
 
 
+def _ringing_workflow(out: str | Path) -> bool:
+    """Whether ``out`` holds a full workflow whose Table 3 takes the ringing calibration's springs (every folder
+    made before the described tool became the default): without ``--tool`` it goes on with them."""
+    meta = Path(out) / "workflow.json"
+    try:
+        return meta.is_file() and json.loads(meta.read_text()).get("config", {}).get("passive_tool") is None
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
 def run_workflow(args: argparse.Namespace) -> int:
     """``reproduce --workflow full``: calibration.paper_workflow in OUT, continued when OUT holds one already."""
     from calibration.genes import GASettings
@@ -379,12 +389,13 @@ def run_workflow(args: argparse.Namespace) -> int:
                             deposit_friction=args.deposit_friction,
                             diagnose=not args.no_diagnosis,
                             diagnosis_rounds=_folder_rounds(args), diagnosis_grid=args.diagnosis_grid)
-    if args.tool is not None:
+    if args.tool != "ringing" and not (args.tool is None and _ringing_workflow(args.out)):
         from dataclasses import replace
 
-        from scenes.passive_tool import load_toml
+        from scenes.passive_tool import joint_tool, load_toml
 
-        config = replace(config, passive_tool=load_toml(args.tool).to_dict())
+        tool = joint_tool() if args.tool is None else load_toml(args.tool)
+        config = replace(config, passive_tool=tool.to_dict())
     budget = Budget(args.budget)
     _claim(args, args.out, adopt="workflow.json")
     wf = Workflow(args.out, config, device=device, log=lambda m: print(m, flush=True), progress=_bar)
@@ -1000,8 +1011,10 @@ def main(argv: list[str] | None = None) -> int:
                    help="full: contact friction of the soil-bin beds' deposition [deg] (0: a dense bed, near the "
                         "paper's coordination)")
     r.add_argument("--tool", default=None, metavar="TOML",
-                   help="full: Table 3's passive jobs use this passive tool, described once (scenes/passive_tool.py; "
-                        "a passive-tool run's tool_fitted.toml), instead of the ringing calibration's springs")
+                   help="full: the passive tool of Table 3's passive jobs, described once (scenes/passive_tool.py; "
+                        "e.g. a passive-tool run's tool_fitted.toml); 'ringing': the ringing calibration's springs "
+                        "(the paper's way; a folder made before this default goes on with it); default: "
+                        "the tool fitted to Table 2 and Table 3 together (scenes/data/passive_tool_joint.toml)")
     r.add_argument("--no-diagnosis", action="store_true",
                    help="full: leave out the last stage, the diagnosis of Table 3")
     r.add_argument("--diagnosis-rounds", type=_number(int, ge=1), default=None,

@@ -112,7 +112,8 @@ class WorkflowConfig:
     Table 3's passive jobs use it instead of the ringing calibration's linear springs, with Table 2's support
     offsets in the "offset" jobs and none in the "no_offset" ones, and read the displacement zeroed at rest; rigid
     and passive jobs take its geometry (pivot height). None: the ringing GA's stiffness and dashpot (the paper's
-    way). The diagnosis stage keeps its own rig model either way."""
+    way). The diagnosis stage keeps its own rig model either way. ``reproduce --workflow full`` gives the joint
+    fit's tool (``scenes.passive_tool.joint_tool``) unless told ``--tool ringing``."""
 
     @property
     def fragile(self) -> bool:

@@ -294,7 +294,11 @@ def write_workflow_report(out: Path, config: WorkflowConfig, summary: dict, *, d
               "Every reduction is against the rigid run on the same bed at the configuration's own speed (Table 3's "
               f"pairing), averaged over the beds; ± is {se}. Table 7's columns are the paper's DEM: assembly "
               f"{c.assembly} in the 1 m bin (its calibration bin; column {col.upper()}), and, for assembly C, the "
-              "final model in the 2 m bin, whose reductions are against one rigid run at 0.68 m/s.", ""]
+              "final model in the 2 m bin, whose reductions are against one rigid run at 0.68 m/s.", "",
+              "Passive tool: " + ("the ringing calibration's springs (stiffness and dashpot per configuration, the "
+                                  "paper's way)" if c.passive_tool is None else
+                                  f"described once (`{c.passive_tool.get('source') or 'given in code'}`), the "
+                                  "displacement zeroed at rest") + ".", ""]
     for variant in VARIANTS:
         cmp_ = tab["comparison"][variant]
         lines += [f"### Passive tool {'with' if variant == 'offset' else 'without'} Table 2's support offsets", "",

@@ -37,7 +37,7 @@ from __future__ import annotations
 import functools
 import math
 import tomllib
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -429,6 +429,18 @@ def from_dict(data: dict[str, object]) -> PassiveTool:
     elif d.get("bin_series_stiffness") == "inf":
         d["bin_series_stiffness"] = math.inf
     return parse(d, str(data.get("source", "")))
+
+
+JOINT_TOOL_FILE = Path(__file__).parent / "data" / "passive_tool_joint.toml"
+"""the full workflow's default passive tool: Table 2's frequencies and Table 3's mean displacements fitted together
+(``calibration.tool_fit.fit_joint``, mounts per rig, shank 0.44 m; docs/runs/passive-tool-joint-fit), run in the soil
+bin at paper scale in docs/runs/passive-tool-described-h100."""
+
+
+def joint_tool() -> PassiveTool:
+    """The tool of :data:`JOINT_TOOL_FILE`, its source named by the package path (the same on every machine, so
+    a run's configuration does not depend on where warpdem is installed)."""
+    return replace(load_toml(JOINT_TOOL_FILE), source="scenes/data/passive_tool_joint.toml")
 
 
 def load_toml(path: str | Path) -> PassiveTool:
