@@ -13,6 +13,8 @@ resumes where a deadline or a kill left it, so the same call continues):
    tool (:func:`joint_record`), the soil's levers read off this run; :func:`joint_record` over several runs (beds)
    is ``warpdem passive-tool --joint-from``.
 
+Finished runs on several beds make one Table 3 with :func:`beds_table` (``warpdem passive-tool --beds-from``).
+
 The soil is one of :data:`SOILS` (default the paper-scale workflow's calibrated soil). :func:`write_report` writes
 ``report.md`` and the figures.
 """
