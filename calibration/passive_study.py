@@ -332,8 +332,11 @@ def beds_table(folders: list[str | Path], variant: str = "described") -> list[di
     Returns per configuration (8,): springs; per_bed_pct (b,) [%]; reduction_pct, the beds' mean [%], and
     reduction_se, the beds' standard error (sample std / sqrt(b)) [%] (0 for one bed); own_se_pct, the records'
     own combined standard error (root mean square of the beds' / sqrt(b)) [%]; disp_mm and disp_std_mm, the beds'
-    means of each bed's mean and std [mm]; rigid_n and passive_n, the beds' mean draughts [N]; the lab's columns as
-    :func:`passive_table`'s. Folders of different shank lengths are refused (:func:`passive_runs`)."""
+    means of each bed's mean and std [mm]; disp_between_std_mm [mm] and passive_between_std_n [N], the sample std
+    of the beds' means (NaN for one bed: the scatter of a run's mean from bed to bed, which Table 3's std columns
+    may be, see :func:`beds_lines`); rigid_n and passive_n, the beds' mean draughts [N]; the lab's columns as
+    :func:`passive_table`'s (and lab_passive_std_n [N]). Folders of different shank lengths are refused
+    (:func:`passive_runs`)."""
     folders = list(folders)
     passive_runs(folders, variant)
     tables = []
@@ -349,8 +352,11 @@ def beds_table(folders: list[str | Path], variant: str = "described") -> list[di
         if len({r["springs"] for r in per}) != 1:
             raise InputError("the folders' passive runs list their configurations in different orders")
         red = np.array([r["reduction_pct"] for r in per])
+        between = {k: float(np.std([r[key] for r in per], ddof=1)) if b > 1 else math.nan
+                   for k, key in (("disp_between_std_mm", "disp_mm"), ("passive_between_std_n", "passive_n"))}
         rows.append({**{k: per[0][k] for k in ("springs", "speed", "lab_reduction_pct", "lab_disp_mm",
-                                                  "lab_disp_std_mm")},
+                                                  "lab_disp_std_mm")}, **between,
+                     "lab_passive_std_n": _table3()[per[0]["springs"]]["passive_draught_std_n"],
                      "per_bed_pct": red.tolist(), "reduction_pct": float(red.mean()),
                      "reduction_se": float(red.std(ddof=1) / math.sqrt(b)) if b > 1 else 0.0,
                      "own_se_pct": float(math.sqrt(np.mean([r["reduction_se"] ** 2 for r in per]) / b)),
@@ -377,7 +383,29 @@ def beds_lines(folders: list[str | Path], rows: list[dict[str, object]], variant
             *[f"| {r['springs']} | {', '.join(f'{x:+.1f}' for x in r['per_bed_pct'])} | {r['reduction_pct']:+.2f} "
               f"+- {r['reduction_se']:.2f} ({r['own_se_pct']:.2f}) | {r['lab_reduction_pct']:+.2f} | "
               f"{r['disp_mm']:.2f} | {r['disp_std_mm']:.2f} | {r['lab_disp_mm']:.2f} | {r['lab_disp_std_mm']:.2f} |"
-              for r in rows], ""]
+              for r in rows], "",
+            *_between_lines(rows)]
+
+
+def _between_lines(rows: list[dict[str, object]]) -> list[str]:
+    """Table 3's std columns against the scatter of a run's mean from bed to bed (another reading of them)."""
+    if any(math.isnan(r["disp_between_std_mm"]) for r in rows):
+        return []
+    from scipy.stats import chi2
+
+    within = sum(0.5 <= r["disp_between_std_mm"] / r["lab_disp_std_mm"] <= 2.0 for r in rows)
+    dof = len(rows[0]["per_bed_pct"]) - 1
+    lo, hi = np.sqrt(chi2.ppf([0.025, 0.975], dof) / dof)
+    return ["### Table 3's standard deviations: within a run, or from pass to pass?", "",
+            "The paper does not say over what its standard deviations are taken. Within one simulated run the "
+            "displacement and the draught fluctuate far more than Table 3's columns (above); compare the scatter of "
+            f"a run's mean from bed to bed (sample std over the beds). A std over {dof + 1} beds is itself uncertain: "
+            f"the 95 % range of its ratio to the true one is {lo:.2f}-{hi:.2f}.", "",
+            "| springs | disp: bed-to-bed std [mm] | lab std [mm] | passive draught: bed-to-bed std [N] | lab std "
+            "[N] |", "|---:|---:|---:|---:|---:|",
+            *[f"| {r['springs']} | {r['disp_between_std_mm']:.3f} | {r['lab_disp_std_mm']:.3f} | "
+              f"{r['passive_between_std_n']:.1f} | {r['lab_passive_std_n']:.1f} |" for r in rows], "",
+            f"Bed-to-bed std of the displacement within a factor 2 of the lab's: {within} of 8.", ""]
 
 
 def write_beds(out: str | Path, folders: list[str | Path], variant: str = "described") -> list[dict[str, object]]:

@@ -277,6 +277,9 @@ def test_table3_over_beds_pairs_each_bed_with_its_own_rigid_run(tmp_path) -> Non
     np.testing.assert_allclose([r["reduction_pct"] for r in rows], per_bed.mean(axis=0), rtol=1e-12)
     np.testing.assert_allclose([r["reduction_se"] for r in rows], per_bed.std(axis=0, ddof=1) / math.sqrt(3),
                                rtol=1e-12)
+    disp = np.array([[r["displacement_mean"] for r in json.loads((f / "passive_described.json").read_text())["rows"]]
+                     for f in folders])
+    np.testing.assert_allclose([r["disp_between_std_mm"] for r in rows], 1e3 * disp.std(axis=0, ddof=1), rtol=1e-9)
     one = passive_table(json.loads((folders[0] / "rigid.json").read_text()),
                         json.loads((folders[0] / "passive_described.json").read_text()))
     assert [r["disp_mm"] for r in beds_table(folders[:1])] == [r["disp_mm"] for r in one]
