@@ -338,14 +338,12 @@ def beds_table(folders: list[str | Path], variant: str = "described") -> list[di
     :func:`passive_table`'s (and lab_passive_std_n [N]). Folders of different shank lengths are refused
     (:func:`passive_runs`)."""
     folders = list(folders)
-    passive_runs(folders, variant)
     tables = []
-    for f in folders:
+    for f, passive in zip(folders, passive_runs(folders, variant), strict=True):
         rigid = Path(f) / "rigid.json"
         if not rigid.is_file():
             raise InputError(f"{str(f)!r} holds no finished rigid stage (rigid.json)")
-        tables.append(passive_table(json.loads(rigid.read_text()),
-                                    json.loads((Path(f) / f"passive_{variant}.json").read_text())))
+        tables.append(passive_table(json.loads(rigid.read_text()), passive))
     b = len(tables)
     rows = []
     for per in zip(*tables, strict=True):
