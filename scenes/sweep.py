@@ -503,7 +503,7 @@ def load_sweep(
     check_positive("working_depth", working_depth)
     lower, upper = _load_stl("lower_stl", lower_stl, scale), _load_stl("upper_stl", upper_stl, scale)
     direction = check_vec3("spring_direction", spring_direction)
-    norm = float(np.linalg.norm(direction))
+    norm = float(massprops.norm(direction))
     if norm == 0.0:
         raise InputError(f"spring_direction must be non-zero, got {direction.tolist()}")
     if com is None:

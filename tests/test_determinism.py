@@ -489,7 +489,11 @@ sweep = build_sweep()
 moments, quat = mass.principal_axes(sweep.inertia)
 rot = mass.quat_to_matrix(quat)
 local = mass.rows_times(sweep.lower.vertices - sweep.com, rot)
-print(hashlib.sha256(b"".join(np.ascontiguousarray(x).tobytes() for x in (w, v, moments, quat, local))).hexdigest())
+quats = np.array([mass.matrix_to_quat(m) for m in v])
+mats = np.array([mass.quat_to_matrix(q) for q in rng.normal(size=(500, 4))])
+norms = mass.norm(rng.normal(size=(500, 3)))
+print(hashlib.sha256(b"".join(np.ascontiguousarray(x).tobytes()
+                              for x in (w, v, moments, quat, local, quats, mats, norms))).hexdigest())
 """
 
 

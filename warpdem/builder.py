@@ -502,7 +502,7 @@ class ModelBuilder:
         check_nonnegative("damping", damping)
         check_nonnegative("progressive", progressive)
         check_nonnegative("stop_stiffness", stop_stiffness)
-        length = float(np.linalg.norm(pb - pa)) if rest_length is None else float(rest_length)
+        length = float(massprops.norm(pb - pa)) if rest_length is None else float(rest_length)
         check_nonnegative("rest_length", length)
         if any(s.name == name for s in self.springs):
             raise InputError(f"spring name {name!r} is already used")

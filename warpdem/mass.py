@@ -105,6 +105,16 @@ def dot3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
 
 
+def norm(v: np.ndarray) -> np.ndarray:
+    """Euclidean norms of vectors (..., k) over the last axis, in element-wise arithmetic (see :func:`rows_times`:
+    numpy's norm of one vector is a BLAS dot product)."""
+    v = np.asarray(v, dtype=np.float64)
+    total = v[..., 0] * v[..., 0]
+    for i in range(1, v.shape[-1]):
+        total = total + v[..., i] * v[..., i]
+    return np.sqrt(total)
+
+
 def parallel_axis(inertia_origin: np.ndarray, mass: float, com: np.ndarray) -> np.ndarray:
     """Move an inertia tensor from the origin to the centre of mass: I_c = I_o - m (|c|^2 1 - c c^T)."""
     com = np.asarray(com, dtype=np.float64)
@@ -248,12 +258,12 @@ def matrix_to_quat(m: np.ndarray) -> np.ndarray:
         s = 2.0 * np.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
         q = [(m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s, (m[1, 0] - m[0, 1]) / s]
     q = np.asarray(q)
-    return q / np.linalg.norm(q)
+    return q / norm(q)
 
 
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     """Rotation matrix of a quaternion (x, y, z, w)."""
-    x, y, z, w = np.asarray(q, dtype=np.float64) / np.linalg.norm(q)
+    x, y, z, w = np.asarray(q, dtype=np.float64) / norm(q)
     return np.array(
         [
             [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
