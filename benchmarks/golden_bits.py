@@ -29,8 +29,8 @@ the contact lists with their history, per scene. The scenes (all on the CPU, a f
 
 The model is built with machine-independent arithmetic: the bodies' principal axes by Jacobi rotations
 (``warpdem.mass.symmetric_eigen``), the builder's frame changes and vector norms element-wise (``mass.rows_times``,
-``mass.norm``), not
-by LAPACK / BLAS, whose OpenBLAS kernels (chosen by the CPU) rounded the last bits differently on two x86-64 machines.
+``mass.norm``), not by LAPACK / BLAS, whose OpenBLAS kernels (chosen by the CPU) rounded the last bits differently on
+two x86-64 machines.
 The hashes are the same with ``OPENBLAS_CORETYPE`` Prescott, Haswell, SkylakeX and unset (checked on this project's
 machine).
 """
