@@ -8,7 +8,7 @@
     warpdem ringing   [--spring-model paper|linear] [--springs 4,8,...] [--device] [--out DIR]
     warpdem soil-bin  [--scale] [--assembly] [--springs] [--spring-model] [--replicas N] [--viewer]
                       [--viewer-save FILE.rrd]
-    warpdem speed-sweep [--scale] [--assembly] [--speeds 0.45,0.5,...] [--device] [--out DIR]
+    warpdem speed-sweep [--scale] [--assembly] [--speeds 0.45,0.5,...] [--soil-from DIR] [--device] [--out DIR]
     warpdem shear-box [--scale] [--assembly] [--device] [--out DIR]
     warpdem demo      [--device] [--particles N] [--out DIR]
     warpdem calibrate ringing --springs 16 [--spring-model paper|linear] [--fitness paper|max] [--refine N]
@@ -297,8 +297,8 @@ def _setup(args: argparse.Namespace) -> str:
 
 
 FULL_ONLY = ("budget", "replicas_min", "replicas_max", "target_sem", "worlds_per_job", "replica_worlds", "settle_time",
-             "soil_protocol", "deposit_friction", "no_diagnosis", "diagnosis_rounds", "diagnosis_grid", "generations",
-             "population", "parents")
+             "soil_protocol", "box_stresses", "deposit_friction", "no_diagnosis", "diagnosis_rounds", "diagnosis_grid",
+             "generations", "population", "parents")
 """options of ``reproduce`` that only the full workflow reads (the quick one refuses them)."""
 
 
@@ -318,10 +318,19 @@ def _given(parser: argparse.ArgumentParser, argv: list[str]) -> set[str]:
     return given
 
 
+def _as_given(value: object) -> str:
+    """An option's value as its command line wrote it (a flag: nothing; normal stresses in kPa)."""
+    if isinstance(value, bool):
+        return ""
+    if isinstance(value, tuple):
+        return " " + ",".join(f"{x / 1e3:g}" for x in value)
+    return f" {value:g}" if isinstance(value, int | float) else f" {value}"
+
+
 def run_reproduce(args: argparse.Namespace) -> int:
     if args.workflow == "quick":
-        full = [f"--{d.replace('_', '-')}" + ("" if isinstance(v, bool) else f" {v:g}")
-                for d in FULL_ONLY if d in getattr(args, "given", ()) for v in [getattr(args, d)]]
+        full = [f"--{d.replace('_', '-')}{_as_given(getattr(args, d))}" for d in FULL_ONLY
+                if d in getattr(args, "given", ())]
         if full:
             raise InputError(f"{', '.join(full)}: only --workflow full reads {'them' if len(full) > 1 else 'it'}, "
                              "the quick workflow (the default) does not; add --workflow full or leave "
@@ -345,25 +354,51 @@ def run_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
+def _folder_config(out: str | Path) -> dict | None:
+    """The configuration of the full workflow in ``out`` (its workflow.json), or None where there is none."""
+    try:
+        config = json.loads((Path(out) / "workflow.json").read_text()).get("config")
+    except (OSError, ValueError, AttributeError):
+        return None
+    return config if isinstance(config, dict) else None
+
+
 def _folder_rounds(args: argparse.Namespace) -> int:
     """--diagnosis-rounds, else the folder's (workflow.json), else 3."""
     if args.diagnosis_rounds is not None:
         return args.diagnosis_rounds
-    meta = Path(args.out) / "workflow.json"
     try:
-        return int(json.loads(meta.read_text())["config"]["diagnosis_rounds"])
-    except (OSError, ValueError, KeyError, TypeError):
+        return int(_folder_config(args.out)["diagnosis_rounds"])
+    except (KeyError, TypeError, ValueError):
         return 3
 
 
 def _ringing_workflow(out: str | Path) -> bool:
     """Whether ``out`` holds a full workflow whose Table 3 takes the ringing calibration's springs (every folder
     made before the described tool became the default): without ``--tool`` it goes on with them."""
-    meta = Path(out) / "workflow.json"
-    try:
-        return meta.is_file() and json.loads(meta.read_text()).get("config", {}).get("passive_tool") is None
-    except (OSError, ValueError, AttributeError):
-        return False
+    config = _folder_config(out)
+    return config is not None and config.get("passive_tool") is None
+
+
+WORKFLOW_BOX_STRESSES = (20e3, 40e3, 80e3)
+"""[Pa] the shear box's normal stresses of the full workflow's soil calibration ("bonded" protocol) unless told
+``--box-stresses``: the paper gives neither the laboratory's nor its DEM box's; at these a frictional soil's
+envelope has the laboratory's intercept (docs/fidelity.md, section 3b)."""
+
+
+def _workflow_soil(args: argparse.Namespace) -> None:
+    """--soil-protocol and --box-stresses of the full workflow, where not given: a folder's own (one made before
+    these defaults goes on as it was), else the "bonded" protocol (the draught and the shear box calibrated together)
+    with the box at WORKFLOW_BOX_STRESSES."""
+    folder = _folder_config(args.out)
+    if args.soil_protocol is None:
+        args.soil_protocol = str(folder.get("soil_protocol", "paper")) if folder is not None else "bonded"
+    if args.box_stresses is None:
+        if folder is not None:
+            stresses = (folder.get("screen_changes") or {}).get("normal_stresses")
+            args.box_stresses = tuple(float(x) for x in stresses) if stresses else None
+        elif args.soil_protocol == "bonded":
+            args.box_stresses = WORKFLOW_BOX_STRESSES
 
 
 def run_workflow(args: argparse.Namespace) -> int:
@@ -380,6 +415,7 @@ def run_workflow(args: argparse.Namespace) -> int:
     if args.population < args.parents:
         raise InputError(f"--population ({args.population}) must be at least --parents ({args.parents})")
     ga = GASettings(generations=args.generations, population=args.population, parents=args.parents, seed=args.seed)
+    _workflow_soil(args)
     config = WorkflowConfig(scale=args.scale, assembly=args.assembly,
                             springs=args.springs or paper.SPRING_COUNTS, ringing_ga=ga, draught_ga=ga,
                             replicas_min=args.replicas_min, replicas_max=args.replicas_max,
@@ -388,7 +424,8 @@ def run_workflow(args: argparse.Namespace) -> int:
                             settle_time=args.settle_time, soil_protocol=args.soil_protocol, seed=args.seed,
                             deposit_friction=args.deposit_friction,
                             diagnose=not args.no_diagnosis,
-                            diagnosis_rounds=_folder_rounds(args), diagnosis_grid=args.diagnosis_grid)
+                            diagnosis_rounds=_folder_rounds(args), diagnosis_grid=args.diagnosis_grid,
+                            screen_changes={"normal_stresses": args.box_stresses} if args.box_stresses else {})
     if args.tool != "ringing" and not (args.tool is None and _ringing_workflow(args.out)):
         from dataclasses import replace
 
@@ -494,17 +531,34 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
     return 0
 
 
+def _soil_from(args: argparse.Namespace) -> tuple[dict | None, dict[str, float] | None]:
+    """--soil-from: the calibration's record (``calibration.problems.calibrated_soil``) and its soil material's
+    fields, or (None, None); a bad folder or another assembly than the soil's is refused before --out is claimed."""
+    if not args.soil_from:
+        return None, None
+    from calibration.genes import soil_fields
+    from calibration.problems import calibrated_soil
+
+    cal = calibrated_soil(args.soil_from)
+    if args.assembly != cal["assembly"]:
+        raise InputError(f"--assembly {args.assembly} differs from the soil's ({cal['assembly']}, calibrated in "
+                         f"{args.soil_from}); give --assembly {cal['assembly']}")
+    return cal, {k: float(v) for k, v in soil_fields(cal).items()}
+
+
 def run_speed_sweep_cmd(args: argparse.Namespace) -> int:
     from scenes import soil_bin as sb
     from scenes import speed_sweep
 
+    cal, soil = _soil_from(args)
+    protocol = {k: cal[k] for k in ("settle_time", "fragile", "deposit_friction")} if cal else {}
     device = _setup(args)
     out = _claim(args, args.out)
-    cfg = sb.SoilBinConfig(scale=args.scale, assembly=args.assembly, springs=(0,), seed=args.seed)
+    cfg = sb.SoilBinConfig(scale=args.scale, assembly=args.assembly, springs=(0,), seed=args.seed, **protocol)
     _write_config(out, "speed-sweep", device, speeds=args.speeds, scale=args.scale, assembly=args.assembly,
-                  seed=args.seed, preset=sb.SCALES[args.scale])
+                  seed=args.seed, preset=sb.SCALES[args.scale], soil_from=args.soil_from, soil=soil, **protocol)
     res = speed_sweep.main(out, cfg, args.speeds, device=device, progress=lambda d, n: _bar("rigid sweep", d, n),
-                           vtk_every=args.vtk)
+                           vtk_every=args.vtk, soil=soil)
     for r in res["rows"]:
         print(f"rigid at {r['speed']:.2f} m/s: draught {r['draught_mean']:.1f} N (SE {r['draught_sem']:.1f})")
     line = res["line"]
@@ -674,11 +728,14 @@ def _number(cast: type, *, gt: float | None = None, ge: float | None = None, lt:
 def run_shear_box_cmd(args: argparse.Namespace) -> int:
     from scenes import shear_box
 
+    cal, soil = _soil_from(args)
+    changes = {"fragile": cal["fragile"], **cal["box_changes"], **soil} if cal else {}
+    if args.normal_stresses:
+        changes["normal_stresses"] = args.normal_stresses
     device = _setup(args)
     out = _claim(args, args.out)
-    cfg = shear_box.preset(args.scale, args.assembly, seed=args.seed,
-                           **({"normal_stresses": args.normal_stresses} if args.normal_stresses else {}))
-    _write_config(out, "shear-box", device, config=str(cfg))
+    cfg = shear_box.preset(args.scale, args.assembly, seed=args.seed, **changes)
+    _write_config(out, "shear-box", device, config=str(cfg), soil_from=args.soil_from)
     vtk = None
     if args.vtk:
         from warpdem.vtk import VtkWriter
@@ -1004,9 +1061,14 @@ def main(argv: list[str] | None = None) -> int:
                         "each simulation's worlds spread over a group of replicas)")
     r.add_argument("--settle-time", type=_number(float, ge=0, unit="s"), default=0.5,
                    help="full: [s] a bed settles under the soil set before the tool moves (default 0.5)")
-    r.add_argument("--soil-protocol", choices=("paper", "bonded"), default="paper",
-                   help="full: paper (default): the draught GA, then shear-box screening, bonds that break; bonded: "
-                        "the draught and the shear box calibrated together, yielding bonds on a bed settled >= 1 s")
+    r.add_argument("--soil-protocol", choices=("paper", "bonded"), default=None,
+                   help="full: bonded (default for a new folder): the draught and the shear box calibrated together, "
+                        "yielding bonds on a bed settled >= 1 s; paper: the draught GA, then shear-box screening, "
+                        "bonds that break (the paper's way; a folder made with it goes on with it)")
+    r.add_argument("--box-stresses", type=_stresses, default=None, metavar="KPA,KPA,KPA",
+                   help="full: the shear box's normal stresses [kPa] of the soil calibration and the screening "
+                        "(default 20,40,80 with --soil-protocol bonded, the box's 5,10,20 with paper; the paper does "
+                        "not give the laboratory's)")
     r.add_argument("--deposit-friction", type=_number(float, ge=0, lt=90, unit="deg"), default=30.0,
                    help="full: contact friction of the soil-bin beds' deposition [deg] (0: a dense bed, near the "
                         "paper's coordination)")
@@ -1097,12 +1159,20 @@ def main(argv: list[str] | None = None) -> int:
                    help="carriage speeds [m/s] (default 0.45,0.50,...,0.75)")
     v.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
                    help="write ParaView (VTK) frames of every speed's world into OUT/vtk/ at every EVERY-th record")
+    v.add_argument("--soil-from", default=None, metavar="DIR",
+                   help="the soil of a `warpdem calibrate draught` or `calibrate soil` folder: its best individual "
+                        "and the bed protocol it was calibrated with (default: the assembly's GA set)")
     x = sub.add_parser("shear-box", help="direct shear box: Mohr-Coulomb cohesion and friction angle")
     common(x, "results/shear_box", scale=False, seed="the sample's deposition seed")
     x.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"), help=SHEAR_SCALE_HELP)
     x.add_argument("--assembly", default="C", choices=("A", "B", "C"), help=ASSEMBLY_HELP)
     x.add_argument("--normal-stresses", type=_stresses, default=None, metavar="KPA,KPA,KPA",
-                   help="the plate's normal stresses [kPa] (default 5,10,20; the paper does not give the laboratory's)")
+                   help="the plate's normal stresses [kPa] (default 5,10,20, or --soil-from's calibration's; the "
+                        "paper does not give the laboratory's)")
+    x.add_argument("--soil-from", default=None, metavar="DIR",
+                   help="the soil of a `warpdem calibrate draught` or `calibrate soil` folder: its best individual, "
+                        "its bonds' rule and, from `calibrate soil`, the box's normal stresses (default: the "
+                        "assembly's GA set)")
     x.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
                    help="write ParaView (VTK) frames of every normal stress's sample into OUT/vtk/ while it is "
                         "sheared, at its start and at every EVERY-th record")

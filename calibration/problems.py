@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -30,6 +31,7 @@ from scenes import analysis, paper, shear_box
 from scenes.rigs import RINGING, SHEAR_BOX, SOIL_BIN
 from scenes.ringing import RingingConfig, build_ringing, run_ringing
 from scenes.soil_bin import DEPOSIT_FRICTION, SCALES, SoilBinConfig, bed_for, run_soil_bin
+from warpdem.errors import InputError
 
 from .genes import FITNESS_MODES, Gene, soil_fields, with_ranges
 
@@ -395,3 +397,34 @@ def make_problem(kind: str, **kwargs: object) -> RingingProblem | DraughtProblem
     if kind not in PROBLEMS:
         raise ValueError(f"calibration must be one of {', '.join(map(repr, PROBLEMS))}, got {kind!r}")
     return PROBLEMS[kind](**kwargs)
+
+
+SOIL_BIN_RIGS = ("soil_bin_rigid", "soil_bin_rigid+shear_box")
+"""the simulation keys' rigs of the calibrations whose best individual is a soil (:func:`calibrated_soil`)."""
+
+
+def calibrated_soil(folder: str | Path) -> dict[str, object]:
+    """The best individual of a ``warpdem calibrate draught`` or ``calibrate soil`` results folder, as the soil of
+    another run: its genes ``friction_angle`` [deg], ``normal_cohesion`` [Pa] and ``eta_roll`` [-] (material fields:
+    :func:`calibration.genes.soil_fields`), the bed protocol it was calibrated with (``assembly``, ``settle_time``
+    [s], ``fragile``, ``deposit_friction`` [deg]), its ``observables`` and ``errors`` as measured there, and the
+    calibration's ``scale``, ``speed`` [m/s], ``box_changes`` and ``folder``. Raises InputError when the folder holds
+    no such calibration."""
+    from .archive import Archive
+
+    path = Path(folder) / "archive.json"
+    if not path.is_file():
+        raise InputError(f"soil folder {str(folder)!r} holds no archive.json of a warpdem calibration")
+    archive = Archive.load(path)
+    key = archive.simulation_key
+    if key.get("rig") not in SOIL_BIN_RIGS or not archive.records:
+        raise InputError(f"soil folder {str(folder)!r} holds no draught or soil calibration (rig "
+                         f"{key.get('rig')!r}, {len(archive.records)} individuals)")
+    best = archive.best()
+    return {**{k: float(best.genes[k]) for k in ("friction_angle", "normal_cohesion", "eta_roll")},
+            "assembly": key["assembly"], "settle_time": float(key.get("settle_time", 0.0)),
+            "fragile": bool(key.get("fragile", True)),
+            "deposit_friction": float(key.get("deposit_friction", DEPOSIT_FRICTION)),
+            "observables": dict(best.observables), "errors": dict(best.errors), "fitness": float(best.fitness),
+            "scale": key["scale"], "speed": float(key["speed"]), "box_changes": key.get("box_changes", {}),
+            "folder": str(folder)}

@@ -368,7 +368,11 @@ class ShearBoxResult:
         """A plain-text report: one row per normal stress, then the fit."""
         cfg = self.config
         label = f" {cfg.label}" if cfg.label else ""
-        lines = [f"direct shear box{label} (assembly {cfg.assembly.kind}, GA set {cfg.ga_set}, "
+        row = ga_set(cfg.ga_set)
+        own = (cfg.friction_angle, cfg.eta_roll) == (row["friction_angle_deg"], row["eta_roll_twist"])
+        soil = (f"GA set {cfg.ga_set}" if own
+                else f"contact friction {cfg.friction_angle:.1f} deg, eta {cfg.eta_roll:.3g}")
+        lines = [f"direct shear box{label} (assembly {cfg.assembly.kind}, {soil}, "
                  f"{self.n_particles} particles, L = {cfg.box_side * 1e3:.0f} mm, H = {cfg.sample_height * 1e3:.0f} "
                  f"mm, v = {cfg.shear_rate * 1e3:.0f} mm/s, Cn = {cfg.normal_cohesion / 1e3:.1f} kPa, "
                  f"Cs = {cfg.shear_cohesion / 1e3:.1f} kPa)",

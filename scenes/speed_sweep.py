@@ -113,20 +113,24 @@ def inertial_slope(bed: sb.Bed, v: float, width: float = 0.3, depth: float = pap
 
 def run_sweep(config: sb.SoilBinConfig, speeds: tuple[float, ...] = SWEEP_SPEEDS, *, device: str | None = None,
               cache_dir: str | Path | None = None, checkpoint: str | Path | None = None,
-              progress: object | None = None, vtk: tuple[object, int] | None = None) -> dict[str, object]:
+              progress: object | None = None, vtk: tuple[object, int] | None = None,
+              soil: dict[str, float] | None = None) -> dict[str, object]:
     """The rigid tool at every speed of ``speeds`` [m/s] as worlds of one simulation on ``config``'s bed. Returns
-    the bed, the run, its steady rows (one per speed), the fitted line and the re-paired Table 7 rows. ``vtk``: see
-    :func:`scenes.soil_bin.run_soil_bin`."""
+    the bed, the run, its steady rows (one per speed), the fitted line, the re-paired Table 7 rows and the soil.
+    ``vtk``: see :func:`scenes.soil_bin.run_soil_bin`. ``soil``: the soil material's fields in every world (e.g.
+    ``friction_angle`` [deg], ``normal_cohesion`` [Pa]; ``calibration.genes.soil_fields`` of a calibrated set);
+    default the config's GA set."""
     speeds = tuple(float(v) for v in speeds)
     if len(speeds) < 3 or not all(math.isfinite(v) and v > 0 for v in speeds) or len(set(speeds)) != len(speeds):
         raise ValueError(f"speeds: at least 3 distinct positive speeds [m/s], got {list(speeds)}")
     bed = sb.bed_for(config, device=device, cache_dir=cache_dir)
+    overrides = {k: [float(v)] * len(speeds) for k, v in soil.items()} if soil else None
     run = sb.run_soil_bin(config, [0] * len(speeds), bed=bed, device=device, speeds=list(speeds), progress=progress,
-                          checkpoint=checkpoint, vtk=vtk)
+                          checkpoint=checkpoint, vtk=vtk, soil_overrides=overrides)
     rows = run.steady
     line = fit_line(np.array(speeds), np.array([r["draught_mean"] for r in rows]),
                     np.array([r["draught_sem"] for r in rows]))
-    return {"bed": bed, "run": run, "rows": rows, "line": line, "table7": repair_table7(line)}
+    return {"bed": bed, "run": run, "rows": rows, "line": line, "table7": repair_table7(line), "soil": soil}
 
 
 def _fmt(x: float, digits: int = 3) -> str:
@@ -210,12 +214,21 @@ def sweep_meaning(line: SpeedLine, table7: list[dict[str, object]]) -> list[str]
     return out
 
 
+def _soil_text(soil: dict[str, float] | None, config: sb.SoilBinConfig) -> str:
+    protocol = (f"bed deposited at {config.deposit_friction:g} deg, settled {config.settle_time:g} s, "
+                f"{'fragile' if config.fragile else 'yielding'} bonds")
+    if not soil:
+        return f"GA set {config.parameter_set or sb.DEFAULT_SET[config.assembly]}; {protocol}"
+    return (f"soil: contact friction {soil['friction_angle']:.2f} deg, normal cohesion "
+            f"{soil['normal_cohesion']:.4g} Pa, rolling coefficient {soil['eta_roll']:.4g}; {protocol}")
+
+
 def report(result: dict[str, object], config: sb.SoilBinConfig, device: str, wall: float) -> str:
     """Markdown: the sweep's table, the line, and Table 7 re-paired (signs against the laboratory's)."""
     rows, line, bed, run = result["rows"], result["line"], result["bed"], result["run"]
     lines = [f"# Rigid draught against speed — scale `{config.scale}`, assembly {config.assembly}, on `{device}`", "",
              f"Bed: {bed.n_particles} particles ({len(bed.radii)} spheres), porosity {bed.porosity:.3f}, seed "
-             f"{config.seed}; GA set {config.parameter_set or sb.DEFAULT_SET[config.assembly]}; one simulation of "
+             f"{config.seed}; {_soil_text(result.get('soil'), config)}; one simulation of "
              f"{len(rows)} worlds, {run.steps} steps of {run.dt:.3g} s, {run.wall_s:.0f} s of {wall:.0f} s wall.", "",
              "| speed [m/s] | draught [N] | SE [N] | std [N] |", "|---|---|---|---|"]
     lines += [f"| {r['speed']:.2f} | {r['draught_mean']:.1f} | {r['draught_sem']:.1f} | {r['draught_std']:.1f} |"
@@ -258,7 +271,8 @@ def report(result: dict[str, object], config: sb.SoilBinConfig, device: str, wal
 def write(result: dict[str, object], out: Path, config: sb.SoilBinConfig, device: str, wall: float) -> None:
     """summary.json (rows, line, re-paired Table 7; null for missing values), rigid_speed.png and report.md."""
     bed, run = result["bed"], result["run"]
-    summary = {"config": asdict(config), "device": device, "wall_s": wall, "rows": result["rows"],
+    summary = {"config": asdict(config), "soil": result.get("soil"), "device": device, "wall_s": wall,
+               "rows": result["rows"],
                "line": asdict(result["line"]), "table7": result["table7"],
                "bed": {"particles": bed.n_particles, "spheres": int(len(bed.radii)), "porosity": bed.porosity},
                "run": {"dt": run.dt, "steps": run.steps, "wall_s": run.wall_s}}
@@ -271,10 +285,11 @@ def write(result: dict[str, object], out: Path, config: sb.SoilBinConfig, device
 
 
 def main(out: str | Path, config: sb.SoilBinConfig, speeds: tuple[float, ...] = SWEEP_SPEEDS, *,
-         device: str = "cpu", progress: object | None = None, vtk_every: int | None = None) -> dict[str, object]:
+         device: str = "cpu", progress: object | None = None, vtk_every: int | None = None,
+         soil: dict[str, float] | None = None) -> dict[str, object]:
     """Run the sweep into ``out`` (bed cache OUT/beds, checkpoint OUT/checkpoints/rigid_speed, removed when done)
     and write its files; returns the result of :func:`run_sweep`. ``vtk_every``: ParaView frames of every world at
-    every ``vtk_every``-th record, into OUT/vtk/."""
+    every ``vtk_every``-th record, into OUT/vtk/. ``soil``: see :func:`run_sweep`."""
     import shutil
 
     t0 = time.perf_counter()
@@ -283,7 +298,7 @@ def main(out: str | Path, config: sb.SoilBinConfig, speeds: tuple[float, ...] = 
     ck = out / "checkpoints" / "rigid_speed"
     vtk = (VtkWriter(out / "vtk"), vtk_every) if vtk_every else None
     result = run_sweep(config, speeds, device=device, cache_dir=out / "beds", checkpoint=ck, progress=progress,
-                       vtk=vtk)
+                       vtk=vtk, soil=soil)
     write(result, out, config, device, time.perf_counter() - t0)
     shutil.rmtree(ck, ignore_errors=True)
     return result

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -135,6 +136,8 @@ BAD = [
      "error: --budget 10, --replicas-max 2, --target-sem 0.1: only --workflow full reads them"),
     ("reproduce --replica-worlds", "error: --replica-worlds: only --workflow full reads it"),
     ("reproduce --deposit-friction 0", "error: --deposit-friction 0: only --workflow full reads it"),
+    ("reproduce --soil-protocol bonded --box-stresses 20,40,80",
+     "error: --soil-protocol bonded, --box-stresses 20,40,80: only --workflow full reads them"),
     ("reproduce --workflow full --deposit-friction 90", "argument --deposit-friction: must be >= 0 and < 90 deg"),
     ("calibrate soil --deposit-friction -5", "argument --deposit-friction: must be >= 0 and < 90 deg"),
     ("calibrate soil --box-stresses 20,40", "argument --box-stresses: must be at least three distinct normal stresses"),
@@ -142,6 +145,12 @@ BAD = [
     ("calibrate draught --box-stresses 20,40,80", "--box-stresses: only 'calibrate soil' reads it (its shear box), "
                                                   "got 'calibrate draught'"),
     ("shear-box --normal-stresses 10,10,-3", "argument --normal-stresses: must be at least three distinct normal"),
+    ("speed-sweep --soil-from {tmp}/none --out {tmp}/s", "error: soil folder '{tmp}/none' holds no archive.json of a "
+                                                         "warpdem calibration"),
+    ("shear-box --soil-from {tmp}/ring --out {tmp}/s", "error: soil folder '{tmp}/ring' holds no draught or soil "
+                                                       "calibration (rig 'ringing', 0 individuals)"),
+    ("speed-sweep --soil-from {tmp}/soil --assembly A --out {tmp}/s", "error: --assembly A differs from the soil's (C, "
+                                                                      "calibrated in {tmp}/soil); give --assembly C"),
     ("calibrate soil --budget 0", "argument --budget: must be > 0 s"),
     ("calibrate draught --scale paper_2m", "argument --scale: invalid choice: 'paper_2m'"),
     ("calibrate ringing --gene young=1e8:1e6", "argument --gene: --gene must be NAME=LOW:HIGH with finite LOW < HIGH, "
@@ -198,6 +207,15 @@ def test_bad_command_lines_get_one_line_naming_the_value(capsys, tmp_path, monke
     (tmp_path / "in_list.json").write_text('{"ring_time": [1.5]}\n')
     (tmp_path / "soil.json").write_text('{"soil": {"friction_angle": "abc"}}\n')
     (tmp_path / "file").write_text("not a folder\n")
+    soil_key = {"rig": "soil_bin_rigid", "assembly": "C", "scale": "ci", "speed": 0.62}
+    for name, key in (("ring", {"rig": "ringing"}), ("soil", soil_key)):
+        (tmp_path / name).mkdir()
+        records = [] if name == "ring" else [{"index": 0, "generation": 0, "stage": "ga", "observables": {},
+                                              "genes": {"friction_angle": 30.0, "normal_cohesion": 1e3,
+                                                        "eta_roll": 0.01}}]
+        (tmp_path / name / "archive.json").write_text(json.dumps({"gene_names": ["friction_angle", "normal_cohesion",
+                                                                                 "eta_roll"],
+                                                                  "simulation_key": key, "records": records}))
     (tmp_path / "binary.csv").write_bytes(b"\x7fELF\xd0\x01\x02\x00")
     (tmp_path / "m.csv").write_text("springs,frequency [Hz],damping [-]\n16,6.09,0.2027\n32,7.5,0.2\n")
     (tmp_path / "rig.toml").write_text("[spring_rates]\n-4 = 2.1e5\n")
@@ -228,9 +246,9 @@ def test_bad_command_lines_get_one_line_naming_the_value(capsys, tmp_path, monke
         assert code == 2, line
         assert len(err) == 1 and err[0].startswith(f"warpdem {cmd}: error: ") and words in err[0], (line, err)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["binary.csv", "file", "header.csv", "in_list.json",
-                                                         "list.json", "m.csv", "read-only", "rig.toml",
-                                                         "semicolon.csv", "soil.json", "temperature.csv", "twice.csv",
-                                                         "typo.json", "word.json"]
+                                                         "list.json", "m.csv", "read-only", "rig.toml", "ring",
+                                                         "semicolon.csv", "soil", "soil.json", "temperature.csv",
+                                                         "twice.csv", "typo.json", "word.json"]
     assert not any(read_only.iterdir())
 
 

@@ -1,0 +1,82 @@
+"""A calibrated soil carried into other runs (``--soil-from``): the rigs give the calibration's own numbers.
+
+The reference is the calibration's record of the same individual: the soil bin's steady draught and the shear box's
+cohesion and friction angle, each measured by the calibration's own simulation. A run that took another bed protocol
+(settle time, bonds' rule, deposition friction), another normal stress or another material would give other numbers;
+one that took the calibration's gives the same ones to rounding (the worlds of a simulation are independent, so a
+world's result does not depend on the other worlds beside it).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from calibration.archive import Archive, Record
+from calibration.problems import SoilProblem, calibrated_soil
+
+GENES = {"friction_angle": 24.0, "normal_cohesion": 2.0e4, "eta_roll": 0.05}
+PROTOCOL = {"settle_time": 0.2, "fragile": False, "deposit_friction": 20.0}
+"""each unlike the soil bin's defaults (0 s, fragile, 30 deg), so a run that dropped one would draw otherwise."""
+STRESSES = (20e3, 40e3, 80e3)
+
+
+@pytest.fixture(scope="module")
+def calibration_folder(tmp_path_factory: pytest.TempPathFactory):
+    """One individual of a soil calibration at ci scale (assembly A: single spheres, the fewest), archived as
+    ``calibrate soil`` archives it."""
+    folder = tmp_path_factory.mktemp("cal")
+    problem = SoilProblem(assembly="A", scale="ci", box_scale="ci", seed=3, box_changes={"normal_stresses": STRESSES},
+                          cache_dir=str(folder / "beds"), device="cpu", **PROTOCOL)
+    values = np.array([[GENES[g.name] for g in problem.gene_list]])
+    obs = problem.evaluate(values)[0]
+    archive = Archive([g.name for g in problem.gene_list], problem.simulation_key())
+    errors = problem.errors(obs)
+    archive.add(Record(index=0, generation=0, stage="ga", genes=dict(GENES), observables=obs, errors=errors,
+                       fitness=problem.fitness_of(errors)))
+    archive.save(folder / "archive.json")
+    return folder, obs
+
+
+def test_the_calibrated_soil_is_the_best_individual_with_its_bed_protocol(calibration_folder) -> None:
+    folder, obs = calibration_folder
+    soil = calibrated_soil(folder)
+    assert {k: soil[k] for k in GENES} == GENES
+    assert {k: soil[k] for k in PROTOCOL} == PROTOCOL
+    assert soil["assembly"] == "A" and soil["scale"] == "ci" and soil["observables"] == obs
+    assert tuple(soil["box_changes"]["normal_stresses"]) == STRESSES
+
+
+def test_a_speed_sweep_with_the_calibrated_soil_draws_what_the_calibration_measured(calibration_folder,
+                                                                                   tmp_path) -> None:
+    """The sweep's world at the calibration's speed (0.62 m/s) on the same bed (seed 3) draws the calibration's
+    steady draught: the soil, its settle time, bonds' rule and deposition friction all came across."""
+    from calibration import cli
+
+    folder, obs = calibration_folder
+    out = tmp_path / "sweep"
+    assert cli.main(["--quiet", "speed-sweep", "--scale", "ci", "--assembly", "A", "--speeds", "0.5,0.62,0.7",
+                     "--seed", "3", "--soil-from", str(folder), "--device", "cpu", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    row = next(r for r in summary["rows"] if r["speed"] == 0.62)
+    assert row["draught_mean"] == pytest.approx(obs["draught_mean_n"], rel=1e-9)
+    assert summary["config"]["settle_time"] == PROTOCOL["settle_time"]
+    assert "normal cohesion 2e+04 Pa" in (out / "report.md").read_text()
+
+
+def test_a_shear_box_with_the_calibrated_soil_gives_the_calibrations_strength(calibration_folder, tmp_path) -> None:
+    """The shear box at the calibration's box scale and sample seed (0) gives its cohesion and friction angle: the
+    soil, the bonds' rule and the calibration's normal stresses (20-80 kPa, not the box's 5-20 kPa default) came
+    across."""
+    from calibration import cli
+
+    folder, obs = calibration_folder
+    out = tmp_path / "box"
+    assert cli.main(["--quiet", "shear-box", "--scale", "ci", "--assembly", "A", "--soil-from", str(folder),
+                     "--device", "cpu", "--out", str(out)]) == 0
+    res = json.loads((out / "summary.json").read_text())
+    assert res["normal_stress_applied_pa"] == list(STRESSES)
+    assert res["cohesion_pa"] / 1e3 == pytest.approx(obs["cohesion_kpa"], rel=1e-9)
+    assert res["friction_angle_deg"] == pytest.approx(obs["friction_angle_deg"], rel=1e-9)
