@@ -568,7 +568,14 @@ def run_speed_sweep_cmd(args: argparse.Namespace) -> int:
 
 def run_passive_tool_cmd(args: argparse.Namespace) -> int:
     """``warpdem passive-tool``: Table 2 fitted within bounds, the rigid pitch sweep and Table 3 with the tool."""
-    from calibration.passive_study import DEFAULT_VARIANTS, PITCHES, PassiveStudy, write_report
+    from calibration.passive_study import (
+        DEFAULT_VARIANTS,
+        PITCHES,
+        SOILS,
+        PassiveStudy,
+        calibrated_soil_of,
+        write_report,
+    )
     from warpdem.errors import BudgetExhausted
 
     if args.joint_from and args.beds_from:
@@ -585,6 +592,8 @@ def run_passive_tool_cmd(args: argparse.Namespace) -> int:
         from scenes.passive_tool import load_toml
 
         load_toml(args.tool)  # a bad file is refused before the folder is claimed
+    if args.soil not in SOILS:
+        calibrated_soil_of(args.soil)  # refused before the folder is claimed too
     out = _claim(args, args.out)
     study = PassiveStudy(out, scale=args.scale, device=device, seed=args.seed, travel=args.travel,
                          steady_travel=args.steady_travel, shank_length=args.shank_length, soil=args.soil,
@@ -1146,10 +1155,11 @@ def main(argv: list[str] | None = None) -> int:
                    help="instead of running stages: Table 3 over several beds, from these finished passive-tool "
                         "folders (the variant --variants names, default described; each reduction against its own "
                         "bed's rigid run); writes beds.json, beds.md and fig_table3_beds.png into --out")
-    t.add_argument("--soil", choices=("workflow", "bonded", "dense"), default="workflow",
+    t.add_argument("--soil", default="workflow", metavar="NAME|DIR",
                    help="workflow: the paper-scale workflow's calibrated soil (default); bonded: GA set 11 with 4x its "
                         "cohesions, yielding bonds on a settled bed (its draught and shear box match the lab's); "
-                        "dense: GA set 11, yielding bonds on a bed deposited without friction")
+                        "dense: GA set 11, yielding bonds on a bed deposited without friction; or the folder of a "
+                        "`warpdem calibrate draught` or `calibrate soil` run: its best soil and bed protocol")
     _add_budget(t, "wall time [s] of this call; a soil-bin stage stops into its checkpoint (exit code 3) and "
                    "the same command continues")
     v = sub.add_parser("speed-sweep", help="rigid draught against speed (one world per speed) and the paper's "

@@ -76,6 +76,21 @@ def _genes(soil: dict) -> dict:
     return {k: soil[k] for k in ("friction_angle", "normal_cohesion", "eta_roll")}
 
 
+def calibrated_soil_of(folder: str) -> dict:
+    """The soil of a ``calibrate draught`` / ``calibrate soil`` folder (its best individual and bed protocol), as
+    :data:`SOILS` holds a soil; InputError when ``folder`` is neither a soil's name nor such a folder."""
+    from .problems import calibrated_soil
+
+    if not Path(folder).is_dir():
+        raise InputError(f"soil must be one of {sorted(SOILS)} or a calibration's folder, got {folder!r}")
+    cal = calibrated_soil(folder)
+    if cal["assembly"] != "C":
+        raise InputError(f"soil {folder!r}: calibrated with assembly {cal['assembly']}; the study's beds are "
+                         "assembly C")
+    return {k: cal[k] for k in ("friction_angle", "normal_cohesion", "eta_roll", "fragile", "settle_time",
+                                "deposit_friction")}
+
+
 def _json(path: Path, data: object) -> None:
     write_atomic(path, lambda tmp: Path(tmp).write_text(json.dumps(sb.json_safe(data), indent=1)))
 
@@ -92,9 +107,7 @@ class PassiveStudy:
                  travel: float | None = None, steady_travel: float | None = None, soil: str = "workflow",
                  shank_length: float = SweepParams.shank_length, pitches: tuple[float, ...] = PITCHES,
                  log: object = print, tool_file: str | Path | None = None) -> None:
-        if soil not in SOILS:
-            raise ValueError(f"soil must be one of {sorted(SOILS)}, got {soil!r}")
-        self.soil = SOILS[soil]
+        self.soil = SOILS.get(soil) or calibrated_soil_of(soil)
         settle_time = self.soil["settle_time"]
         self.out = Path(out)
         self.out.mkdir(parents=True, exist_ok=True)

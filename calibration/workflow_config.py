@@ -75,7 +75,9 @@ class WorkflowConfig:
     (:class:`calibration.problems.SoilProblem`), bonds that yield instead of breaking, set on a bed settled for
     ``max(settle_time, BONDED_SETTLE)``, the normal cohesion's range up to 500 kPa (10x the paper's top); the
     screening runs the fittest sets in the shear box with the same bonds. docs/runs/bond_protocols_h100 says why:
-    with GA set 11 only the second reaches the laboratory's draught and shear box together."""
+    with GA set 11 only the second reaches the laboratory's draught and shear box together. ``reproduce --workflow
+    full`` takes "bonded" with the box at 20-80 kPa (``screen_changes``) in a new folder: on the default bed that
+    calibration accepted a set (docs/runs/soil_ga_loose_box_h100x2)."""
     deposit_friction: float = 30.0
     """[deg] contact friction of the soil-bin beds' deposition (``SoilBinConfig.deposit_friction``; 0: a dense bed,
     coordination 8.7 at paper scale against 6.95, the paper's 9.55) in the draught calibration, Table 3 and the

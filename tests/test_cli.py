@@ -149,6 +149,8 @@ BAD = [
                                                          "warpdem calibration"),
     ("shear-box --soil-from {tmp}/ring --out {tmp}/s", "error: soil folder '{tmp}/ring' holds no draught or soil "
                                                        "calibration (rig 'ringing', 0 individuals)"),
+    ("passive-tool --soil clay --out {tmp}/s", "error: soil must be one of ['bonded', 'dense', 'workflow'] or a "
+                                               "calibration's folder, got 'clay'"),
     ("speed-sweep --soil-from {tmp}/soil --assembly A --out {tmp}/s", "error: --assembly A differs from the soil's (C, "
                                                                       "calibrated in {tmp}/soil); give --assembly C"),
     ("calibrate soil --budget 0", "argument --budget: must be > 0 s"),

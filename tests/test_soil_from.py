@@ -80,3 +80,22 @@ def test_a_shear_box_with_the_calibrated_soil_gives_the_calibrations_strength(ca
     assert res["normal_stress_applied_pa"] == list(STRESSES)
     assert res["cohesion_pa"] / 1e3 == pytest.approx(obs["cohesion_kpa"], rel=1e-9)
     assert res["friction_angle_deg"] == pytest.approx(obs["friction_angle_deg"], rel=1e-9)
+
+
+def test_a_passive_study_takes_the_calibrated_soil_with_its_protocol(calibration_folder, tmp_path) -> None:
+    """`passive-tool --soil DIR`: the study's soil-bin runs get the calibration's soil and bed protocol; its beds
+    are assembly C, so a soil calibrated on another assembly is refused."""
+    from calibration.passive_study import PassiveStudy
+    from warpdem.errors import InputError
+
+    folder, _ = calibration_folder
+    with pytest.raises(InputError, match="calibrated with assembly A; the study's beds are assembly C"):
+        PassiveStudy(tmp_path / "a", scale="ci", soil=str(folder), log=lambda m: None)
+    as_c = tmp_path / "cal_c"
+    as_c.mkdir()
+    archive = json.loads((folder / "archive.json").read_text())
+    archive["simulation_key"]["assembly"] = "C"
+    (as_c / "archive.json").write_text(json.dumps(archive))
+    study = PassiveStudy(tmp_path / "study", scale="ci", soil=str(as_c), log=lambda m: None)
+    assert {k: study.soil[k] for k in GENES} == GENES
+    assert {k: getattr(study.config, k) for k in PROTOCOL} == PROTOCOL
