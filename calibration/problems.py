@@ -408,14 +408,18 @@ def calibrated_soil(folder: str | Path) -> dict[str, object]:
     another run: its genes ``friction_angle`` [deg], ``normal_cohesion`` [Pa] and ``eta_roll`` [-] (material fields:
     :func:`calibration.genes.soil_fields`), the bed protocol it was calibrated with (``assembly``, ``settle_time``
     [s], ``fragile``, ``deposit_friction`` [deg]), its ``observables`` and ``errors`` as measured there, and the
-    calibration's ``scale``, ``speed`` [m/s], ``box_changes`` and ``folder``. Raises InputError when the folder holds
-    no such calibration."""
+    calibration's ``scale``, ``speed`` [m/s], ``box_changes`` and ``folder``. The best is the GA's fittest individual
+    (a ``calibrate draught`` screening's choice is not read). Raises InputError when the folder holds no such
+    calibration."""
     from .archive import Archive
 
     path = Path(folder) / "archive.json"
     if not path.is_file():
         raise InputError(f"soil folder {str(folder)!r} holds no archive.json of a warpdem calibration")
-    archive = Archive.load(path)
+    try:
+        archive = Archive.load(path)
+    except (ValueError, KeyError, TypeError) as e:
+        raise InputError(f"soil folder {str(folder)!r}: archive.json cannot be read ({e})") from None
     key = archive.simulation_key
     if key.get("rig") not in SOIL_BIN_RIGS or not archive.records:
         raise InputError(f"soil folder {str(folder)!r} holds no draught or soil calibration (rig "
