@@ -70,7 +70,20 @@ COHESION_NOTE = (
     "Law2_ScGeom6D_CohFrictPhys_CohesionMoment(useIncrementalForm=True, always_use_moment_law=True).")
 
 
+SOIL_VARIANTS = {"ci_soil": ("ci", ROOT / "docs" / "runs" / "soil_ga_loose_box_h100x2")}
+"""twin names beside the scales: the preset's sample with the soil of a calibration folder (its best individual,
+bonds' rule and box stresses; ``calibration.problems.calibrated_soil``) instead of GA set 11."""
+
+
 def config_for(scale: str) -> sbx.ShearBoxConfig:
+    if scale in SOIL_VARIANTS:
+        from calibration.genes import soil_fields
+        from calibration.problems import calibrated_soil
+
+        base, folder = SOIL_VARIANTS[scale]
+        cal = calibrated_soil(folder)
+        return sbx.preset(base, KIND, fragile=cal["fragile"], **cal["box_changes"],
+                          **{k: float(v) for k, v in soil_fields(cal).items()})
     cfg = sbx.preset(scale, KIND)
     assert cfg.ga_set == GA_SET, cfg.ga_set
     return cfg
