@@ -26,6 +26,32 @@ def square(center: tuple[float, float, float], half: float, normal_tilt_deg: flo
 
 
 @pytest.fixture
+def full_workflow_start(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture):
+    """`warpdem reproduce --workflow full` (ci scale, assembly A, 16 springs, CPU) stopped where its workflow would
+    start running: ``start(out, *options)`` claims ``out`` as the command does, asserts the command ends as
+    interrupted (exit 130) and returns the ``WorkflowConfig`` it would have run."""
+    from calibration import cli
+    from calibration import paper_workflow as pw
+
+    seen: list[object] = []
+
+    def stop(self: pw.Workflow, budget: object) -> None:
+        seen.append(self.config)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pw.Workflow, "run", stop)
+
+    def start(out: object, *options: str) -> object:
+        args = ["reproduce", "--workflow", "full", "--scale", "ci", "--assembly", "A", "--springs", "16",
+                "--device", "cpu", "--out", str(out), *options]
+        assert cli.main(args) == 130, args
+        capsys.readouterr()
+        return seen[-1]
+
+    return start
+
+
+@pytest.fixture
 def device() -> str:
     return DEVICE
 

@@ -426,34 +426,23 @@ def test_displacement_noise_reads_the_slow_draught_through_the_closed_form_sensi
     assert q["predicted_std_mm"] == pytest.approx(1e3 * closed * 20.0 / math.sqrt(2), rel=0.02)
 
 
-def test_the_full_workflow_takes_the_joint_tool_unless_told_or_continuing_a_ringing_folder(tmp_path, monkeypatch,
-                                                                                             capsys) -> None:
+def test_the_full_workflow_takes_the_joint_tool_unless_told_or_continuing_a_ringing_folder(tmp_path,
+                                                                                             full_workflow_start
+                                                                                             ) -> None:
     """`reproduce --workflow full`: Table 3's passive jobs take the packaged tool (the committed joint fit's
     tool_joint.toml, number for number) by default; `--tool ringing` the ringing calibration's springs (None); a
     folder whose workflow.json has no described tool (made before this default) goes on with its springs."""
-    from calibration import cli
-    from calibration import paper_workflow as pw
     from scenes.passive_tool import JOINT_TOOL_FILE, joint_tool
 
     committed = load_toml(Path(__file__).resolve().parents[1] / "docs" / "runs" / "passive-tool-joint-fit" /
                           "tool_joint.toml")
     assert replace(load_toml(JOINT_TOOL_FILE), source="") == replace(committed, source="")
-    seen: list[object] = []
-
-    def stop(self: pw.Workflow, budget: object) -> None:
-        seen.append(self.config.passive_tool)
-        raise KeyboardInterrupt
-
-    monkeypatch.setattr(pw.Workflow, "run", stop)
-    base = ["reproduce", "--workflow", "full", "--scale", "ci", "--assembly", "A", "--springs", "16",
-            "--device", "cpu", "--out"]
-    assert cli.main([*base, str(tmp_path / "new")]) == 130
-    assert cli.main([*base, str(tmp_path / "ringing"), "--tool", "ringing"]) == 130
+    seen = [full_workflow_start(tmp_path / "new").passive_tool,
+            full_workflow_start(tmp_path / "ringing", "--tool", "ringing").passive_tool]
     old = tmp_path / "old"
-    assert cli.main([*base, str(old), "--tool", "ringing"]) == 130
+    seen.append(full_workflow_start(old, "--tool", "ringing").passive_tool)
     claim = json.loads((old / ".warpdem-run.json").read_text())
     (old / ".warpdem-run.json").write_text(json.dumps({**claim, "tool": None}))  # as written before the default
-    assert cli.main([*base, str(old)]) == 130
-    capsys.readouterr()
+    seen.append(full_workflow_start(old).passive_tool)
     assert seen == [joint_tool().to_dict(), None, None, None]
     assert seen[0]["source"] == "scenes/data/passive_tool_joint.toml"

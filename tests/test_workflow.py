@@ -626,31 +626,21 @@ def test_the_bonded_soil_protocol_calibrates_draught_and_shear_box_and_keeps_its
     assert not seen[0].fragile and seen[0].settle_time == BONDED_SETTLE
 
 
-def test_the_full_workflow_calibrates_the_soil_to_draught_and_box_unless_told_or_continuing(tmp_path, monkeypatch,
-                                                                                            capsys) -> None:
+def test_the_full_workflow_calibrates_the_soil_to_draught_and_box_unless_told_or_continuing(tmp_path,
+                                                                                            full_workflow_start
+                                                                                            ) -> None:
     """`reproduce --workflow full` in a new folder calibrates the soil to the draught and the shear box together
     ("bonded") with the box at 20-80 kPa (docs/runs/soil_ga_loose_box_h100x2: the soil that reached both);
     `--soil-protocol paper` keeps the paper's way and its box; `--box-stresses` sets the box's stresses; a folder made
     with the paper's protocol goes on with it when the command does not say."""
-    from calibration import cli
     from calibration import paper_workflow as pw
 
-    seen: list[tuple[str, dict]] = []
-
-    def stop(self: pw.Workflow, budget: object) -> None:
-        seen.append((self.config.soil_protocol, dict(self.config.screen_changes)))
-        raise KeyboardInterrupt
-
-    monkeypatch.setattr(pw.Workflow, "run", stop)
-    base = ["reproduce", "--workflow", "full", "--scale", "ci", "--assembly", "A", "--springs", "16",
-            "--device", "cpu", "--out"]
-    assert cli.main([*base, str(tmp_path / "new")]) == 130
-    assert cli.main([*base, str(tmp_path / "paper"), "--soil-protocol", "paper"]) == 130
-    assert cli.main([*base, str(tmp_path / "paper")]) == 130  # the folder's own protocol
-    assert cli.main([*base, str(tmp_path / "low"), "--box-stresses", "5,10,20"]) == 130
-    capsys.readouterr()
+    configs = [full_workflow_start(tmp_path / "new"),
+               full_workflow_start(tmp_path / "paper", "--soil-protocol", "paper"),
+               full_workflow_start(tmp_path / "paper"),  # the folder's own protocol
+               full_workflow_start(tmp_path / "low", "--box-stresses", "5,10,20")]
     stresses = {"normal_stresses": [20e3, 40e3, 80e3]}
-    assert [(p, json.loads(json.dumps(c))) for p, c in seen] == [
+    assert [(c.soil_protocol, json.loads(json.dumps(c.screen_changes))) for c in configs] == [
         ("bonded", stresses), ("paper", {}), ("paper", {}), ("bonded", {"normal_stresses": [5e3, 10e3, 20e3]})]
     config = pw.WorkflowConfig(scale="ci", assembly="A", soil_protocol="bonded", screen_changes=stresses)
     problem = pw.Workflow(tmp_path / "api", config).draught_problem()
