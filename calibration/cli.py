@@ -297,8 +297,8 @@ def _setup(args: argparse.Namespace) -> str:
 
 
 FULL_ONLY = ("budget", "replicas_min", "replicas_max", "target_sem", "worlds_per_job", "replica_worlds", "settle_time",
-             "soil_protocol", "box_stresses", "deposit_friction", "no_diagnosis", "diagnosis_rounds", "diagnosis_grid",
-             "generations", "population", "parents")
+             "soil_protocol", "box_stresses", "box_samples", "deposit_friction", "no_diagnosis", "diagnosis_rounds",
+             "diagnosis_grid", "generations", "population", "parents")
 """options of ``reproduce`` that only the full workflow reads (the quick one refuses them)."""
 
 
@@ -380,6 +380,11 @@ def _ringing_workflow(out: str | Path) -> bool:
     return config is not None and config.get("passive_tool") is None
 
 
+SOIL_BOX_SAMPLES = 3
+"""shear-box samples per individual of ``calibrate soil`` and of a new full workflow's soil calibration, unless told:
+one sample's c and phi scatter by about 1 kPa and 0.9 deg (15 samples of the ``cpu`` box,
+docs/runs/soil_ga_loose_box_h100x2), and a GA that sees one sample per individual accepts the individuals that met a
+favourable one. Three samples bring the scatter of the means to about 0.6 kPa and 0.5 deg."""
 WORKFLOW_BOX_STRESSES = (20e3, 40e3, 80e3)
 """[Pa] the shear box's normal stresses of the full workflow's soil calibration ("bonded" protocol) unless told
 ``--box-stresses``: the paper gives neither the laboratory's nor its DEM box's; at these a frictional soil's
@@ -387,9 +392,9 @@ envelope has the laboratory's intercept (docs/fidelity.md, section 3b)."""
 
 
 def _workflow_soil(args: argparse.Namespace) -> None:
-    """--soil-protocol and --box-stresses of the full workflow, where not given: a folder's own (one made before
-    these defaults goes on as it was), else the "bonded" protocol (the draught and the shear box calibrated together)
-    with the box at WORKFLOW_BOX_STRESSES."""
+    """--soil-protocol, --box-stresses and --box-samples of the full workflow, where not given: a folder's own (one
+    made before these defaults goes on as it was), else the "bonded" protocol (the draught and the shear box
+    calibrated together) with the box at WORKFLOW_BOX_STRESSES on SOIL_BOX_SAMPLES samples."""
     folder = _folder_config(args.out)
     if args.soil_protocol is None:
         args.soil_protocol = str(folder.get("soil_protocol", "paper")) if folder is not None else "bonded"
@@ -399,6 +404,12 @@ def _workflow_soil(args: argparse.Namespace) -> None:
             args.box_stresses = tuple(float(x) for x in stresses) if stresses else None
         elif args.soil_protocol == "bonded":
             args.box_stresses = WORKFLOW_BOX_STRESSES
+    if args.box_samples is None:
+        args.box_samples = (int(folder.get("box_samples", 1)) if folder is not None
+                            else SOIL_BOX_SAMPLES if args.soil_protocol == "bonded" else 1)
+    elif args.box_samples != 1 and args.soil_protocol != "bonded":
+        raise InputError(f"--box-samples {args.box_samples}: only the bonded soil protocol's calibration reads it, "
+                         f"got --soil-protocol {args.soil_protocol}")
 
 
 def run_workflow(args: argparse.Namespace) -> int:
@@ -425,7 +436,8 @@ def run_workflow(args: argparse.Namespace) -> int:
                             deposit_friction=args.deposit_friction,
                             diagnose=not args.no_diagnosis,
                             diagnosis_rounds=_folder_rounds(args), diagnosis_grid=args.diagnosis_grid,
-                            screen_changes={"normal_stresses": args.box_stresses} if args.box_stresses else {})
+                            screen_changes={"normal_stresses": args.box_stresses} if args.box_stresses else {},
+                            box_samples=args.box_samples)
     if args.tool != "ringing" and not (args.tool is None and _ringing_workflow(args.out)):
         from dataclasses import replace
 
@@ -800,8 +812,9 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
     settings = GASettings(generations=args.generations, population=args.population, parents=args.parents,
                           seed=args.seed, refine_iterations=args.refine)
     genes = _genes(args)
-    if args.box_stresses and args.kind != "soil":
-        raise InputError(f"--box-stresses: only 'calibrate soil' reads it (its shear box), got 'calibrate {args.kind}'")
+    for flag, given in (("--box-stresses", args.box_stresses), ("--box-samples", args.box_samples)):
+        if given is not None and args.kind != "soil":
+            raise InputError(f"{flag}: only 'calibrate soil' reads it (its shear box), got 'calibrate {args.kind}'")
     if args.kind == "ringing":
         kw: dict[str, object] = {"springs": args.springs, "spring_model": args.spring_model, "fitness": args.fitness}
     else:
@@ -811,6 +824,7 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
             kw["box_scale"] = args.screen_scale or SCREEN_SCALE.get(args.scale, args.scale)
             if args.box_stresses:
                 kw["box_changes"] = {"normal_stresses": args.box_stresses}
+            kw["box_samples"] = args.box_samples or SOIL_BOX_SAMPLES
         if args.beds:
             kw["cache_dir"] = str(args.beds)
     out = _claim(args, args.out or f"results/calibrate/{args.kind}_" + (str(args.springs) if args.kind == "ringing"
@@ -1078,6 +1092,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="full: the shear box's normal stresses [kPa] of the soil calibration and the screening "
                         "(default 20,40,80 with --soil-protocol bonded, the box's 5,10,20 with paper; the paper does "
                         "not give the laboratory's)")
+    r.add_argument("--box-samples", type=_number(int, ge=1), default=None, metavar="N",
+                   help=f"full, bonded: shear-box samples per individual of the soil calibration (default "
+                        f"{SOIL_BOX_SAMPLES} in a new folder; a folder goes on with its own)")
     r.add_argument("--deposit-friction", type=_number(float, ge=0, lt=90, unit="deg"), default=30.0,
                    help="full: contact friction of the soil-bin beds' deposition [deg] (0: a dense bed, near the "
                         "paper's coordination)")
@@ -1229,6 +1246,10 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--box-stresses", type=_stresses, default=None, metavar="KPA,KPA,KPA",
                    help="soil: the shear box's normal stresses [kPa] (default 5,10,20; the paper does not give the "
                         "laboratory's)")
+    c.add_argument("--box-samples", type=_number(int, ge=1), default=None, metavar="N",
+                   help="soil: shear-box samples per individual, each deposited with its own seed; the box's c and "
+                        f"phi are their means (default {SOIL_BOX_SAMPLES}: one sample's c and phi scatter by about 1 "
+                        "kPa and 0.9 deg)")
     c.add_argument("--beds", default=None,
                    help="draught: folder of deposited beds to read and add to (default OUT/beds)")
     c.add_argument("--archive", default=None, help="archive.json of an earlier calibration to reuse")

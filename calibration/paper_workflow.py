@@ -374,7 +374,7 @@ class Workflow:
             return SoilProblem(assembly=c.assembly, scale=CALIBRATION_SCALE[c.scale], box_scale=SCREEN_SCALE[c.scale],
                                travel=c.calibration_travel, settle_time=c.soil_settle_time, fragile=False,
                                deposit_friction=c.deposit_friction, stage_progress=self.progress,
-                               box_changes=dict(c.screen_changes) or None, seed=c.seed,
+                               box_changes=dict(c.screen_changes) or None, box_samples=c.box_samples, seed=c.seed,
                                cache_dir=str(self.out / "beds"), device=self.device)
         return DraughtProblem(assembly=c.assembly, scale=CALIBRATION_SCALE[c.scale], travel=c.calibration_travel,
                               settle_time=c.settle_time, seed=c.seed, cache_dir=str(self.out / "beds"),

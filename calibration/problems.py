@@ -315,12 +315,18 @@ class SoilProblem(DraughtProblem):
         sample at rest anyway) and fragile False (the bonds yield instead of breaking, in both rigs); and
         box_scale: the shear box preset (:func:`scenes.shear_box.preset`: "ci", "cpu", "paper").
         box_changes: further ShearBoxConfig fields (e.g. ``shear_displacement``).
+        box_samples: shear-box samples per individual, deposited with seeds ``box.seed`` .. + box_samples - 1 (once
+            per problem); the box's cohesion and friction angle are their means. One sample's c and phi scatter by
+            about 1 kPa and 0.9 deg from sample to sample (docs/runs/soil_ga_loose_box_h100x2, 15 samples of the
+            ``cpu`` box), as much as a third of the tolerances: with one sample a GA picks the individuals that met
+            a favourable one.
     """
 
     settle_time: float = 1.0
     fragile: bool = False
     box_scale: str = "ci"
     box_changes: dict[str, object] | None = None
+    box_samples: int = 1
 
     name = "soil"
     rigs = (SOIL_BIN, SHEAR_BOX)
@@ -330,16 +336,19 @@ class SoilProblem(DraughtProblem):
         super().__post_init__()
         c_lab, phi_lab = shear_box.lab_strength()
         self.targets = {**self.targets, "cohesion_kpa": c_lab, "friction_angle_deg": phi_lab}
+        if isinstance(self.box_samples, bool) or not isinstance(self.box_samples, int) or self.box_samples < 1:
+            raise InputError(f"box_samples must be a whole number >= 1, got {self.box_samples!r}")
         self.box = shear_box.preset(self.box_scale, self.assembly, fragile=self.fragile,
                                     **(self.box_changes or {}))
-        self._box_bed = None
+        self._box_beds: list | None = None
 
     def __getstate__(self) -> dict[str, object]:  # beds are re-read or re-deposited by a remote worker
-        return {**super().__getstate__(), "_box_bed": None}
+        return {**super().__getstate__(), "_box_beds": None}
 
     def simulation_key(self) -> dict[str, object]:
         return {**super().simulation_key(), "rig": "soil_bin_rigid+shear_box", "box_scale": self.box_scale,
-                "box_changes": self.box_changes or {}, "fragile": self.fragile}
+                "box_changes": self.box_changes or {}, "fragile": self.fragile,
+                **({"box_samples": self.box_samples} if self.box_samples != 1 else {})}
 
     def spec(self) -> dict[str, object]:
         return {**self.simulation_key(), "targets": self.targets, "tolerances": SOIL_TOLERANCES,
@@ -355,21 +364,37 @@ class SoilProblem(DraughtProblem):
         return rows
 
     def box_observables(self, values: np.ndarray, labels: Sequence[object] | None = None) -> list[dict[str, float]]:
-        """The shear box alone, one batched simulation (the sample deposited once per problem): genes (n, 3) ->
-        [{cohesion_kpa, friction_angle_deg, r2}]. ``labels``: how each individual is named in progress and errors
-        (default its row)."""
+        """The shear box alone, one batched simulation per sample (each sample deposited once per problem): genes
+        (n, 3) -> [{cohesion_kpa, friction_angle_deg, r2}], the means over the ``box_samples`` samples (r2: the
+        smallest); with several samples also cohesion_kpa_se and friction_angle_deg_se, the standard errors of those
+        means over the samples. ``labels``: how each individual is named in progress and errors (default its
+        row)."""
         values = np.atleast_2d(np.asarray(values, dtype=np.float64))
         soil = self.soil_overrides(values)
         labels = range(len(values)) if labels is None else labels
-        configs = [self.box.replace(**{k: float(soil[k][i]) for k in soil}, label=f"individual {lab}")
-                   for i, lab in enumerate(labels)]
-        if self._box_bed is None:
-            self._box_bed = shear_box.make_bed(self.box, self.device)
+        samples = [self.box.replace(seed=self.box.seed + k) for k in range(self.box_samples)]
+        if self._box_beds is None:
+            self._box_beds = [shear_box.make_bed(box, self.device) for box in samples]
         bar = self.stage_progress
-        boxes = shear_box.run_shear_boxes(configs, self.device, bed=self._box_bed,
-                                          progress=(lambda ph, d, n: bar(f"shear box: {ph}", d, n)) if bar else None)
-        return [{"cohesion_kpa": float(res.fit.cohesion / 1e3), "friction_angle_deg": float(res.fit.friction_angle_deg),
-                 "r2": float(res.fit.r2)} for res in boxes]
+        c, phi, r2 = (np.empty((self.box_samples, len(values))) for _ in range(3))
+        for k, (box, bed) in enumerate(zip(samples, self._box_beds, strict=True)):
+            phase = f"shear box, sample {k + 1} of {self.box_samples}" if self.box_samples > 1 else "shear box"
+            configs = [box.replace(**{f: float(soil[f][i]) for f in soil}, label=f"individual {lab}")
+                       for i, lab in enumerate(labels)]
+            boxes = shear_box.run_shear_boxes(configs, self.device, bed=bed,
+                                              progress=(lambda ph, d, n, p=phase: bar(f"{p}: {ph}", d, n))
+                                              if bar else None)
+            c[k] = [res.fit.cohesion / 1e3 for res in boxes]
+            phi[k] = [res.fit.friction_angle_deg for res in boxes]
+            r2[k] = [res.fit.r2 for res in boxes]
+        rows = [{"cohesion_kpa": float(c[:, i].mean()), "friction_angle_deg": float(phi[:, i].mean()),
+                 "r2": float(r2[:, i].min())} for i in range(len(values))]
+        if self.box_samples > 1:
+            root = math.sqrt(self.box_samples)
+            for i, row in enumerate(rows):
+                row["cohesion_kpa_se"] = float(c[:, i].std(ddof=1) / root)
+                row["friction_angle_deg_se"] = float(phi[:, i].std(ddof=1) / root)
+        return rows
 
     def errors(self, obs: dict[str, float]) -> dict[str, float]:
         """re_draught (signed, [-]), re_cohesion (signed, [-]) and d_friction_deg (signed [deg])."""

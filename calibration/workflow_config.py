@@ -78,6 +78,10 @@ class WorkflowConfig:
     with GA set 11 only the second reaches the laboratory's draught and shear box together. ``reproduce --workflow
     full`` takes "bonded" with the box at 20-80 kPa (``screen_changes``) in a new folder: on the default bed that
     calibration accepted a set (docs/runs/soil_ga_loose_box_h100x2)."""
+    box_samples: int = 1
+    """the "bonded" soil calibration's shear-box samples per individual (``SoilProblem.box_samples``: the box's c and
+    phi are their means). ``reproduce --workflow full`` takes 3 in a new folder
+    (``calibration.cli.SOIL_BOX_SAMPLES``)."""
     deposit_friction: float = 30.0
     """[deg] contact friction of the soil-bin beds' deposition (``SoilBinConfig.deposit_friction``; 0: a dense bed,
     coordination 8.7 at paper scale against 6.95, the paper's 9.55) in the draught calibration, Table 3 and the
@@ -131,6 +135,8 @@ class WorkflowConfig:
     def __post_init__(self) -> None:
         if self.soil_protocol not in SOIL_PROTOCOLS:
             raise InputError(f"soil_protocol must be one of {SOIL_PROTOCOLS}, got {self.soil_protocol!r}")
+        if isinstance(self.box_samples, bool) or not isinstance(self.box_samples, int) or self.box_samples < 1:
+            raise InputError(f"box_samples must be a whole number >= 1, got {self.box_samples!r}")
         if not (math.isfinite(self.deposit_friction) and 0.0 <= self.deposit_friction < 90.0):
             raise InputError(f"deposit_friction must be in [0, 90) deg, got {self.deposit_friction!r}")
         if self.passive_tool is not None:

@@ -144,6 +144,12 @@ BAD = [
     ("calibrate soil --box-stresses 20,x,80", "argument --box-stresses: must be comma-separated normal stresses"),
     ("calibrate draught --box-stresses 20,40,80", "--box-stresses: only 'calibrate soil' reads it (its shear box), "
                                                   "got 'calibrate draught'"),
+    ("calibrate soil --box-samples 0", "argument --box-samples: must be >= 1"),
+    ("calibrate draught --box-samples 3", "--box-samples: only 'calibrate soil' reads it (its shear box), got "
+                                          "'calibrate draught'"),
+    ("reproduce --box-samples 3", "error: --box-samples 3: only --workflow full reads it"),
+    ("reproduce --workflow full --soil-protocol paper --box-samples 3 --out {tmp}/w",
+     "error: --box-samples 3: only the bonded soil protocol's calibration reads it, got --soil-protocol paper"),
     ("shear-box --normal-stresses 10,10,-3", "argument --normal-stresses: must be at least three distinct normal"),
     ("speed-sweep --soil-from {tmp}/none --out {tmp}/s", "error: soil folder '{tmp}/none' holds no archive.json of a "
                                                          "warpdem calibration"),

@@ -99,3 +99,26 @@ def test_a_passive_study_takes_the_calibrated_soil_with_its_protocol(calibration
     study = PassiveStudy(tmp_path / "study", scale="ci", soil=str(as_c), log=lambda m: None)
     assert {k: study.soil[k] for k in GENES} == GENES
     assert {k: getattr(study.config, k) for k in PROTOCOL} == PROTOCOL
+
+
+def test_several_box_samples_average_the_boxes_a_user_gets_seed_by_seed(calibration_folder, tmp_path) -> None:
+    """``box_samples=2``: each individual's c and phi are the means over the samples of seeds 0 and 1, and their
+    standard errors the samples' scatter over sqrt(2). Sample 0 is the one-sample calibration's box (the fixture's
+    record, to rounding); sample 1 is what `shear-box --seed 1` gives the calibrated soil (its own deposition): the
+    mean is over independent realisations, each the box a user runs, not one sample counted twice."""
+    from calibration import cli
+
+    folder, obs = calibration_folder
+    problem = SoilProblem(assembly="A", scale="ci", box_scale="ci", seed=3, box_changes={"normal_stresses": STRESSES},
+                          box_samples=2, device="cpu", **PROTOCOL)
+    assert problem.simulation_key()["box_samples"] == 2
+    row = problem.box_observables(np.array([[GENES[g.name] for g in problem.gene_list]]))[0]
+    out = tmp_path / "box1"
+    assert cli.main(["--quiet", "shear-box", "--scale", "ci", "--assembly", "A", "--soil-from", str(folder),
+                     "--seed", "1", "--device", "cpu", "--out", str(out)]) == 0
+    seed1 = json.loads((out / "summary.json").read_text())
+    for key, one in (("cohesion_kpa", seed1["cohesion_pa"] / 1e3), ("friction_angle_deg", seed1["friction_angle_deg"])):
+        zero = obs[key]
+        assert abs(one - zero) > 1e-6, (key, zero, one)  # two realisations, not one sample twice
+        assert row[key] == pytest.approx((zero + one) / 2, rel=1e-9, abs=1e-12)
+        assert row[f"{key}_se"] == pytest.approx(abs(one - zero) / 2, rel=1e-9, abs=1e-12)

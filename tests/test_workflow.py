@@ -632,7 +632,8 @@ def test_the_full_workflow_calibrates_the_soil_to_draught_and_box_unless_told_or
     """`reproduce --workflow full` in a new folder calibrates the soil to the draught and the shear box together
     ("bonded") with the box at 20-80 kPa (docs/runs/soil_ga_loose_box_h100x2: the soil that reached both);
     `--soil-protocol paper` keeps the paper's way and its box; `--box-stresses` sets the box's stresses; a folder made
-    with the paper's protocol goes on with it when the command does not say."""
+    with the paper's protocol goes on with it when the command does not say. The joint calibration's box runs three
+    samples per individual in a new folder (calibration.cli.SOIL_BOX_SAMPLES)."""
     from calibration import paper_workflow as pw
 
     configs = [full_workflow_start(tmp_path / "new"),
@@ -642,6 +643,9 @@ def test_the_full_workflow_calibrates_the_soil_to_draught_and_box_unless_told_or
     stresses = {"normal_stresses": [20e3, 40e3, 80e3]}
     assert [(c.soil_protocol, json.loads(json.dumps(c.screen_changes))) for c in configs] == [
         ("bonded", stresses), ("paper", {}), ("paper", {}), ("bonded", {"normal_stresses": [5e3, 10e3, 20e3]})]
-    config = pw.WorkflowConfig(scale="ci", assembly="A", soil_protocol="bonded", screen_changes=stresses)
+    assert [c.box_samples for c in configs] == [3, 1, 1, 3]  # box samples per individual: the joint GA's only
+    config = pw.WorkflowConfig(scale="ci", assembly="A", soil_protocol="bonded", screen_changes=stresses,
+                               box_samples=3)
     problem = pw.Workflow(tmp_path / "api", config).draught_problem()
     assert problem.name == "soil" and tuple(problem.box.normal_stresses) == (20e3, 40e3, 80e3)
+    assert problem.box_samples == 3 and problem.simulation_key()["box_samples"] == 3
