@@ -854,6 +854,11 @@ def run_calibrate_cmd(args: argparse.Namespace) -> int:
         return 3
     best = result.best
     print(f"best: {best.genes} -> {best.observables}, errors {best.errors}, fitness {best.fitness:.4g}")
+    if (held := summary.get("held_out_box")) is not None:
+        o = held["observables"]
+        print(f"best set's shear box on samples the calibration never saw (seeds "
+              f"{','.join(map(str, held['seeds']))}): c {o['cohesion_kpa']:.2f} kPa, phi {o['friction_angle_deg']:.2f} "
+              f"deg: {'within' if held['box_accepted'] else 'NOT within'} the tolerances")
     if summary.get("screening"):
         for r in summary["screening"]:
             print(f"screening rank {r['rank']}: set {r['set']} c {r['cohesion_kpa']:.2f} kPa, "

@@ -416,6 +416,12 @@ class Workflow:
         return out
 
     # ---- stage 3: screening ------------------------------------------------------------------------------------
+    def _screen_protocol(self) -> dict[str, object]:
+        """The screening box's bonds and sample: the paper's protocol screens on the box's own sample with bonds that
+        break; "bonded" with yielding bonds on the first sample its soil calibration never saw (seed ``box_samples``),
+        so that the screening checks the calibration's box result off the samples it was selected on."""
+        return {} if self.config.fragile else {"fragile": False, "seed": self.config.box_samples}
+
     def screening(self, draught: dict, budget: Budget) -> dict:
         if (done := self._done("screening.json")) is not None:
             return done
@@ -427,7 +433,7 @@ class Workflow:
         rows = screen([c["genes"] for c in draught["candidates"]], self.config.assembly,
                       SCREEN_SCALE[self.config.scale], device=self.device,
                       progress=(lambda ph, d, n: bar(f"screening: shear box {ph}", d, n)) if bar else None,
-                      **{**self.config.screen_changes, **({} if self.config.fragile else {"fragile": False})})
+                      **{**self.config.screen_changes, **self._screen_protocol()})
         for r in rows:
             r["draught_mean_n"] = draught["candidates"][r["set"] - 1]["draught_mean_n"]
         chosen = {g: rows[0][g] for g in ("friction_angle", "normal_cohesion", "eta_roll")}

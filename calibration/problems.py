@@ -340,10 +340,10 @@ class SoilProblem(DraughtProblem):
             raise InputError(f"box_samples must be a whole number >= 1, got {self.box_samples!r}")
         self.box = shear_box.preset(self.box_scale, self.assembly, fragile=self.fragile,
                                     **(self.box_changes or {}))
-        self._box_beds: list | None = None
+        self._box_beds: dict[int, shear_box.Bed] = {}
 
     def __getstate__(self) -> dict[str, object]:  # beds are re-read or re-deposited by a remote worker
-        return {**super().__getstate__(), "_box_beds": None}
+        return {**super().__getstate__(), "_box_beds": {}}
 
     def simulation_key(self) -> dict[str, object]:
         return {**super().simulation_key(), "rig": "soil_bin_rigid+shear_box", "box_scale": self.box_scale,
@@ -363,25 +363,27 @@ class SoilProblem(DraughtProblem):
             row.update(box)
         return rows
 
-    def box_observables(self, values: np.ndarray, labels: Sequence[object] | None = None) -> list[dict[str, float]]:
+    def box_observables(self, values: np.ndarray, labels: Sequence[object] | None = None,
+                        seeds: Sequence[int] | None = None) -> list[dict[str, float]]:
         """The shear box alone, one batched simulation per sample (each sample deposited once per problem): genes
-        (n, 3) -> [{cohesion_kpa, friction_angle_deg, r2}], the means over the ``box_samples`` samples (r2: the
-        smallest); with several samples also cohesion_kpa_se and friction_angle_deg_se, the standard errors of those
-        means over the samples. ``labels``: how each individual is named in progress and errors (default its
-        row)."""
+        (n, 3) -> [{cohesion_kpa, friction_angle_deg, r2}], the means over the samples (r2: the smallest); with
+        several samples also cohesion_kpa_se and friction_angle_deg_se, the standard errors of those means over the
+        samples. ``labels``: how each individual is named in progress and errors (default its row). ``seeds``: the
+        samples' deposition seeds (default the calibration's: ``box_samples`` of them from ``box.seed``)."""
         values = np.atleast_2d(np.asarray(values, dtype=np.float64))
         soil = self.soil_overrides(values)
         labels = range(len(values)) if labels is None else labels
-        samples = [self.box.replace(seed=self.box.seed + k) for k in range(self.box_samples)]
-        if self._box_beds is None:
-            self._box_beds = [shear_box.make_bed(box, self.device) for box in samples]
+        seeds = list(range(self.box.seed, self.box.seed + self.box_samples) if seeds is None else seeds)
         bar = self.stage_progress
-        c, phi, r2 = (np.empty((self.box_samples, len(values))) for _ in range(3))
-        for k, (box, bed) in enumerate(zip(samples, self._box_beds, strict=True)):
-            phase = f"shear box, sample {k + 1} of {self.box_samples}" if self.box_samples > 1 else "shear box"
+        c, phi, r2 = (np.empty((len(seeds), len(values))) for _ in range(3))
+        for k, seed in enumerate(seeds):
+            box = self.box.replace(seed=seed)
+            if seed not in self._box_beds:
+                self._box_beds[seed] = shear_box.make_bed(box, self.device)
+            phase = f"shear box, sample {k + 1} of {len(seeds)}" if len(seeds) > 1 else "shear box"
             configs = [box.replace(**{f: float(soil[f][i]) for f in soil}, label=f"individual {lab}")
                        for i, lab in enumerate(labels)]
-            boxes = shear_box.run_shear_boxes(configs, self.device, bed=bed,
+            boxes = shear_box.run_shear_boxes(configs, self.device, bed=self._box_beds[seed],
                                               progress=(lambda ph, d, n, p=phase: bar(f"{p}: {ph}", d, n))
                                               if bar else None)
             c[k] = [res.fit.cohesion / 1e3 for res in boxes]
@@ -389,12 +391,26 @@ class SoilProblem(DraughtProblem):
             r2[k] = [res.fit.r2 for res in boxes]
         rows = [{"cohesion_kpa": float(c[:, i].mean()), "friction_angle_deg": float(phi[:, i].mean()),
                  "r2": float(r2[:, i].min())} for i in range(len(values))]
-        if self.box_samples > 1:
-            root = math.sqrt(self.box_samples)
+        if len(seeds) > 1:
+            root = math.sqrt(len(seeds))
             for i, row in enumerate(rows):
                 row["cohesion_kpa_se"] = float(c[:, i].std(ddof=1) / root)
                 row["friction_angle_deg_se"] = float(phi[:, i].std(ddof=1) / root)
         return rows
+
+    def held_out_box(self, genes: dict[str, float]) -> dict[str, object]:
+        """One set's shear box on ``box_samples`` samples the calibration never saw (the seeds after its own): does
+        its box result hold off the samples it was selected on? A GA picks, among individuals whose box results
+        scatter from sample to sample, those that met favourable samples; this is the check of its acceptance.
+        Returns the seeds, the box's observables (means, standard errors with several samples), the two box
+        errors and whether both are within their tolerances."""
+        seeds = list(range(self.box.seed + self.box_samples, self.box.seed + 2 * self.box_samples))
+        values = np.array([[float(genes[g.name]) for g in self.gene_list]])
+        obs = self.box_observables(values, labels=["held out"], seeds=seeds)[0]
+        errors = {k: v for k, v in self.errors({**obs, "draught_mean_n": self.targets["draught_mean_n"]}).items()
+                  if k != "re_draught"}
+        return {"seeds": seeds, "observables": obs, "errors": errors,
+                "box_accepted": all(abs(errors[k]) <= SOIL_TOLERANCES[k] for k in errors)}
 
     def errors(self, obs: dict[str, float]) -> dict[str, float]:
         """re_draught (signed, [-]), re_cohesion (signed, [-]) and d_friction_deg (signed [deg])."""

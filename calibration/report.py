@@ -161,6 +161,27 @@ def tradeoff_plot(problem, recs: list[Record], path: str | Path) -> None:  # noq
     plt.close(fig)
 
 
+def held_out_lines(held: dict[str, object], problem) -> list[str]:  # noqa: ANN001
+    """The report's section on the best set's shear box on samples the calibration never saw
+    (:meth:`calibration.problems.SoilProblem.held_out_box`)."""
+    obs, err, tol = held["observables"], held["errors"], problem.spec()["tolerances"]
+    seeds = ", ".join(map(str, held["seeds"]))
+
+    def value(key: str, unit: str) -> str:
+        se = obs.get(f"{key}_se")
+        return f"{obs[key]:.2f}" + (f" +- {se:.2f}" if se is not None else "") + f" {unit}"
+
+    verdict = ("holds there: both within their tolerances" if held["box_accepted"] else
+               "does not hold there: the calibration's box result does not carry over to other samples of the same "
+               "soil, so the set does not reach the laboratory's box")
+    return ["## The best set's shear box on samples the calibration never saw\n",
+            f"Samples of seeds {seeds} (the calibration's own: {problem.box.seed} to "
+            f"{problem.box.seed + problem.box_samples - 1}): c = {value('cohesion_kpa', 'kPa')} "
+            f"({100 * err['re_cohesion']:+.1f} %, tolerance {100 * tol['re_cohesion']:.0f} %), phi = "
+            f"{value('friction_angle_deg', 'deg')} ({err['d_friction_deg']:+.2f} deg, tolerance "
+            f"{tol['d_friction_deg']:g} deg). The box result {verdict}.\n"]
+
+
 def write_report(result: CalibrationResult, problem, out: str | Path, *,  # noqa: ANN001
                  screening: list[dict[str, object]] | None = None, extra: dict[str, object] | None = None,
                  top: int = 10) -> Path:
@@ -202,6 +223,8 @@ def write_report(result: CalibrationResult, problem, out: str | Path, *,  # noqa
             md += [f"The best set's normal cohesion, {result.best.genes['normal_cohesion'] / 1e3:.1f} kPa, is "
                    f"{result.best.genes['normal_cohesion'] / top_cn:.1f}x the top of the paper's range (50 kPa): a "
                    "fitted number outside the paper's range, which may stand for a mechanism the model lacks.\n"]
+        if (held := (extra or {}).get("held_out_box")) is not None:
+            md += held_out_lines(held, problem)
         front, reach = soil_tradeoff(problem, recs)
         tradeoff_plot(problem, recs, out / "tradeoff.png")
         md += ["## The trade-off\n",

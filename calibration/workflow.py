@@ -75,5 +75,9 @@ def run_calibration(kind: str, out: str | Path, *, settings: GASettings | None =
             screening = screen([r.genes for r in accepted[:screen_top]], problem.assembly, screen_scale,
                                device=device, progress=screen_progress)
             extra["screening_wall_s"] = time.perf_counter() - t0
+    if kind == "soil":
+        t0 = time.perf_counter()
+        extra["held_out_box"] = problem.held_out_box(result.best.genes)
+        extra["held_out_box_wall_s"] = time.perf_counter() - t0
     write_report(result, problem, out, screening=screening, extra=extra)
     return result, {"best": result.best, "screening": screening, **extra}

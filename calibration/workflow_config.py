@@ -81,7 +81,8 @@ class WorkflowConfig:
     box_samples: int = 1
     """the "bonded" soil calibration's shear-box samples per individual (``SoilProblem.box_samples``: the box's c and
     phi are their means). ``reproduce --workflow full`` takes 3 in a new folder
-    (``calibration.cli.SOIL_BOX_SAMPLES``)."""
+    (``calibration.cli.SOIL_BOX_SAMPLES``). The screening then runs the fittest sets on sample seed ``box_samples``,
+    one the calibration never saw."""
     deposit_friction: float = 30.0
     """[deg] contact friction of the soil-bin beds' deposition (``SoilBinConfig.deposit_friction``; 0: a dense bed,
     coordination 8.7 at paper scale against 6.95, the paper's 9.55) in the draught calibration, Table 3 and the

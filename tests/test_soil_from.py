@@ -105,8 +105,10 @@ def test_several_box_samples_average_the_boxes_a_user_gets_seed_by_seed(calibrat
     """``box_samples=2``: each individual's c and phi are the means over the samples of seeds 0 and 1, and their
     standard errors the samples' scatter over sqrt(2). Sample 0 is the one-sample calibration's box (the fixture's
     record, to rounding); sample 1 is what `shear-box --seed 1` gives the calibrated soil (its own deposition): the
-    mean is over independent realisations, each the box a user runs, not one sample counted twice."""
+    mean is over independent realisations, each the box a user runs, not one sample counted twice. The held-out check
+    of a one-sample calibration (``held_out_box``) is that same seed-1 box, judged by the stated tolerances."""
     from calibration import cli
+    from calibration.report import held_out_lines
 
     folder, obs = calibration_folder
     problem = SoilProblem(assembly="A", scale="ci", box_scale="ci", seed=3, box_changes={"normal_stresses": STRESSES},
@@ -122,3 +124,15 @@ def test_several_box_samples_average_the_boxes_a_user_gets_seed_by_seed(calibrat
         assert abs(one - zero) > 1e-6, (key, zero, one)  # two realisations, not one sample twice
         assert row[key] == pytest.approx((zero + one) / 2, rel=1e-9, abs=1e-12)
         assert row[f"{key}_se"] == pytest.approx(abs(one - zero) / 2, rel=1e-9, abs=1e-12)
+    # The one-sample calibration's held-out check runs the seed after its own (1): the same box as above, its errors
+    # against the laboratory's 6.4 kPa and 32.3 deg, accepted only with both within their tolerances.
+    one_sample = SoilProblem(assembly="A", scale="ci", box_scale="ci", seed=3, device="cpu",
+                             box_changes={"normal_stresses": STRESSES}, **PROTOCOL)
+    held = one_sample.held_out_box(GENES)
+    c1, phi1 = seed1["cohesion_pa"] / 1e3, seed1["friction_angle_deg"]
+    assert held["seeds"] == [1] and "cohesion_kpa_se" not in held["observables"]
+    assert held["observables"]["cohesion_kpa"] == pytest.approx(c1, rel=1e-9)
+    assert held["errors"] == pytest.approx({"re_cohesion": (c1 - 6.4) / 6.4, "d_friction_deg": phi1 - 32.3})
+    assert held["box_accepted"] == (abs(c1 - 6.4) <= 0.25 * 6.4 and abs(phi1 - 32.3) <= 3.0)
+    text = "".join(held_out_lines(held, one_sample))
+    assert f"c = {c1:.2f} kPa" in text and f"phi = {phi1:.2f} deg" in text and "seeds 1 " in text

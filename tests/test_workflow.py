@@ -624,6 +624,23 @@ def test_the_bonded_soil_protocol_calibrates_draught_and_shear_box_and_keeps_its
         wf.run_job(wf.jobs(0)[0], {"friction_angle": 30.0, "normal_cohesion": 1e4, "eta_roll": 0.05}, None,
                    Budget(None))
     assert not seen[0].fragile and seen[0].settle_time == BONDED_SETTLE
+    # The screening box: the paper's on the box's own sample (seed 0) with breaking bonds; "bonded" with yielding bonds
+    # on the first sample its calibration's box never saw (seeds 0 .. box_samples - 1), a held-out check.
+    from calibration import paper_workflow as pw
+
+    asked = []
+
+    def fake_screen(sets: object, *a: object, **k: object) -> list[dict]:
+        asked.append(k)
+        return [{"set": 1, "friction_angle": 30.0, "normal_cohesion": 1e4, "eta_roll": 0.05}]
+
+    monkeypatch.setattr(pw, "screen", fake_screen)
+    draught = {"candidates": [{"genes": {"friction_angle": 30.0, "normal_cohesion": 1e4, "eta_roll": 0.05},
+                               "draught_mean_n": 340.0}], "accepted": 1}
+    three = Workflow(tmp_path / "three", _config(soil_protocol="bonded", box_samples=3))
+    for flow in (paper_wf, wf, three):
+        flow.screening(draught, Budget(None))
+    assert [(k.get("fragile", True), k.get("seed", 0)) for k in asked] == [(True, 0), (False, 1), (False, 3)]
 
 
 def test_the_full_workflow_calibrates_the_soil_to_draught_and_box_unless_told_or_continuing(tmp_path,
