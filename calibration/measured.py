@@ -52,27 +52,21 @@ import numpy as np
 from scenes import rigs
 from warpdem.errors import InputError
 
+_SPEED = {"m/s": 1.0, "mm/s": 1e-3, "km/h": 1 / 3.6}
+_FORCE = {"N": 1.0, "kN": 1e3}
+_LENGTH = {"m": 1.0, "mm": 1e-3}
+_PERCENT = {"%": 1.0, "-": 100.0}
 UNITS: dict[str, dict[str, float]] = {
     "springs": {"-": 1.0},
     "stiffness": {"N/m": 1.0, "N/mm": 1e3, "kN/m": 1e3},
-    "speed": {"m/s": 1.0, "mm/s": 1e-3, "km/h": 1 / 3.6},
-    "speed_std": {"m/s": 1.0, "mm/s": 1e-3, "km/h": 1 / 3.6},
+    **dict.fromkeys(("speed", "speed_std"), _SPEED),
     "frequency": {"Hz": 1.0},
     "damping": {"-": 1.0, "%": 1e-2},
-    "draught_mean": {"N": 1.0, "kN": 1e3},
-    "draught_std": {"N": 1.0, "kN": 1e3},
-    "rigid_draught_mean": {"N": 1.0, "kN": 1e3},
-    "rigid_draught_std": {"N": 1.0, "kN": 1e3},
-    "displacement_mean": {"m": 1.0, "mm": 1e-3},
-    "displacement_std": {"m": 1.0, "mm": 1e-3},
-    "reduction": {"%": 1.0, "-": 100.0},
-    "reduction_se": {"%": 1.0, "-": 100.0},
-    "draught_mean_se": {"N": 1.0, "kN": 1e3},
-    "rigid_draught_mean_se": {"N": 1.0, "kN": 1e3},
-    "displacement_mean_se": {"m": 1.0, "mm": 1e-3},
+    **dict.fromkeys(("draught_mean", "draught_std", "rigid_draught_mean", "rigid_draught_std", "draught_mean_se",
+                     "rigid_draught_mean_se", "force"), _FORCE),
+    **dict.fromkeys(("displacement_mean", "displacement_std", "displacement_mean_se", "displacement"), _LENGTH),
+    **dict.fromkeys(("reduction", "reduction_se"), _PERCENT),
     "time": {"s": 1.0, "ms": 1e-3},
-    "force": {"N": 1.0, "kN": 1e3},
-    "displacement": {"m": 1.0, "mm": 1e-3},
 }
 """accepted units per known quantity and their factor to the SI unit (reduction is kept in %)."""
 SERIES_ONLY = ("time", "force", "displacement")
