@@ -100,6 +100,15 @@ def _table3() -> dict[int, dict[str, float]]:
     return {int(n): {k: float(v[i]) for k, v in t.items()} for i, n in enumerate(t["springs"])}
 
 
+def _soil_folder_resolved(meta: dict[str, object]) -> dict[str, object]:
+    """A study's record with its soil folder (``soil_name``, where it names a calibration's folder) as an absolute
+    path: the same folder spelled another way (relative, absolute, through a link) is the same study."""
+    name = meta.get("soil_name")
+    if isinstance(name, str) and name not in SOILS and Path(name).is_dir():
+        return {**meta, "soil_name": str(Path(name).resolve())}
+    return meta
+
+
 class PassiveStudy:
     """The study's folder and its stages (module docstring)."""
 
@@ -131,8 +140,10 @@ class PassiveStudy:
         if self.shank_length != SweepParams.shank_length:
             meta["shank_length"] = self.shank_length
         p = self.out / "study.json"
-        if p.exists() and json.loads(p.read_text()) != sb.json_safe(meta):
-            raise ValueError(f"{self.out} holds a study with other settings ({p}); choose another folder")
+        if p.exists():
+            if _soil_folder_resolved(json.loads(p.read_text())) != _soil_folder_resolved(sb.json_safe(meta)):
+                raise ValueError(f"{self.out} holds a study with other settings ({p}); choose another folder")
+            return  # the same study: its record stays as first written (a soil folder spelled as then)
         _json(p, meta)
 
     def _done(self, stage: str) -> dict | None:

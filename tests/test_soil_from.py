@@ -99,6 +99,13 @@ def test_a_passive_study_takes_the_calibrated_soil_with_its_protocol(calibration
     study = PassiveStudy(tmp_path / "study", scale="ci", soil=str(as_c), log=lambda m: None)
     assert {k: study.soil[k] for k in GENES} == GENES
     assert {k: getattr(study.config, k) for k in PROTOCOL} == PROTOCOL
+    # The same soil folder spelled another way continues the study; another soil folder is another study.
+    PassiveStudy(tmp_path / "study", scale="ci", soil=str(tmp_path / "." / "cal_c"), log=lambda m: None)
+    other = tmp_path / "cal_d"
+    other.mkdir()
+    (other / "archive.json").write_text(json.dumps(archive))
+    with pytest.raises(ValueError, match="holds a study with other settings"):
+        PassiveStudy(tmp_path / "study", scale="ci", soil=str(other), log=lambda m: None)
 
 
 def test_several_box_samples_average_the_boxes_a_user_gets_seed_by_seed(calibration_folder, tmp_path) -> None:
