@@ -24,11 +24,12 @@ from __future__ import annotations
 import json
 import math
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 
-from scenes import paper
+from scenes import analysis, paper
 from scenes import soil_bin as sb
 from scenes.passive_tool import G, PassiveTool, from_dict, lever, load_toml
 from scenes.sweep import SweepParams, build_sweep
@@ -430,13 +431,53 @@ def _between_lines(rows: list[dict[str, object]]) -> list[str]:
             f"Bed-to-bed std of the displacement within a factor 2 of the lab's: {within} of 8.", ""]
 
 
+def draught_plateau(folders: list[str | Path], variant: str = "described") -> analysis.Plateau | None:
+    """Where the draught of every run in ``folders`` (their rigid stage and the variant's passive stage, each
+    world a run, from the records that are there) is heading along the travel (:func:`scenes.analysis.plateau_fit`,
+    over the travel the shortest run covers), against the steady window's mean; None where the records cannot say
+    (fewer than two runs, or too short)."""
+    travel, draught = [], []
+    for f in folders:
+        for name in ("rigid", f"passive_{variant}"):
+            if (path := Path(f) / f"{name}.npz").is_file():
+                with np.load(path) as rec:
+                    travel.append(rec["travel"])
+                    draught.append(rec["draught"])
+    if not travel:
+        return None
+    k = min(len(t) for t in travel)
+    try:
+        return analysis.plateau_fit(np.concatenate([t[:k] for t in travel], axis=1),
+                                    np.concatenate([d[:k] for d in draught], axis=1))
+    except InputError:
+        return None
+
+
+def plateau_lines(fit: analysis.Plateau | None) -> list[str]:
+    """The report's section on :func:`draught_plateau`."""
+    if fit is None:
+        return ["### Is the draught steady in its window?", "",
+                "The folders' records are too few or too short to say.", ""]
+    gap = 100 * (fit.window_mean / fit.plateau - 1)
+    return ["### Is the draught steady in its window?", "",
+            f"Over the {fit.n_worlds} runs (rigid and passive worlds) the draught approaches D(x) = "
+            f"{fit.plateau:.1f} +- {fit.plateau_se:.1f} N - {fit.amplitude:.0f} N exp(-x / "
+            f"({fit.length:.3f} +- {fit.length_se:.3f} m)) along the travel x (`scenes.analysis.plateau_fit`). "
+            f"The steady window's bins average {fit.window_mean:.1f} N, {gap:+.1f} % against the plateau: "
+            + ("the window starts after the approach has ended." if abs(gap) < 1.0 else
+               "the window starts before the approach has ended, so its means lie below where the runs are heading "
+               "(a longer travel or a later window would move them)."), ""]
+
+
 def write_beds(out: str | Path, folders: list[str | Path], variant: str = "described") -> list[dict[str, object]]:
-    """:func:`beds_table` of ``folders`` into ``out``: beds.json, beds.md and fig_table3_beds.png. Returns the
-    rows."""
+    """:func:`beds_table` of ``folders`` into ``out``: beds.json (with the draught's plateau,
+    :func:`draught_plateau`), beds.md and fig_table3_beds.png. Returns the rows."""
     out = Path(out)
     rows = beds_table(folders, variant)
-    _json(out / "beds.json", {"folders": [str(f) for f in folders], "variant": variant, "rows": rows})
-    text = "\n".join(["# Table 3 over several beds", "", *beds_lines(folders, rows, variant)])
+    fit = draught_plateau(folders, variant)
+    _json(out / "beds.json", {"folders": [str(f) for f in folders], "variant": variant, "rows": rows,
+                              "draught_plateau": None if fit is None else asdict(fit)})
+    text = "\n".join(["# Table 3 over several beds", "", *beds_lines(folders, rows, variant), *plateau_lines(fit)])
     write_text_atomic(out / "beds.md", text)
     table3_figure(rows, out / "fig_table3_beds.png", f"'{variant}' tool, {len(folders)} bed(s)",
                   f"warpdem (mean of {len(folders)} bed(s), SE)")

@@ -710,6 +710,74 @@ def steady_state(t: object, x: object, travel: object, *, start_travel: float = 
                        trend_sem=trend_sem, t_mean=float(t[steady].mean()))
 
 
+@dataclass(frozen=True)
+class Plateau:
+    """A draught approaching its plateau along the travel: D(x) = plateau - amplitude exp(-x / length).
+
+    Attributes:
+        plateau: the draught the run tends to [N]; plateau_se its standard error [N].
+        amplitude: how far below the plateau it starts [N].
+        length: the travel over which the gap falls by e [m]; length_se its standard error [m].
+        window_mean: the mean of the binned draught from ``start_travel`` on [N] (a steady-state window's mean).
+        n_worlds: the runs averaged.
+    """
+
+    plateau: float
+    plateau_se: float
+    amplitude: float
+    length: float
+    length_se: float
+    window_mean: float
+    n_worlds: int
+
+
+def plateau_fit(travel: object, draught: object, *, fit_from: float = 0.3, start_travel: float = 0.5,
+                bin_width: float = 0.05) -> Plateau:
+    """Where several runs' draught is heading: each run's draught is averaged in travel bins of ``bin_width`` [m],
+    the bins averaged over the runs (their scatter over the runs is each bin's standard error), and D(x) = plateau -
+    amplitude exp(-x / length) is fitted by weighted least squares to the bins from ``fit_from`` [m] on (standard
+    errors from the bins' errors, scaled up by the reduced chi-square where the curve misses by more). A steady
+    window that starts before the approach has ended (a few lengths) averages below the plateau.
+
+    Args:
+        travel: tool travel [m] (k, n): k samples of n runs (worlds), each rising.
+        draught: the draught [N] (k, n) at those samples.
+        fit_from: travel [m] from which the bins are fitted (past the tool's entry into the soil).
+        start_travel: travel [m] from which ``window_mean`` averages.
+        bin_width: [m].
+
+    Raises InputError when the shapes differ, values are not finite, fewer than two runs are given or fewer than four
+    bins lie past ``fit_from`` in every run.
+    """
+    x = np.asarray(travel, dtype=np.float64)
+    y = np.asarray(draught, dtype=np.float64)
+    if x.ndim != 2 or x.shape != y.shape or x.shape[1] < 2:
+        raise InputError(f"plateau_fit needs travel and draught of one shape (k samples, n >= 2 runs), got "
+                         f"{x.shape} and {y.shape}")
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+        raise InputError("plateau_fit: travel and draught must be finite")
+    edges = np.arange(fit_from, float(x.max(axis=0).min()) + 1e-12, bin_width)
+    if len(edges) < 5:
+        raise InputError(f"plateau_fit needs at least four {bin_width:g} m bins past fit_from={fit_from:g} m in "
+                         f"every run; the shortest run ends at {float(x.max(axis=0).min()):g} m")
+    bins = np.array([[y[(x[:, w] >= a) & (x[:, w] < b), w].mean() for a, b in zip(edges[:-1], edges[1:], strict=True)]
+                     for w in range(x.shape[1])])
+    centre, mean = 0.5 * (edges[:-1] + edges[1:]), bins.mean(axis=0)
+    se = bins.std(axis=0, ddof=1) / math.sqrt(x.shape[1])
+    span = float(centre[-1] - centre[0])
+    def model(s: np.ndarray, d: float, a: float, ell: float) -> np.ndarray:
+        return d - a * np.exp(-s / ell)
+
+    (d_inf, amp, length), cov = optimize.curve_fit(
+        model, centre, mean, sigma=se, absolute_sigma=True,
+        p0=(float(mean[-1]), float(mean[-1] - mean[0]) * math.e, span / 2), maxfev=20000)
+    chi2 = float(np.sum(((mean - model(centre, d_inf, amp, length)) / se) ** 2)) / max(1, len(centre) - 3)
+    err = np.sqrt(np.diag(cov) * max(1.0, chi2))  # the bins' own scatter, or the misfit where it is larger
+    return Plateau(plateau=float(d_inf), plateau_se=float(err[0]), amplitude=float(amp), length=float(length),
+                   length_se=float(err[2]), window_mean=float(mean[centre >= start_travel].mean()),
+                   n_worlds=int(x.shape[1]))
+
+
 def effective_samples(x: object) -> float:
     """Effective number of independent samples of a correlated series (n,): n / (1 + 2 sum_k rho_k), the
     autocorrelations rho_k summed up to the first non-positive one (Geyer's initial positive sequence, simplified).

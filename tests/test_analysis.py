@@ -372,3 +372,25 @@ def test_standard_error_of_a_correlated_record(phi: float) -> None:
     assert np.mean(sems) == pytest.approx(np.std(means), rel=0.15)
     assert np.mean(trends) == pytest.approx(drift, abs=3 * np.std(trends) / np.sqrt(reps))
     assert np.mean(trend_sems) == pytest.approx(np.std(trends), rel=0.15)
+
+
+def test_plateau_fit_recovers_a_known_approach_and_its_uncertainty():
+    # Reference: the closed form D(x) = 350 - 250 exp(-x / 0.25) N sampled by 40 runs at 2 mm of travel each, plus
+    # white noise of 60 N per sample (a 7 mm soil's draught scatter). Each 5 cm bin of one run averages 25 samples
+    # (bin noise 12 N, 1.9 N for 40 runs), so the fit must land within 3 of its own standard errors of the true
+    # plateau and length, and those errors must be of the size the noise implies (not tiny, not huge). A window
+    # mean from 0.5 m (two lengths) lies below the plateau by the closed form's mean gap over its bins (0.5-1.15 m:
+    # the last whole bin ends there).
+    rng = np.random.default_rng(3)
+    x = np.tile(np.arange(0.0, 1.2, 0.002)[:, None], (1, 40))
+    truth = 350.0 - 250.0 * np.exp(-x / 0.25)
+    fit = analysis.plateau_fit(x, truth + rng.normal(0.0, 60.0, x.shape))
+    assert abs(fit.plateau - 350.0) < 3 * fit.plateau_se and 0.3 < fit.plateau_se < 3.0, fit
+    assert abs(fit.length - 0.25) < 3 * fit.length_se and fit.length_se < 0.02, fit
+    gap = 250.0 * 0.25 * (math.exp(-0.5 / 0.25) - math.exp(-1.15 / 0.25)) / 0.65  # mean gap over 0.5-1.15 m
+    assert fit.window_mean == pytest.approx(350.0 - gap, abs=3.0)  # 3 N: 14 bins of 40 runs' 12 N bin noise, x3
+    assert fit.n_worlds == 40
+    with pytest.raises(analysis.InputError, match="n >= 2 runs"):
+        analysis.plateau_fit(x[:, :1], truth[:, :1])
+    with pytest.raises(analysis.InputError, match="at least four"):
+        analysis.plateau_fit(x[:100], truth[:100])
