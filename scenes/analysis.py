@@ -746,8 +746,8 @@ def plateau_fit(travel: object, draught: object, *, fit_from: float = 0.3, start
         start_travel: travel [m] from which ``window_mean`` averages.
         bin_width: [m].
 
-    Raises InputError when the shapes differ, values are not finite, fewer than two runs are given or fewer than four
-    bins lie past ``fit_from`` in every run.
+    Raises InputError when the shapes differ, values are not finite, fewer than two runs are given, fewer than four
+    bins lie past ``fit_from`` in every run, a bin holds no sample or the fit does not converge.
     """
     x = np.asarray(travel, dtype=np.float64)
     y = np.asarray(draught, dtype=np.float64)
@@ -763,14 +763,20 @@ def plateau_fit(travel: object, draught: object, *, fit_from: float = 0.3, start
     bins = np.array([[y[(x[:, w] >= a) & (x[:, w] < b), w].mean() for a, b in zip(edges[:-1], edges[1:], strict=True)]
                      for w in range(x.shape[1])])
     centre, mean = 0.5 * (edges[:-1] + edges[1:]), bins.mean(axis=0)
-    se = bins.std(axis=0, ddof=1) / math.sqrt(x.shape[1])
+    if not np.all(np.isfinite(bins)):
+        raise InputError(f"plateau_fit: a {bin_width:g} m bin holds no sample of some run (samples too sparse)")
+    se = np.maximum(bins.std(axis=0, ddof=1) / math.sqrt(x.shape[1]), 1e-12 * float(np.abs(mean).max()))
     span = float(centre[-1] - centre[0])
+
     def model(s: np.ndarray, d: float, a: float, ell: float) -> np.ndarray:
         return d - a * np.exp(-s / ell)
 
-    (d_inf, amp, length), cov = optimize.curve_fit(
-        model, centre, mean, sigma=se, absolute_sigma=True,
-        p0=(float(mean[-1]), float(mean[-1] - mean[0]) * math.e, span / 2), maxfev=20000)
+    try:
+        (d_inf, amp, length), cov = optimize.curve_fit(
+            model, centre, mean, sigma=se, absolute_sigma=True,
+            p0=(float(mean[-1]), float(mean[-1] - mean[0]) * math.e, span / 2), maxfev=20000)
+    except RuntimeError as e:
+        raise InputError(f"plateau_fit: the approach to a plateau did not converge ({e})") from None
     chi2 = float(np.sum(((mean - model(centre, d_inf, amp, length)) / se) ** 2)) / max(1, len(centre) - 3)
     err = np.sqrt(np.diag(cov) * max(1.0, chi2))  # the bins' own scatter, or the misfit where it is larger
     return Plateau(plateau=float(d_inf), plateau_se=float(err[0]), amplitude=float(amp), length=float(length),
