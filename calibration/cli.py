@@ -747,10 +747,11 @@ def _number(cast: type, *, gt: float | None = None, ge: float | None = None, lt:
 
 
 def run_shear_box_cmd(args: argparse.Namespace) -> int:
+    from calibration.problems import calibrated_box
     from scenes import shear_box
 
-    cal, soil = _soil_from(args)
-    changes = {"fragile": cal["fragile"], **cal["box_changes"], **soil} if cal else {}
+    cal, _ = _soil_from(args)
+    changes = calibrated_box(cal) if cal else {}
     if args.normal_stresses:
         changes["normal_stresses"] = args.normal_stresses
     device = _setup(args)

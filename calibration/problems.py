@@ -31,7 +31,7 @@ from scenes import analysis, paper, shear_box
 from scenes.rigs import RINGING, SHEAR_BOX, SOIL_BIN
 from scenes.ringing import RingingConfig, build_ringing, run_ringing
 from scenes.soil_bin import DEPOSIT_FRICTION, SCALES, SoilBinConfig, bed_for, run_soil_bin
-from warpdem.errors import InputError
+from warpdem.errors import InputError, check_int
 
 from .genes import FITNESS_MODES, Gene, soil_fields, with_ranges
 
@@ -336,8 +336,7 @@ class SoilProblem(DraughtProblem):
         super().__post_init__()
         c_lab, phi_lab = shear_box.lab_strength()
         self.targets = {**self.targets, "cohesion_kpa": c_lab, "friction_angle_deg": phi_lab}
-        if isinstance(self.box_samples, bool) or not isinstance(self.box_samples, int) or self.box_samples < 1:
-            raise InputError(f"box_samples must be a whole number >= 1, got {self.box_samples!r}")
+        self.box_samples = check_int("box_samples", self.box_samples, 1)
         self.box = shear_box.preset(self.box_scale, self.assembly, fragile=self.fragile,
                                     **(self.box_changes or {}))
         self._box_beds: dict[int, shear_box.Bed] = {}
@@ -407,17 +406,19 @@ class SoilProblem(DraughtProblem):
         seeds = list(range(self.box.seed + self.box_samples, self.box.seed + 2 * self.box_samples))
         values = np.array([[float(genes[g.name]) for g in self.gene_list]])
         obs = self.box_observables(values, labels=["held out"], seeds=seeds)[0]
-        errors = {k: v for k, v in self.errors({**obs, "draught_mean_n": self.targets["draught_mean_n"]}).items()
-                  if k != "re_draught"}
+        errors = self.box_errors(obs)
         return {"seeds": seeds, "observables": obs, "errors": errors,
                 "box_accepted": all(abs(errors[k]) <= SOIL_TOLERANCES[k] for k in errors)}
 
-    def errors(self, obs: dict[str, float]) -> dict[str, float]:
-        """re_draught (signed, [-]), re_cohesion (signed, [-]) and d_friction_deg (signed [deg])."""
+    def box_errors(self, obs: dict[str, float]) -> dict[str, float]:
+        """The shear box's errors: re_cohesion (signed, [-]) and d_friction_deg (signed [deg])."""
         t = self.targets
-        return {**super().errors(obs),
-                "re_cohesion": (obs["cohesion_kpa"] - t["cohesion_kpa"]) / t["cohesion_kpa"],
+        return {"re_cohesion": (obs["cohesion_kpa"] - t["cohesion_kpa"]) / t["cohesion_kpa"],
                 "d_friction_deg": obs["friction_angle_deg"] - t["friction_angle_deg"]}
+
+    def errors(self, obs: dict[str, float]) -> dict[str, float]:
+        """re_draught (signed, [-]) and :meth:`box_errors`."""
+        return {**super().errors(obs), **self.box_errors(obs)}
 
     def fitness_of(self, errors: dict[str, float]) -> float:
         """1 / max(|error| / tolerance) over the three errors (capped; 0 when one is missing)."""
@@ -438,6 +439,12 @@ def make_problem(kind: str, **kwargs: object) -> RingingProblem | DraughtProblem
     if kind not in PROBLEMS:
         raise ValueError(f"calibration must be one of {', '.join(map(repr, PROBLEMS))}, got {kind!r}")
     return PROBLEMS[kind](**kwargs)
+
+
+def calibrated_box(cal: dict[str, object]) -> dict[str, object]:
+    """The :class:`scenes.shear_box.ShearBoxConfig` fields of a :func:`calibrated_soil` record: its bonds' rule
+    (``fragile``), the calibration's box changes (its normal stresses) and the soil material's fields (floats)."""
+    return {"fragile": cal["fragile"], **cal["box_changes"], **{k: float(v) for k, v in soil_fields(cal).items()}}
 
 
 SOIL_BIN_RIGS = ("soil_bin_rigid", "soil_bin_rigid+shear_box")

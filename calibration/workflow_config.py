@@ -10,7 +10,7 @@ from dataclasses import asdict, dataclass, field
 from scenes import paper
 from scenes import soil_bin as sb
 from scenes.rigs import SOIL_BIN
-from warpdem.errors import InputError
+from warpdem.errors import InputError, check_int
 
 from . import mechanisms
 from .genes import GASettings
@@ -136,8 +136,7 @@ class WorkflowConfig:
     def __post_init__(self) -> None:
         if self.soil_protocol not in SOIL_PROTOCOLS:
             raise InputError(f"soil_protocol must be one of {SOIL_PROTOCOLS}, got {self.soil_protocol!r}")
-        if isinstance(self.box_samples, bool) or not isinstance(self.box_samples, int) or self.box_samples < 1:
-            raise InputError(f"box_samples must be a whole number >= 1, got {self.box_samples!r}")
+        self.box_samples = check_int("box_samples", self.box_samples, 1)
         if not (math.isfinite(self.deposit_friction) and 0.0 <= self.deposit_friction < 90.0):
             raise InputError(f"deposit_friction must be in [0, 90) deg, got {self.deposit_friction!r}")
         if self.passive_tool is not None:

@@ -77,13 +77,10 @@ bonds' rule and box stresses; ``calibration.problems.calibrated_soil``) instead 
 
 def config_for(scale: str) -> sbx.ShearBoxConfig:
     if scale in SOIL_VARIANTS:
-        from calibration.genes import soil_fields
-        from calibration.problems import calibrated_soil
+        from calibration.problems import calibrated_box, calibrated_soil
 
         base, folder = SOIL_VARIANTS[scale]
-        cal = calibrated_soil(folder)
-        return sbx.preset(base, KIND, fragile=cal["fragile"], **cal["box_changes"],
-                          **{k: float(v) for k, v in soil_fields(cal).items()})
+        return sbx.preset(base, KIND, **calibrated_box(calibrated_soil(folder)))
     cfg = sbx.preset(scale, KIND)
     assert cfg.ga_set == GA_SET, cfg.ga_set
     return cfg
