@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
-# Ray for the offline GPU machine (Python 3.12, uploads of at most 64 MiB): its wheel (~79 MB) split over two
-# git-ignored folders of its own, .gpuRayA/ and .gpuRayB/ (the second with Ray's dependencies), apart from the
+# Ray for the offline GPU machine (Python 3.12, uploads of at most 64 MiB with the working tree, about 28 MB of
+# it): its wheel (~79 MB) split over three git-ignored folders of its own, .gpuRayA/ .gpuRayB/ .gpuRayC/ (the last
+# with Ray's dependencies, and the install), apart from the
 # Warp wheel's .gpuA/ ... folders of ../shared/tools/gpu-wheels.sh. From the project root, once:
 #   bash benchmarks/ray_wheels.sh
-# Then, on the warm GPU machine after Warp is staged, two calls: carry [".gpuRayA"] with `sh .gpuRayA/stage.sh`;
-# carry [".gpuRayB"] with `sh .gpuRayB/stage.sh && . /root/gpu-env.sh && <work>` (Ray installs into /root/site
-# beside Warp).
+# Then, on the warm GPU machine after Warp is staged, three calls: carry [".gpuRayA"] with `sh .gpuRayA/stage.sh`;
+# the same with B; carry [".gpuRayC"] with `sh .gpuRayC/stage.sh && . /root/gpu-env.sh && <work>` (Ray installs
+# into /root/site beside Warp).
 set -euo pipefail
 RAY_VERSION="${RAY_VERSION:-2.60.0}"
 cd "$(git rev-parse --show-toplevel)"
@@ -15,21 +16,21 @@ python3 -m pip download -q --only-binary=:all: --python-version 3.12 --implement
   --platform manylinux2014_x86_64 --platform manylinux_2_17_x86_64 --platform manylinux_2_28_x86_64 \
   -d "$tmp" "ray==${RAY_VERSION}"
 whl="$(ls "$tmp"/ray-*.whl)"; name="$(basename "$whl")"; sha="$(sha256sum "$whl" | cut -d' ' -f1)"
-for d in .gpuRayA .gpuRayB; do
+for d in .gpuRayA .gpuRayB .gpuRayC; do
   grep -qxF "/$d/" "$excl" 2>/dev/null || echo "/$d/" >> "$excl"
   rm -rf "$d"; mkdir -p "$d"
 done
-split -b 40m -d "$whl" "$tmp/ray.part."
-mv "$tmp/ray.part.00" .gpuRayA/; mv "$tmp/ray.part.01" .gpuRayB/
-for w in "$tmp"/*.whl; do [ "$w" = "$whl" ] || mv "$w" .gpuRayB/; done
-echo 'mkdir -p /root/gpu-parts && cp .gpuRayA/ray.part.* /root/gpu-parts/' > .gpuRayA/stage.sh
-cat > .gpuRayB/stage.sh <<EOS
+split -b 36m -d "$whl" "$tmp/ray.part."
+mv "$tmp/ray.part.00" .gpuRayA/; mv "$tmp/ray.part.01" .gpuRayB/; mv "$tmp/ray.part.02" .gpuRayC/
+for w in "$tmp"/*.whl; do [ "$w" = "$whl" ] || mv "$w" .gpuRayC/; done
+for d in .gpuRayA .gpuRayB; do echo "mkdir -p /root/gpu-parts && cp $d/ray.part.* /root/gpu-parts/" > $d/stage.sh; done
+cat > .gpuRayC/stage.sh <<EOS
 set -e
-mkdir -p /root/gpu-parts && cp .gpuRayB/ray.part.* /root/gpu-parts/
+mkdir -p /root/gpu-parts && cp .gpuRayC/ray.part.* /root/gpu-parts/
 cat /root/gpu-parts/ray.part.0* > /root/$name
 echo "$sha  /root/$name" | sha256sum -c -
-python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target /root/site /root/$name .gpuRayB/*.whl
+python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target /root/site /root/$name .gpuRayC/*.whl
 PYTHONPATH=/root/site python3 -c "import ray; print('ray', ray.__version__)"
 EOS
 rm -rf "$tmp"
-du -sh .gpuRayA .gpuRayB
+du -sh .gpuRayA .gpuRayB .gpuRayC

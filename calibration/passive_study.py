@@ -458,6 +458,14 @@ def plateau_lines(fit: analysis.Plateau | None) -> list[str]:
     if fit is None:
         return ["### Is the draught steady in its window?", "",
                 "The folders' records are too few or too short to say.", ""]
+    if not fit.levels_off:
+        return ["### Is the draught steady in its window?", "",
+                f"Over the {fit.n_worlds} runs (rigid and passive worlds) the draught does not level off within the "
+                f"{fit.fit_span:.2f} m of travel fitted (`scenes.analysis.plateau_fit`): the approach to a plateau "
+                f"is not identified (its length came out {fit.length:.3g} +- {fit.length_se:.2g} m), and a line "
+                f"through the bins rises {fit.slope:.1f} +- {fit.slope_se:.1f} N per m of travel. The steady "
+                f"window's bins average {fit.window_mean:.1f} N; the runs are still rising there, so a longer travel "
+                "or a later window would raise its means.", ""]
     gap = 100 * (fit.window_mean / fit.plateau - 1)
     return ["### Is the draught steady in its window?", "",
             f"Over the {fit.n_worlds} runs (rigid and passive worlds) the draught approaches D(x) = "

@@ -314,7 +314,11 @@ class SoilProblem(DraughtProblem):
         settle_time 1.0 s (the soil bin's bed settles before its bonds are set; the shear box bonds its consolidated
         sample at rest anyway) and fragile False (the bonds yield instead of breaking, in both rigs); and
         box_scale: the shear box preset (:func:`scenes.shear_box.preset`: "ci", "cpu", "paper").
-        box_changes: further ShearBoxConfig fields (e.g. ``shear_displacement``).
+        box_changes: further ShearBoxConfig fields (e.g. ``shear_displacement``); ``consolidation_time`` defaults
+            to :data:`scenes.shear_box.BATCH_CONSOLIDATION` fixed, so that an individual's box does not depend on
+            the individuals batched with it (with the box's adaptive end a batch consolidates until its slowest
+            sample settles, which made the accepted set of docs/runs/soil_ga_loose_box_h100x2 1.2 kPa stronger in
+            its GA batch than alone on the same sample).
         box_samples: shear-box samples per individual, deposited with seeds ``box.seed`` .. + box_samples - 1 (once
             per problem); the box's cohesion and friction angle are their means. One sample's c and phi scatter by
             about 1 kPa and 0.9 deg from sample to sample (docs/runs/soil_ga_loose_box_h100x2, 15 samples of the
@@ -337,8 +341,9 @@ class SoilProblem(DraughtProblem):
         c_lab, phi_lab = shear_box.lab_strength()
         self.targets = {**self.targets, "cohesion_kpa": c_lab, "friction_angle_deg": phi_lab}
         self.box_samples = check_int("box_samples", self.box_samples, 1)
-        self.box = shear_box.preset(self.box_scale, self.assembly, fragile=self.fragile,
-                                    **(self.box_changes or {}))
+        fixed = [shear_box.BATCH_CONSOLIDATION] * 2
+        self.box_changes = {"consolidation_time": fixed, **(self.box_changes or {})}
+        self.box = shear_box.preset(self.box_scale, self.assembly, fragile=self.fragile, **self.box_changes)
         self._box_beds: dict[int, shear_box.Bed] = {}
 
     def __getstate__(self) -> dict[str, object]:  # beds are re-read or re-deposited by a remote worker
@@ -346,7 +351,7 @@ class SoilProblem(DraughtProblem):
 
     def simulation_key(self) -> dict[str, object]:
         return {**super().simulation_key(), "rig": "soil_bin_rigid+shear_box", "box_scale": self.box_scale,
-                "box_changes": self.box_changes or {}, "fragile": self.fragile,
+                "box_changes": self.box_changes, "fragile": self.fragile,
                 **({"box_samples": self.box_samples} if self.box_samples != 1 else {})}
 
     def spec(self) -> dict[str, object]:
@@ -365,7 +370,8 @@ class SoilProblem(DraughtProblem):
     def box_observables(self, values: np.ndarray, labels: Sequence[object] | None = None,
                         seeds: Sequence[int] | None = None) -> list[dict[str, float]]:
         """The shear box alone, one batched simulation per sample (each sample deposited once per problem): genes
-        (n, 3) -> [{cohesion_kpa, friction_angle_deg, r2}], the means over the samples (r2: the smallest); with
+        (n, 3) -> [{cohesion_kpa, friction_angle_deg, r2, box_unsettled}], the means over the samples (r2: the
+        smallest; box_unsettled: how many samples had not settled when the shear began); with
         several samples also cohesion_kpa_se and friction_angle_deg_se, the standard errors of those means over the
         samples. ``labels``: how each individual is named in progress and errors (default its row). ``seeds``: the
         samples' deposition seeds (default the calibration's: ``box_samples`` of them from ``box.seed``)."""
@@ -374,7 +380,7 @@ class SoilProblem(DraughtProblem):
         labels = range(len(values)) if labels is None else labels
         seeds = list(range(self.box.seed, self.box.seed + self.box_samples) if seeds is None else seeds)
         bar = self.stage_progress
-        c, phi, r2 = (np.empty((len(seeds), len(values))) for _ in range(3))
+        c, phi, r2, settled = (np.empty((len(seeds), len(values))) for _ in range(4))
         for k, seed in enumerate(seeds):
             box = self.box.replace(seed=seed)
             if seed not in self._box_beds:
@@ -388,8 +394,10 @@ class SoilProblem(DraughtProblem):
             c[k] = [res.fit.cohesion / 1e3 for res in boxes]
             phi[k] = [res.fit.friction_angle_deg for res in boxes]
             r2[k] = [res.fit.r2 for res in boxes]
+            settled[k] = [res.settled for res in boxes]
         rows = [{"cohesion_kpa": float(c[:, i].mean()), "friction_angle_deg": float(phi[:, i].mean()),
-                 "r2": float(r2[:, i].min())} for i in range(len(values))]
+                 "r2": float(r2[:, i].min()), "box_unsettled": float(len(seeds) - settled[:, i].sum())}
+                for i in range(len(values))]
         if len(seeds) > 1:
             root = math.sqrt(len(seeds))
             for i, row in enumerate(rows):

@@ -54,7 +54,7 @@ from pathlib import Path
 
 import numpy as np
 
-from warpdem.errors import InputError
+from warpdem.errors import InputError, check_keys, count_table
 
 DAMPING = ("one_dashpot", "per_configuration")
 """the baseline's damping: one dashpot for all configurations, or each configuration's own damping ratio (stated in
@@ -175,24 +175,12 @@ KEYS = {"tool_inertia", "tool_mass", "tool_com", "spring_lever", "sensor_lever",
 
 def parse(data: dict[str, object], source: str = "") -> RingingRigDescription:
     """A description from a parsed TOML/JSON table; unknown keys are errors."""
-    unknown = sorted(set(data) - KEYS)
-    if unknown:
-        raise DescriptionError(f"rig description{' ' + source if source else ''}: unknown keys {unknown}; known "
-                               f"{sorted(KEYS)}")
+    check_keys(f"rig description{' ' + source if source else ''}", data, KEYS, DescriptionError)
     kw: dict[str, object] = {}
     for k, v in data.items():
         if k in ("spring_rates", "damping_ratios"):
             what = "a rate [N/m]" if k == "spring_rates" else "a damping ratio [-]"
-            if not isinstance(v, dict):
-                raise DescriptionError(f"rig description: {k} must be a table of spring count = {what}, got {v!r}")
-            rates = {}
-            for n, r in v.items():
-                try:
-                    rates[int(n)] = float(r)
-                except (TypeError, ValueError):
-                    raise DescriptionError(f"rig description: {k} entry {n!r} = {r!r}: a spring count and "
-                                           f"{what} are needed") from None
-            kw[k] = rates
+            kw[k] = count_table(f"rig description: {k}", v, what, DescriptionError)
         elif k == "static_deflection":
             if not isinstance(v, dict) or set(v) != {"springs", "deflection"}:
                 raise DescriptionError(f"rig description: static_deflection must be a table with springs and "

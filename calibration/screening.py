@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from scenes.assemblies import Bed
-from scenes.shear_box import lab_distance, lab_strength, preset, run_shear_boxes
+from scenes.shear_box import BATCH_CONSOLIDATION, lab_distance, lab_strength, preset, run_shear_boxes
 
 from .genes import soil_fields
 
@@ -31,13 +31,15 @@ def screen(sets: Sequence[dict[str, float]], assembly: str = "C", scale: str = "
         sets: genes of each set: ``friction_angle`` [deg], ``normal_cohesion`` [Pa] (shear cohesion = half),
             ``eta_roll`` (= eta_twist) [-].
         assembly, scale: the shear box preset (:func:`scenes.shear_box.preset`).
-        changes: further ShearBoxConfig fields (e.g. ``normal_stresses``).
+        changes: further ShearBoxConfig fields (e.g. ``normal_stresses``); ``consolidation_time`` defaults to
+            ``BATCH_CONSOLIDATION`` fixed, so that a set's result does not depend on the others.
     Returns:
         One row per set, best (smallest distance) first: the genes, ``cohesion_kpa``, ``friction_angle_deg``,
         ``r2``, ``distance`` and ``rank`` (1 = closest to the laboratory).
     """
     if not sets:
         raise ValueError("no parameter sets to screen")
+    changes = {"consolidation_time": (BATCH_CONSOLIDATION, BATCH_CONSOLIDATION), **changes}
     configs = [preset(scale, assembly, **{f: float(v) for f, v in soil_fields(s).items()}, label=f"set {k + 1}",
                       **changes) for k, s in enumerate(sets)]
     results = run_shear_boxes(configs, device, bed=bed, progress=progress)

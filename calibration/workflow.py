@@ -18,13 +18,35 @@ from .budget import BatchGuard, Budget
 from .evaluators import LocalEvaluator, RayEvaluator
 from .ga import CalibrationResult, accepted_records, calibrate
 from .genes import GASettings
-from .problems import make_problem
+from .problems import SoilProblem, make_problem
 from .report import write_report
 from .screening import screen
 
 TIMING_FILE = "batch_timing.json"
 """in a calibration's folder: the last GA batch's wall time per individual [s], which sizes a later call's budget
 check."""
+HELD_OUT_FILE = "held_out_box.json"
+"""a soil calibration's held-out box check of its best set (genes, result, wall time), kept so that the same command
+run again (e.g. after its budget stopped it) neither repeats nor skips it."""
+
+
+def _held_out_box(problem: SoilProblem, genes: dict[str, float], path: Path, clock: Budget,
+                  estimate: float) -> dict[str, object]:
+    """:meth:`SoilProblem.held_out_box` of ``genes``, read from ``path`` when it holds those genes' check with this
+    problem's simulation; else run
+    when ``estimate`` [s] (the GA's time per individual times the box samples: an individual's share of a batch,
+    soil bin and boxes, against one set's boxes alone) fits the budget, raising BudgetExhausted otherwise."""
+    if path.exists():
+        saved = json.loads(path.read_text())
+        if saved.get("genes") == {k: float(v) for k, v in genes.items()} and \
+                saved.get("simulation_key") == json.loads(json.dumps(problem.simulation_key())):
+            return {"held_out_box": saved["held_out_box"], "held_out_box_wall_s": saved["held_out_box_wall_s"]}
+    clock.require(estimate, "the held-out shear box of the best set (the calibration itself is finished)")
+    t0 = time.perf_counter()
+    held = {"held_out_box": problem.held_out_box(genes), "held_out_box_wall_s": time.perf_counter() - t0}
+    write_json_atomic(path, {"genes": {k: float(v) for k, v in genes.items()},
+                             "simulation_key": problem.simulation_key(), **held})
+    return held
 
 
 def run_calibration(kind: str, out: str | Path, *, settings: GASettings | None = None, device: str | None = None,
@@ -76,8 +98,7 @@ def run_calibration(kind: str, out: str | Path, *, settings: GASettings | None =
                                device=device, progress=screen_progress)
             extra["screening_wall_s"] = time.perf_counter() - t0
     if kind == "soil":
-        t0 = time.perf_counter()
-        extra["held_out_box"] = problem.held_out_box(result.best.genes)
-        extra["held_out_box_wall_s"] = time.perf_counter() - t0
+        extra.update(_held_out_box(problem, result.best.genes, out / HELD_OUT_FILE, clock,
+                                   guard.per_individual * problem.box_samples))
     write_report(result, problem, out, screening=screening, extra=extra)
     return result, {"best": result.best, "screening": screening, **extra}

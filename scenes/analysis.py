@@ -720,6 +720,11 @@ class Plateau:
         length: the travel over which the gap falls by e [m]; length_se its standard error [m].
         window_mean: the mean of the binned draught from ``start_travel`` on [N] (a steady-state window's mean).
         n_worlds: the runs averaged.
+        slope, slope_se: a straight line's slope through the same bins and its standard error [N/m].
+        levels_off: the approach is identified: its length is shorter than the fitted travel and known to better
+            than half itself. When False the plateau and length are extrapolations the records do not support (a
+            draught still rising, nearly linearly, over the travel): read the slope.
+        fit_span: the travel from the first to the last fitted bin's centre [m].
     """
 
     plateau: float
@@ -729,6 +734,10 @@ class Plateau:
     length_se: float
     window_mean: float
     n_worlds: int
+    slope: float
+    slope_se: float
+    levels_off: bool
+    fit_span: float
 
 
 def plateau_fit(travel: object, draught: object, *, fit_from: float = 0.3, start_travel: float = 0.5,
@@ -737,7 +746,9 @@ def plateau_fit(travel: object, draught: object, *, fit_from: float = 0.3, start
     the bins averaged over the runs (their scatter over the runs is each bin's standard error), and D(x) = plateau -
     amplitude exp(-x / length) is fitted by weighted least squares to the bins from ``fit_from`` [m] on (standard
     errors from the bins' errors, scaled up by the reduced chi-square where the curve misses by more). A steady
-    window that starts before the approach has ended (a few lengths) averages below the plateau.
+    window that starts before the approach has ended (a few lengths) averages below the plateau. A straight line is
+    fitted to the same bins; where the approach is not identified (``Plateau.levels_off`` False: a draught still
+    rising over the whole travel) its slope is what the records say.
 
     Args:
         travel: tool travel [m] (k, n): k samples of n runs (worlds), each rising.
@@ -779,9 +790,14 @@ def plateau_fit(travel: object, draught: object, *, fit_from: float = 0.3, start
         raise InputError(f"plateau_fit: the approach to a plateau did not converge ({e})") from None
     chi2 = float(np.sum(((mean - model(centre, d_inf, amp, length)) / se) ** 2)) / max(1, len(centre) - 3)
     err = np.sqrt(np.diag(cov) * max(1.0, chi2))  # the bins' own scatter, or the misfit where it is larger
+    (slope, intercept), cov_line = np.polyfit(centre, mean, 1, w=1.0 / se, cov="unscaled")
+    chi2_line = float(np.sum(((mean - np.polyval((slope, intercept), centre)) / se) ** 2)) / max(1, len(centre) - 2)
+    levels_off = bool(0.0 < length < span and err[2] < 0.5 * length)
     return Plateau(plateau=float(d_inf), plateau_se=float(err[0]), amplitude=float(amp), length=float(length),
                    length_se=float(err[2]), window_mean=float(mean[centre >= start_travel].mean()),
-                   n_worlds=int(x.shape[1]))
+                   n_worlds=int(x.shape[1]), slope=float(slope),
+                   slope_se=float(math.sqrt(cov_line[0, 0] * max(1.0, chi2_line))), levels_off=levels_off,
+                   fit_span=span)
 
 
 def effective_samples(x: object) -> float:

@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from warpdem.errors import InputError
+from warpdem.errors import InputError, check_keys, count_table
 
 from . import paper
 from .sweep import SweepParams, SweepTool, build_sweep
@@ -390,23 +390,11 @@ KEYS = {f.name for f in fields(PassiveTool)} - {"source"}
 
 def parse(data: dict[str, object], source: str = "") -> PassiveTool:
     """A description from a parsed TOML table; unknown keys and bad values are errors naming them."""
-    unknown = sorted(set(data) - KEYS)
-    if unknown:
-        raise InputError(f"tool description{' ' + source if source else ''}: unknown keys {unknown}; known "
-                         f"{sorted(KEYS)}")
+    check_keys(f"tool description{' ' + source if source else ''}", data, KEYS)
     kw: dict[str, object] = {}
     for k, v in data.items():
         if k in ("rate_factors", "damping_ratio"):
-            if not isinstance(v, dict):
-                raise InputError(f"tool description: {k} must be a table of spring count = value, got {v!r}")
-            table = {}
-            for n, x in v.items():
-                try:
-                    table[int(n)] = float(x)
-                except (TypeError, ValueError):
-                    raise InputError(f"tool description: {k} entry {n!r} = {x!r}: a spring count and a number are "
-                                     "needed") from None
-            kw[k] = table
+            kw[k] = count_table(f"tool description: {k}", v)
         elif k == "support_offsets":
             if not isinstance(v, bool):
                 raise InputError(f"tool description: support_offsets must be true or false, got {v!r}")

@@ -29,11 +29,15 @@ Rig (boxes and plate are triangle meshes; both faces of a facet are active):
   rise with dilation, as in the laboratory;
 - consolidation: the plate is brought down by a velocity servo onto the bed (no free-fall impact) until it carries
   its weight, then released; the sample is consolidated when the plate carries its weight within 5 % and the soil is
-  at rest. Cohesion is then set on every soil-soil contact (``Simulation.set_cohesion_now``; box, plate and ballast
-  are not cohesive, so nothing bonds to the rig) and the local damping switches to ``shear_damping``, by default 0:
-  Cundall damping opposes the accelerating part of every unbalanced force, which on the steadily moving lower soil
-  acts as a drag (with 0.2 the lower half pushed 1-5 % harder than the upper half held); without it the two halves'
-  mean forces balance to 0.2 % and the contacts' friction alone dissipates;
+  at rest. In a batch each config's worlds leave the servo together when all of them carry their plates, whatever
+  the other configs do. With ``consolidation_time`` (T, T) every world consolidates for exactly T, so a config's
+  result does not depend on the configs batched with it (a calibration's individuals); otherwise the batch ends
+  when its slowest world has settled. Cohesion is then set on every soil-soil contact
+  (``Simulation.set_cohesion_now``; box, plate and ballast are not cohesive, so nothing bonds to the rig) and the
+  local damping switches to ``shear_damping``, by default 0: Cundall damping opposes the accelerating part of every
+  unbalanced force, which on the steadily moving lower soil acts as a drag (with 0.2 the lower half pushed 1-5 %
+  harder than the upper half held); without it the two halves' mean forces balance to 0.2 % and the contacts'
+  friction alone dissipates;
 - cohesion model: the paper does not say whether cohesion was given to new contacts (Yade's
   setCohesionOnNewContacts) nor whether bonds were fragile, so both are options. Defaults: ``fragile=True`` (Yade's
   CohFrictMat default: a bond breaks for good at its strength) and ``cohesion_on_new_contacts=False``, the rule of
@@ -107,6 +111,10 @@ _KE_FRACTION = 1e-4
 _SERVO_INTERVAL = 1e-4
 #: ... and the released plate's balance is checked at this interval [s]
 _CHECK_INTERVAL = 2e-3
+#: fixed consolidation time [s] of the boxes that calibrations and screenings batch (``consolidation_time`` (T, T)):
+#: a set's result then does not depend on the sets batched with it. Lone samples consolidate in 0.07-0.10 s (``ci``),
+#: 0.11-0.16 s (``cpu``, 15 samples of docs/runs/soil_ga_loose_box_h100x2) and 0.08-0.09 s (``paper``).
+BATCH_CONSOLIDATION = 0.2
 #: shear band width in mean particle diameters, for the inertial number
 _BAND_DIAMETERS = 10.0
 #: names of the rig's meshes (the lower half's body carries "lower" and "floor", the ballast carries "plate")
@@ -200,7 +208,8 @@ class ShearBoxConfig:
     shear_damping: float = 0.0
     """Cundall local damping of soil and plate during consolidation and during shear [-]."""
     consolidation_time: tuple[float, float] = (0.02, 0.5)
-    """minimum and maximum consolidation time [s]."""
+    """minimum and maximum consolidation time [s]; equal: a fixed consolidation time, the same for every world of
+    a batch (the result of one config then does not depend on the others batched with it)."""
     consolidation_speed: float = 0.1
     """top speed of the loading plate while the servo brings it onto the sample [m/s]."""
     dt_factor: float = 0.3
@@ -219,6 +228,10 @@ class ShearBoxConfig:
             if getattr(self, k) is None:
                 setattr(self, k, float(v))
         self.normal_stresses = tuple(float(s) for s in self.normal_stresses)
+        self.consolidation_time = tuple(float(t) for t in self.consolidation_time)
+        if len(self.consolidation_time) != 2 or not 0 < self.consolidation_time[0] <= self.consolidation_time[1]:
+            raise ValueError(f"consolidation_time must be (min, max) with 0 < min <= max [s], got "
+                             f"{self.consolidation_time}")
         if len(set(self.normal_stresses)) < 3:
             raise ValueError(f"need at least three distinct normal stresses, got {self.normal_stresses}")
         if min(self.normal_stresses) <= 0:
@@ -331,6 +344,8 @@ class ShearBoxResult:
     """simulated consolidation time [s]."""
     wall_s: float
     """wall time of the batched simulation this test was part of, deposition excluded [s]."""
+    settled: bool = True
+    """every normal stress's sample was consolidated (plate balanced, soil at rest) when the shear began."""
 
     @property
     def normal_stress(self) -> np.ndarray:
@@ -355,7 +370,7 @@ class ShearBoxResult:
             "sample_height_m": cfg.sample_height, "shear_rate_m_s": cfg.shear_rate,
             "shear_displacement_m": cfg.shear_displacement * cfg.box_side, "n_particles": self.n_particles,
             "porosity": self.porosity, "dt_s": self.dt, "consolidation_time_s": self.consolidation_time,
-            "normal_stress_applied_pa": [c.normal_stress for c in self.curves],
+            "settled": self.settled, "normal_stress_applied_pa": [c.normal_stress for c in self.curves],
             "normal_stress_plane_pa": self.normal_stress.tolist(),
             "peak_shear_stress_pa": self.peak_shear_stress.tolist(),
             "peak_displacement_m": [c.peak_displacement for c in self.curves],
@@ -524,39 +539,56 @@ def soil_weight_above(sim: wd.Simulation, z: float) -> np.ndarray:
 
 
 def consolidate(sim: wd.Simulation, probe: _Probe, cfg: ShearBoxConfig, rig: _Rig,
-                 progress: Callable[[str, float, float], None] | None) -> float:
-    """Bring the plates onto the samples and let them settle under their weights; returns the time taken [s].
+                progress: Callable[[str, float, float], None] | None,
+                groups: Sequence[np.ndarray] | None = None) -> tuple[float, np.ndarray]:
+    """Bring the plates onto the samples and let them settle under their weights; returns the time taken [s] and
+    whether each world's sample settled (n_worlds,) bool.
 
     Servo stage: every ``_SERVO_INTERVAL`` the plate's vertical velocity is reset to -v (1 - F/W), clipped to +-v,
     v = ``consolidation_speed`` (F: the soil's force on the plate averaged over the interval, W: the plate's weight),
-    until F is within 5 % of W in every world. Released stage: the plate is a dead weight; the samples are
-    consolidated when F is within 5 % of W and the soil is at rest (module constants), after at least
-    ``consolidation_time[0]``. At ``consolidation_time[1]`` it warns and returns.
+    until F is within 5 % of W in every world of its group (``groups``: the worlds of each config, default one
+    group of all). Released stage: the plate is a dead weight; the samples are consolidated when F is within 5 % of
+    W and the soil is at rest (module constants), after at least ``consolidation_time[0]``. At
+    ``consolidation_time[1]`` it warns and returns. With min = max every world consolidates for exactly that time:
+    a group's servo depends only on its own worlds, and so its result on nothing else in the batch.
     """
     t_min, t_max = cfg.consolidation_time
+    fixed = t_min == t_max
+    n_fixed = int(round(t_max / sim.dt))
     servo_chunk = max(1, int(round(_SERVO_INTERVAL / sim.dt)))
     check_chunk = max(1, int(round(_CHECK_INTERVAL / sim.dt)))
     weight = rig.plate_mass * GRAVITY
     m_p = cfg.density * 4.0 / 3.0 * math.pi * cfg.assembly.radius**3
     ke_quiet = _KE_FRACTION * m_p * GRAVITY * 2 * cfg.assembly.radius
-    t, servo, done = 0.0, True, False
-    while t < t_max and not done:
-        f = probe.advance_mean(servo_chunk if servo else check_chunk)
-        t += (servo_chunk if servo else check_chunk) * sim.dt
+    groups = [np.arange(sim.model.n_worlds)] if groups is None else [np.asarray(g) for g in groups]
+    servo = np.ones(len(groups), dtype=bool)
+    t, steps, done = 0.0, 0, False
+    while not done and (steps < n_fixed if fixed else t < t_max):
+        chunk = servo_chunk if servo.any() else check_chunk
+        if fixed:
+            chunk = min(chunk, n_fixed - steps)
+        f = probe.advance_mean(chunk)
+        steps += chunk
+        t += chunk * sim.dt
         load = f["plate"][:, 2] / weight  # the soil pushes the plate up (+z)
-        balanced = np.all(np.abs(load - 1.0) < _PLATE_BALANCE)
-        if servo:
-            vz = -cfg.consolidation_speed * np.clip(1.0 - load, -1.0, 1.0)
-            sim.set_body_velocity("ballast", np.stack([0 * vz, 0 * vz, vz], axis=1))
-            servo = not balanced
-        else:
-            done = t >= t_min and balanced and bool(np.all(soil_ke_per_particle(sim) < ke_quiet))
+        balanced = np.abs(load - 1.0) < _PLATE_BALANCE
+        if servo.any():
+            worlds = np.concatenate([g for g, on in zip(groups, servo, strict=True) if on])
+            vz = -cfg.consolidation_speed * np.clip(1.0 - load[worlds], -1.0, 1.0)
+            sim.set_body_velocity("ballast", np.stack([0 * vz, 0 * vz, vz], axis=1), worlds=worlds)
+            servo &= ~np.array([bool(np.all(balanced[g])) for g in groups])
+        elif not fixed:
+            done = t >= t_min and bool(np.all(balanced)) and bool(np.all(soil_ke_per_particle(sim) < ke_quiet))
         if progress is not None:
             progress("consolidate", t, t_max)
-    if not done:
-        warnings.warn(f"the samples did not settle within {t_max} s (plate load / weight: "
-                      f"{np.round(load, 3).tolist()}); shearing anyway", RuntimeWarning, stacklevel=3)
-    return t
+    settled = balanced & (soil_ke_per_particle(sim) < ke_quiet) if fixed or not done else \
+        np.ones(sim.model.n_worlds, dtype=bool)
+    if fixed:
+        t = steps * sim.dt
+    if not settled.all():
+        warnings.warn(f"{int(np.sum(~settled))} of {len(settled)} samples had not settled at {t:.3g} s (plate load / "
+                      f"weight: {np.round(load, 3).tolist()}); shearing anyway", RuntimeWarning, stacklevel=3)
+    return t, settled
 
 
 def moving_average(y: np.ndarray, width: int) -> np.ndarray:
@@ -627,7 +659,10 @@ def run_shear_boxes(configs: Sequence[ShearBoxConfig], device: str | None = None
                         cohesion_on_new_contacts=cfg.cohesion_on_new_contacts,
                         bond_detection_factor=cfg.bond_detection_factor)
     probe = _Probe(sim)
-    t_cons = consolidate(sim, probe, cfg, rig, progress)
+    sizes = [len(c.normal_stresses) for c in configs]
+    starts = np.cumsum([0, *sizes])
+    t_cons, settled = consolidate(sim, probe, cfg, rig, progress,
+                                  [np.arange(a, a + n) for a, n in zip(starts, sizes, strict=False)])
     sigma_plane = (rig.plate_mass * GRAVITY + soil_weight_above(sim, rig.z_shear)) / cfg.area
     sim.set_cohesion_now()
     sim.set_local_damping("soil", cfg.shear_damping)
@@ -650,7 +685,8 @@ def run_shear_boxes(configs: Sequence[ShearBoxConfig], device: str | None = None
                 peak_displacement=float(rec["disp"][i, w]), inertial_number=c.inertial_number(float(sigma_plane[w]))))
             w += 1
         fit = mohr_coulomb([cv.normal_stress_plane for cv in curves], [cv.peak_shear_stress for cv in curves])
-        results.append(ShearBoxResult(c, curves, fit, bed.n_particles, bed.porosity, dt, t_cons, wall))
+        results.append(ShearBoxResult(c, curves, fit, bed.n_particles, bed.porosity, dt, t_cons, wall,
+                                      bool(np.all(settled[w - len(curves):w]))))
     return results
 
 

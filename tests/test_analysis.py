@@ -389,8 +389,21 @@ def test_plateau_fit_recovers_a_known_approach_and_its_uncertainty():
     assert abs(fit.length - 0.25) < 3 * fit.length_se and fit.length_se < 0.02, fit
     gap = 250.0 * 0.25 * (math.exp(-0.5 / 0.25) - math.exp(-1.15 / 0.25)) / 0.65  # mean gap over 0.5-1.15 m
     assert fit.window_mean == pytest.approx(350.0 - gap, abs=3.0)  # 3 N: 14 bins of 40 runs' 12 N bin noise, x3
-    assert fit.n_worlds == 40
+    assert fit.n_worlds == 40 and fit.levels_off
     with pytest.raises(analysis.InputError, match="n >= 2 runs"):
         analysis.plateau_fit(x[:, :1], truth[:, :1])
     with pytest.raises(analysis.InputError, match="at least four"):
         analysis.plateau_fit(x[:100], truth[:100])
+
+
+def test_plateau_fit_says_when_the_draught_does_not_level_off():
+    # Reference: a draught that rises along a straight line, D(x) = 300 + 40 x N, over the 1.2 m of the test above
+    # (same runs, samples and noise) has no plateau to find: the exponential's length is not identified (the fit
+    # either runs it past the fitted travel or cannot pin it to better than half itself), and the straight line
+    # through the bins must recover the slope within 3 of its own standard error, that error being of the size the
+    # bins' noise implies (about 1.9 N per bin over 0.8 m: 1-4 N/m).
+    rng = np.random.default_rng(5)
+    x = np.tile(np.arange(0.0, 1.2, 0.002)[:, None], (1, 40))
+    fit = analysis.plateau_fit(x, 300.0 + 40.0 * x + rng.normal(0.0, 60.0, x.shape))
+    assert not fit.levels_off, fit
+    assert abs(fit.slope - 40.0) < 3 * fit.slope_se and 1.0 < fit.slope_se < 4.0, fit

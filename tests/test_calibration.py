@@ -419,3 +419,37 @@ def test_soil_fields_follow_the_papers_sets():
         assert f["shear_cohesion"] == pytest.approx(t["shear_cohesion_pa"][k], abs=0.01)
         assert f["eta_twist"] == f["eta_roll"] == t["eta_roll_twist"][k]
         assert soil_overrides(genes, 3)["shear_cohesion"] == [f["shear_cohesion"]] * 3
+
+
+def test_the_held_out_box_waits_for_the_budget_and_is_not_run_twice(tmp_path) -> None:
+    # The held-out box check after a soil GA (calibration.workflow._held_out_box): with too little budget left for
+    # its estimate it stops the command (BudgetExhausted, nothing written) instead of overrunning; run, its result
+    # is kept with the set's genes and the problem's simulation key, so the same command again reads it (no second
+    # run), while another set or another simulation (here more box samples) runs it anew. Plumbing, not physics.
+    from calibration.budget import Budget
+    from calibration.workflow import _held_out_box
+    from warpdem.errors import BudgetExhausted
+
+    class Problem:
+        box_samples = 3
+        calls = 0
+
+        def simulation_key(self) -> dict[str, object]:
+            return {"rig": "soil_bin_rigid+shear_box", "box_samples": self.box_samples}
+
+        def held_out_box(self, genes: dict[str, float]) -> dict[str, object]:
+            Problem.calls += 1
+            return {"seeds": [3, 4, 5], "observables": {"cohesion_kpa": genes["normal_cohesion"] / 1e4}}
+
+    path, genes, p = tmp_path / "held_out_box.json", {"friction_angle": 6.3, "normal_cohesion": 9e4}, Problem()
+    with pytest.raises(BudgetExhausted, match="held-out shear box"):
+        _held_out_box(p, genes, path, Budget(10.0), estimate=60.0)
+    assert Problem.calls == 0 and not path.exists()
+    first = _held_out_box(p, genes, path, Budget(None), estimate=60.0)
+    assert Problem.calls == 1 and first["held_out_box"]["observables"]["cohesion_kpa"] == 9.0
+    again = _held_out_box(p, genes, path, Budget(1.0), estimate=60.0)
+    assert Problem.calls == 1 and again == first
+    _held_out_box(p, {**genes, "normal_cohesion": 8e4}, path, Budget(None), estimate=0.0)
+    p.box_samples = 5
+    _held_out_box(p, {**genes, "normal_cohesion": 8e4}, path, Budget(None), estimate=0.0)
+    assert Problem.calls == 3

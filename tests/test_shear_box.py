@@ -189,3 +189,27 @@ def test_a_cohesionless_envelope_bends_so_its_intercept_depends_on_the_stresses(
                               bed=results["bed"])[0]
     assert high.fit.cohesion > dry.fit.cohesion + 5e3, (dry.table(), high.table())
     assert high.fit.friction_angle_deg < dry.fit.friction_angle_deg - 5.0, (dry.table(), high.table())
+
+
+def test_with_a_fixed_consolidation_a_configs_result_does_not_depend_on_its_batch(results: dict) -> None:
+    """Reference: the worlds of a batch are independent samples (no contact, force or body crosses between them),
+    so a config's result must be a function of that config alone; a calibration ranks individuals by results that
+    are batched with others. What couples them is the protocol's clock: with the adaptive end a batch consolidates
+    until its slowest sample has settled (and a config's worlds wait in the servo for the others'). A companion
+    that settles slowly (contact friction 5 deg, eta 0.8) must therefore change the cohesive sample's peaks when
+    the end is adaptive (measured on this CPU: its consolidation 0.070 -> 0.103 s, c 10.72 -> 10.84 kPa) and leave
+    them equal to the bit when every world consolidates for the same fixed time."""
+    wet, bed = results["wet"].config, results["bed"]
+    slow = wet.replace(friction_angle=5.0, eta_roll=0.8, eta_twist=0.8, label="slow")
+    alone = sb.run_shear_boxes([wet], DEVICE, bed=bed)[0]
+    paired = sb.run_shear_boxes([wet, slow], DEVICE, bed=bed)[0]
+    assert paired.consolidation_time > alone.consolidation_time
+    assert not np.array_equal(paired.peak_shear_stress, alone.peak_shear_stress)
+    t = sb.BATCH_CONSOLIDATION
+    fixed = [c.replace(consolidation_time=(t, t)) for c in (wet, slow)]
+    alone = sb.run_shear_boxes(fixed[:1], DEVICE, bed=bed)[0]
+    paired = sb.run_shear_boxes(fixed, DEVICE, bed=bed)[0]
+    assert alone.consolidation_time == paired.consolidation_time == pytest.approx(t, abs=alone.dt)
+    assert alone.settled and paired.settled
+    np.testing.assert_array_equal(paired.peak_shear_stress, alone.peak_shear_stress)
+    assert paired.fit.cohesion == alone.fit.cohesion

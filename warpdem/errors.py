@@ -7,7 +7,7 @@ an engineer can act on, not deep inside a kernel.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 
@@ -112,6 +112,31 @@ def check_int(name: str, value: object, low: int = 0) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
         raise InputError(f"{name} must be an integer >= {low}, got {value!r}")
     return int(value)
+
+
+def check_keys(what: str, data: Mapping[str, object], known: Iterable[str],
+               error: type[InputError] = InputError) -> None:
+    """Raise ``error`` naming the keys of a description table ``what`` (e.g. "tool description x.toml") that are
+    not ``known``, and the known ones."""
+    known = sorted(known)
+    unknown = sorted(set(data) - set(known))
+    if unknown:
+        raise error(f"{what}: unknown keys {unknown}; known {known}")
+
+
+def count_table(name: str, value: object, what: str = "a number",
+                error: type[InputError] = InputError) -> dict[int, float]:
+    """A description's table of spring count = number (``what`` says which, e.g. "a rate [N/m]") as {int: float};
+    ``error`` names ``name`` and the bad entry otherwise."""
+    if not isinstance(value, Mapping):
+        raise error(f"{name} must be a table of spring count = {what}, got {value!r}")
+    table = {}
+    for n, x in value.items():
+        try:
+            table[int(n)] = float(x)
+        except (TypeError, ValueError):
+            raise error(f"{name} entry {n!r} = {x!r}: a spring count and {what} are needed") from None
+    return table
 
 
 def degrees_to_radians(name: str, angle_deg: float) -> float:
