@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scenes import rigs
+from scenes import figures, rigs
 
 from .diagnosis import Diagnosis
 from .report import markdown_table
@@ -102,12 +102,9 @@ def _axis_label(name: str) -> str:
 
 def _save(fig: object, path: Path, title: str) -> str:
     """Title, lay out, write (120 dpi) and close a figure; its file name."""
-    import matplotlib.pyplot as plt
 
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    figures.save(fig, path, 120)
     return path.name
 
 

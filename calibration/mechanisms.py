@@ -9,7 +9,7 @@ the rig supports all of its knobs.
 Built-in mechanisms (rationale in each entry): ``pivot_friction``, ``progressive_spring``, ``series_compliance``,
 ``extra_mass``, ``load_inertia``, ``pose_change``, ``sensor_offset``, ``sensor_drift``, ``stack_preload``,
 ``speed_dependence``, ``rigid_reference_speed``, ``progressive_stack``, ``lever_geometry``, ``sensor_lever``,
-``soil_tool_friction``, ``mount_pitch``.
+``soil_tool_friction``, ``soil_tool_adhesion``, ``mount_pitch``.
 
 Physical bounds (issue #39, item 1): every gene of a mechanism has a physical range, from the rig (its
 :class:`RigFacts`: the stacks' rates and travel, the tool's mass, the first swing) where the rig states one, with its
@@ -63,7 +63,8 @@ class RigFacts:
     smallest moment of the springs at a configuration's first swing (K theta_1); tool_mass [kg]; lever [m]: the
     stacks' and the sensor's stated lever about the pivot; seat_radius [m]: how far from its axis a stack's seat may
     bear on the shank (the discs' outer radius); sensor_tolerance [m]: how far the sensor's contact point may sit
-    from its stated lever; soil_friction [deg]: the soil's internal friction angle (its shear box)."""
+    from its stated lever; soil_friction [deg]: the soil's internal friction angle (its shear box); soil_cohesion
+    [Pa]: the soil's own contact normal cohesion (its bonds' tensile strength per R^2)."""
 
     rig: str
     springs: tuple[int, ...] = ()
@@ -76,6 +77,7 @@ class RigFacts:
     seat_radius: float = math.nan
     sensor_tolerance: float = math.nan
     soil_friction: float = math.nan
+    soil_cohesion: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -422,6 +424,25 @@ register(Mechanism(
     rigs=(SOIL_BIN.name,),
     signature="the draught and the deflection up together, rigid and passive alike",
     bounds=_tool_friction_bound))
+def _tool_adhesion_bound(f: RigFacts) -> dict[str, Bound]:
+    if not (math.isfinite(f.soil_cohesion) and f.soil_cohesion > 0):
+        return {}
+    return {"tool_adhesion": Bound(0.0, f.soil_cohesion, f"soil on steel adheres at most as the soil holds to itself: "
+                                   f"up to the soil's own contact cohesion ({f.soil_cohesion:g} Pa); no interface "
+                                   "is stronger than the soil")}
+
+
+register(Mechanism(
+    "soil_tool_adhesion", "Soil adhering to the steel",
+    "Moist soil sticks to steel: a new soil-steel contact holds in tension and shear up to an adhesion before it "
+    "lets go or slides, so soil rides on the blade and the shank and drags along them, adding to the draught and to "
+    "the moment that deflects the passive tool. The bonds break as the soil flows past and form again on new "
+    "contacts (a contact's friction angle is a separate mechanism, soil_tool_friction).",
+    genes=(Gene("tool_adhesion", 10.0, 1e6, log=True, unit="Pa"),),
+    knobs=lambda p: {"tool_adhesion": p["tool_adhesion"]},
+    rigs=(SOIL_BIN.name,),
+    signature="the draught and the deflection up together, rigid and passive alike",
+    bounds=_tool_adhesion_bound))
 register(Mechanism(
     "mount_pitch", "The sweep clamped at another attitude",
     "The passive sweep is clamped to its hinge: turned back (or forward) on the clamp against the drawing, its blade "

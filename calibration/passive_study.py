@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scenes import analysis, paper
+from scenes import analysis, figures, paper
 from scenes import soil_bin as sb
 from scenes.passive_tool import G, PassiveTool, from_dict, lever, load_toml
 from scenes.sweep import SweepParams, build_sweep
@@ -660,9 +660,7 @@ def table3_figure(rows: list[dict[str, object]], path: Path, title: str, label: 
     axes[1].set_ylabel("draught reduction against rigid [%]")
     axes[1].set_title("Draught reduction")
     axes[1].legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    figures.save(fig, path, 120)
 
 
 def write_report(out: str | Path) -> Path:
@@ -735,9 +733,7 @@ def write_report(out: str | Path) -> Path:
         ax.set_ylabel("draught change against pitch 0 [%]")
         ax.set_title("Draught against the tool's pose")
         ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(out / "fig_pitch_sweep.png", dpi=120)
-        plt.close(fig)
+        figures.save(fig, out / "fig_pitch_sweep.png", 120)
     if "joint" in load:
         lines += joint_lines(load["joint"])
     for v in VARIANTS:

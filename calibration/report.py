@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from scenes import figures
+
 from .archive import Record
 from .ga import CalibrationResult
 from .genes import soil_fields
@@ -73,9 +75,7 @@ def convergence_plot(result: CalibrationResult, path: str | Path) -> None:
     if keys:
         ax2.legend()
     ax.set_title("Calibration: fitness of every simulated individual and the best so far", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    figures.save(fig, path, 120)
 
 
 def pareto_front(costs: np.ndarray) -> np.ndarray:
@@ -156,9 +156,7 @@ def tradeoff_plot(problem, recs: list[Record], path: str | Path) -> None:  # noq
     fig.colorbar(sc, ax=ax, label="shear-box friction angle [deg]")
     ax.set_title("Soil calibration: draught against shear-box cohesion, every individual", fontsize=10)
     ax.legend(fontsize=8, loc="upper left")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    figures.save(fig, path, 120)
 
 
 def held_out_lines(held: dict[str, object], problem) -> list[str]:  # noqa: ANN001

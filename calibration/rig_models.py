@@ -57,9 +57,16 @@ KNOB_OFF = {"series_stiffness": math.inf, "load_mass_fraction": 1.0}
 """the value of a knob that leaves a rig as it is, where it is not 0 (a case without the knob gets it)."""
 READING_KNOBS = ("sensor_offset", "sensor_drift", "sensor_lever", "rigid_speed")
 """the soil-bin knobs that change how a run is read or compared, not the simulation."""
+TOOL_KNOBS = ("tool_friction", "tool_adhesion")
+"""the soil bin's knobs of the soil-steel contacts: the rigid tool's runs take them too."""
 RIGID_SWEEP = (0.45, 0.55, 0.65, 0.75)
 """carriage speeds [m/s] of the rigid runs through which the soil-bin rig model fits the rigid draught's line against
 speed (for the rigid_speed knob), besides the measured speeds."""
+
+
+def _tool_knobs(params: dict[str, float]) -> dict[str, float]:
+    """The knobs of :data:`TOOL_KNOBS` among a case's parameters."""
+    return {k: float(params[k]) for k in TOOL_KNOBS if k in params}
 
 
 RINGING_UNCERTAINTY = {"frequency": 0.01, "damping": 0.10, "frequency_late": 0.02, "damping_late": 0.20,
@@ -718,8 +725,9 @@ class SoilBinRigModel:
     lever: the DEM's spring, at the sensor's lever, gets the same moment-rotation law: rate x lambda^2, a given
     dashpot x lambda^2, progressive x lambda^4, preload / lambda; without a dashpot knob the measured damping ratio
     is kept), sensor_lever [-] (the sensor reads at this many times its stated lever: every displacement reading
-    scaled by it, before the offset), tool_friction [deg] (the soil-steel contacts' own friction angle, in the
-    passive and the rigid runs alike: ``scenes.soil_bin.KNOBS``), sensor_offset [m] (added to the displacement
+    scaled by it, before the offset), tool_friction [deg] (the soil-steel contacts' own friction angle) and
+    tool_adhesion [Pa] (the soil-steel pair's adhesion), in the passive and the rigid runs alike
+    (``scenes.soil_bin.KNOBS``), sensor_offset [m] (added to the displacement
     reading) and rigid_speed [m/s]
     (every reduction taken against a rigid run at this one speed instead of the configuration's own: the rigid
     draught at the configuration's speed moved along the rigid draught's line against speed, fitted through rigid
@@ -758,7 +766,7 @@ class SoilBinRigModel:
     uncertainty_defaults = SOIL_BIN_UNCERTAINTY
     knobs = frozenset({"pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
                        "stack_preload", "sensor_offset", "rigid_speed", "progressive_factor", "spring_lever",
-                       "sensor_lever", "tool_friction", "mount_pitch"})
+                       "sensor_lever", "tool_friction", "tool_adhesion", "mount_pitch"})
     units = {"reduction": "%", "displacement_mean": "m", "displacement_trend": "m/s", "draught_mean": "N",
              "rigid_draught_mean": "N"}
     genes: tuple[Gene, ...] = ()
@@ -865,8 +873,8 @@ class SoilBinRigModel:
         self.max_worlds = int(max_worlds)
         self._rigid: dict[float, dict[str, float]] = {}
         self._rigid_line: tuple[float, float] | None = None
-        self._rigid_tool: dict[float, dict[float, dict[str, float]]] = {}
-        """rigid runs with the tool_friction knob: angle [deg] -> speed -> mean, sem."""
+        self._rigid_tool: dict[tuple, dict[float, dict[str, float]]] = {}
+        """rigid runs with knobs of :data:`TOOL_KNOBS`: ((name, value), ...) -> speed -> mean, sem."""
         self.simulator = simulator
         self._passive: dict[tuple, dict[str, object]] = {}
         self._sim_sigma: np.ndarray | None = None
@@ -936,7 +944,8 @@ class SoilBinRigModel:
         realisation would not match the fitted points)."""
         return {"sim_sigma": None if self._sim_sigma is None else self._sim_sigma.tolist(),
                 "rigid": [[v, r["mean"], r["sem"]] for v, r in self._rigid.items()],
-                "rigid_tool": [[a, v, r["mean"], r["sem"]] for a, t in self._rigid_tool.items() for v, r in t.items()],
+                "rigid_tool": [[[list(kv) for kv in a], v, r["mean"], r["sem"]] for a, t in self._rigid_tool.items()
+                               for v, r in t.items()],
                 "rigid_line": None if self._rigid_line is None else list(self._rigid_line)}
 
     def restore(self, state: dict[str, object]) -> None:
@@ -945,8 +954,9 @@ class SoilBinRigModel:
             self._sim_sigma = np.array(state["sim_sigma"], dtype=np.float64)
         for v, mean, sem in state.get("rigid", []):
             self._rigid[round(float(v), 6)] = {"mean": float(mean), "sem": float(sem)}  # soil_bin.speed_key
-        for a, v, mean, sem in state.get("rigid_tool", []):
-            self._rigid_table(a)[round(float(v), 6)] = {"mean": float(mean), "sem": float(sem)}
+        for a, v, mean, sem in state.get("rigid_tool", []):  # a: [[knob, value], ...], or an angle (saved earlier)
+            tool = {"tool_friction": float(a)} if isinstance(a, (int, float)) else {k: float(x) for k, x in a}
+            self._rigid_table(tool)[round(float(v), 6)] = {"mean": float(mean), "sem": float(sem)}
         if state.get("rigid_line") is not None:
             self._rigid_line = (float(state["rigid_line"][0]), float(state["rigid_line"][1]))
 
@@ -1001,35 +1011,37 @@ class SoilBinRigModel:
         soil = float(self.soil.get("friction_angle", self.config.soil_material().friction_angle))
         return min(soil, paper.TOOL_FRICTION)
 
-    def _rigid_table(self, tool_friction: float | None) -> dict[float, dict[str, float]]:
-        """The rigid runs by speed: the scene's own, or with the tool_friction knob at that angle [deg]."""
-        return self._rigid if tool_friction is None else self._rigid_tool.setdefault(float(tool_friction), {})
+    def _rigid_table(self, tool: dict[str, float] | None) -> dict[float, dict[str, float]]:
+        """The rigid runs by speed: the scene's own, or with the knobs ``tool`` of :data:`TOOL_KNOBS`."""
+        if not tool:
+            return self._rigid
+        return self._rigid_tool.setdefault(tuple(sorted((k, float(v)) for k, v in tool.items())), {})
 
-    def _run_rigid(self, speeds: list[float], progress: object | None, tool_friction: float | None = None) -> None:
+    def _run_rigid(self, speeds: list[float], progress: object | None, tool: dict[str, float] | None = None) -> None:
         from scenes import soil_bin as sb
 
-        table = self._rigid_table(tool_friction)
+        table = self._rigid_table(tool)
         todo = sorted({sb.speed_key(v) for v in speeds} - set(table))
         if not todo:
             return
-        knobs = None if tool_friction is None else {"tool_friction": [float(tool_friction)] * len(todo)}
+        knobs = {k: [float(v)] * len(todo) for k, v in tool.items()} if tool else None
         run = self._run([0] * len(todo), todo, knobs, progress)
         for v, row in zip(todo, run.steady, strict=True):
             table[v] = {"mean": row["draught_mean"], "sem": row["draught_sem"]}
 
     def rigid_reference(self, speed: float, rigid_speed: float | None = None,
-                        tool_friction: float | None = None) -> tuple[float, float]:
+                        tool: dict[str, float] | None = None) -> tuple[float, float]:
         """The rigid draught [N] and its standard error [N] that a passive run at ``speed`` [m/s] is compared with:
         the rigid run at ``speed`` (Table 3's pairing), or with ``rigid_speed`` (the rigid_speed knob) that run
         moved along the rigid draught's line against speed to ``rigid_speed`` (the line's slope is fitted once,
-        through rigid runs at :data:`RIGID_SWEEP` and every measured speed). With ``tool_friction`` [deg] (the
-        knob) the rigid tool runs with it too (the line's slope stays the scene's own). Simulates what is
-        missing."""
+        through rigid runs at :data:`RIGID_SWEEP` and every measured speed). With ``tool`` (knobs of
+        :data:`TOOL_KNOBS`, name -> value) the rigid tool runs with them too (the line's slope stays the scene's
+        own). Simulates what is missing."""
         from scenes import soil_bin as sb
         from scenes import speed_sweep
 
-        self._run_rigid([speed], None, tool_friction)
-        rig = self._rigid_table(tool_friction)[sb.speed_key(speed)]
+        self._run_rigid([speed], None, tool)
+        rig = self._rigid_table(tool)[sb.speed_key(speed)]
         if rigid_speed is None or sb.speed_key(rigid_speed) == sb.speed_key(speed):
             return rig["mean"], rig["sem"]
         if self._rigid_line is None:
@@ -1044,7 +1056,7 @@ class SoilBinRigModel:
         """What the soil-bin rig states that bounds the mechanisms (``calibration.mechanisms.RigFacts``): the stated
         rates, each stack's DIN 2093 travel, the measured mean displacements (the stacks' working deflection), the
         sweep's mass, its stacks' and sensor's lever, the discs' radius and the sensor's mounting tolerance, the
-        laboratory's internal friction angle."""
+        laboratory's internal friction angle, the soil's own contact normal cohesion."""
         from scenes.passive_tool import DISC_OUTER_RADIUS, SENSOR_MOUNT_TOLERANCE, lever, stack_travel
         from scenes.shear_box import lab_strength
         from scenes.sweep import build_sweep
@@ -1059,7 +1071,9 @@ class SoilBinRigModel:
                              tuple(stack_travel(c["springs"]) for c in self.configs), deflection,
                              tool_mass=float(tool.mass),
                              lever=lever(tool), seat_radius=DISC_OUTER_RADIUS,
-                             sensor_tolerance=SENSOR_MOUNT_TOLERANCE, soil_friction=lab_strength()[1])
+                             sensor_tolerance=SENSOR_MOUNT_TOLERANCE, soil_friction=lab_strength()[1],
+                             soil_cohesion=float(self.soil.get("normal_cohesion",
+                                                               self.config.soil_material().normal_cohesion)))
 
     def _run_passive(self, keys: list[tuple], keep_series: bool, progress: object | None) -> None:
         from scenes.passive_tool import stack_travel
@@ -1102,10 +1116,10 @@ class SoilBinRigModel:
         """The observables of every case (n_cases, n_obs) (with ``_sem``: their simulation standard errors)."""
         from scenes import soil_bin as sb
 
-        angles = [{**self.fixed, **c.params}.get("tool_friction") for c in cases]  # the rigid runs alike
-        for angle in set(angles):
-            self._run_rigid([self.configs[c.config]["speed"] for c, a in zip(cases, angles, strict=True)
-                             if a == angle], progress, angle)
+        tools = [_tool_knobs({**self.fixed, **c.params}) for c in cases]  # the rigid runs alike
+        for tool in {tuple(sorted(t.items())) for t in tools}:
+            self._run_rigid([self.configs[c.config]["speed"] for c, t in zip(cases, tools, strict=True)
+                             if tuple(sorted(t.items())) == tool], progress, dict(tool))
         keys = [self._physical(c) for c in cases]
         self._run_passive(keys, keep_series, progress)
         values = np.full((len(cases), len(self.observables)), np.nan)
@@ -1116,7 +1130,7 @@ class SoilBinRigModel:
             speed = self.configs[case.config]["speed"]
             run = self._passive[key]
             rigid_speed = p.get("rigid_speed")
-            rigid, rigid_sem = self.rigid_reference(speed, rigid_speed, p.get("tool_friction"))
+            rigid, rigid_sem = self.rigid_reference(speed, rigid_speed, _tool_knobs(p))
             # the rigid tool moves at its carriage speed exactly
             drag = p.get("soil_viscosity", 0.0) * (speed if rigid_speed is None else rigid_speed)
             rigid, passive = rigid + drag, float(run["draught_mean"])

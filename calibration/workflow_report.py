@@ -157,9 +157,7 @@ def plot_series(out: Path, config: WorkflowConfig, table3: dict) -> list[str]:
                  "offsets); each trace ends at its carriage's stop", fontsize=10, y=1.0)
     fig.legend(list(legend.values()), list(legend), loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=3,
                fontsize=8)
-    fig.tight_layout()
-    fig.savefig(out / "fig16_draught_displacement.png", dpi=100, bbox_inches="tight")
-    plt.close(fig)
+    figures.save(fig, out / "fig16_draught_displacement.png", 100, tight_box=True)
     names.append("fig16_draught_displacement.png")
     # Figs. 17-19: one panel per configuration, as the paper's
     cols = 4
@@ -219,9 +217,7 @@ def plot_series(out: Path, config: WorkflowConfig, table3: dict) -> list[str]:
         fig.suptitle(what + (f"; resolution {resolution:.2g} Hz" if resolution else ""), fontsize=10)
         fig.legend(list(legend.values()), list(legend), loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=3,
                    fontsize=8)
-        fig.tight_layout()
-        fig.savefig(out / fname, dpi=100, bbox_inches="tight")
-        plt.close(fig)
+        figures.save(fig, out / fname, 100, tight_box=True)
         names.append(fname)
     return names
 

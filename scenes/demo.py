@@ -13,6 +13,8 @@ import numpy as np
 
 import warpdem as wd
 
+from . import figures
+
 SOIL = wd.Material(young=1e7, poisson=0.4, density=2700.0, friction_angle=30.0, normal_cohesion=5e3,
                    shear_cohesion=2.5e3, moment_law=True, eta_roll=0.1, eta_twist=0.1)
 STEEL = wd.Material(young=1e9, poisson=0.3, density=7850.0, friction_angle=25.0)
@@ -87,9 +89,7 @@ def write_report(out: Path, summary: dict, series: dict[str, np.ndarray], deposi
     a.legend(fontsize=8)
     b.semilogy(deposition["time"], np.maximum(np.asarray(deposition["kinetic_energy"]).reshape(-1), 1e-12))
     b.set(xlabel="time [s]", ylabel="kinetic energy [J]", title="deposition")
-    fig.tight_layout()
-    fig.savefig(out / "demo_cut.png", dpi=110)
-    plt.close(fig)
+    figures.save(fig, out / "demo_cut.png", 110)
     rel = summary["draught_sem_n"] / abs(summary["draught_mean_n"]) if summary["draught_mean_n"] else float("inf")
     meaning = (f"The draught's standard error is {100 * rel:.0f} % of its mean (from {summary['draught_n_eff']:.0f} "
                "effectively independent samples of the averaged half): ")

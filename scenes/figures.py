@@ -26,6 +26,14 @@ def plt():
     return pyplot
 
 
+def save(fig: object, path: str | Path, dpi: int = 110, *, tight_box: bool = False) -> None:
+    """Lay out a matplotlib figure, write it to ``path`` (PNG at ``dpi``; ``tight_box``: cropped to what is drawn,
+    e.g. a legend outside the axes) and close it."""
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi, **({"bbox_inches": "tight"} if tight_box else {}))
+    plt().close(fig)
+
+
 def moving_records(travel: np.ndarray) -> int:
     """How many records of one world were taken while its carriage moved: those up to and including the first
     record at the full travel. ``travel``: carriage travel [m] (k,), clamped at its end (``SoilBinRun.travel``);

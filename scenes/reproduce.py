@@ -61,9 +61,7 @@ def plot_ringing(results: dict[str, ringing.RingingResult], path: Path) -> None:
         ax.set_visible(False)
     fig.suptitle("Ringing test (like the paper's Fig. 6): warpdem's spring models, uncalibrated, against Table 2",
                  fontsize=11)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    figures.save(fig, path, 110)
 
 
 def _world_name(n: int, run: object, w: int) -> str:
@@ -160,9 +158,7 @@ def plot_soil_bin(study: dict, out: Path, assembly: str = "C") -> list[str]:
                fontsize=8)
     fig.suptitle("Draught and tool displacement against travel (like the paper's Fig. 16); each trace ends at its "
                  "carriage's stop", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(out / "fig16_draught_displacement.png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
+    figures.save(fig, out / "fig16_draught_displacement.png", 110, tight_box=True)
     names.append("fig16_draught_displacement.png")
     # Figs. 17 and 18: FFT of the steady draught and displacement (100 Hz Butterworth low-pass first)
     for key, fname, unit, what in (("draught", "fig17_fft_draught.png", "N", "draught (like the paper's Fig. 17)"),

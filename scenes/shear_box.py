@@ -88,7 +88,7 @@ import warpdem as wd
 from warpdem.files import write_text_atomic
 from warpdem.vtk import VtkWriter
 
-from . import paper
+from . import figures, paper
 from .analysis import MohrCoulomb, mohr_coulomb
 from .assemblies import AssemblySpec, Bed, deposit
 
@@ -739,9 +739,7 @@ def write_report(result: ShearBoxResult, out: str | Path) -> Path:
     b.set_xlabel("normal stress on the plane [kPa]")
     b.set_ylabel("peak shear stress [kPa]")
     b.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out / "fig_shear_box.png", dpi=110)
-    plt.close(fig)
+    figures.save(fig, out / "fig_shear_box.png", 110)
     d_c, d_phi = result.fit.cohesion / 1e3 - c_lab, result.fit.friction_angle_deg - phi_lab
     text = [
         "# warpdem shear box", "", "```", result.table(), "```", "",

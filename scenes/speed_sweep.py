@@ -24,7 +24,7 @@ import numpy as np
 from warpdem.files import write_atomic, write_text_atomic
 from warpdem.vtk import VtkWriter
 
-from . import paper
+from . import figures, paper
 from . import soil_bin as sb
 
 SWEEP_SPEEDS = (0.45, 0.50, 0.55, 0.60, 0.65, 0.70, 0.75)
@@ -180,9 +180,7 @@ def plot(result: dict[str, object], path: Path, title: str) -> None:
     ax[1].set_xlabel("springs / speed [m/s]")
     ax[1].set_ylabel("draught reduction [%]")
     ax[1].legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    figures.save(fig, path, 110)
 
 
 def sweep_meaning(line: SpeedLine, table7: list[dict[str, object]]) -> list[str]:

@@ -481,3 +481,52 @@ def test_a_pair_friction_angle_replaces_the_smaller_of_the_two() -> None:
     b.add_material("s", soil())
     with pytest.raises(wd.InputError, match="pair friction_angle"):
         b.set_pair_friction("s", "s", 90.0)
+
+
+def pulled_off_facet(adhesion: list[float], steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """A soil sphere pushed 10 um into a static steel square, then pulled straight off it at 0.01 m/s, one world per
+    ``adhesion`` of the soil-steel pair [Pa] (negative: none); returns (un (steps,), Fn (steps, worlds)), Fn the
+    normal force on the sphere (positive in compression)."""
+    b = wd.ModelBuilder(gravity=(0, 0, 0))
+    b.add_material("soil", soil())
+    b.add_material("steel", soil())
+    b.set_pair_adhesion("soil", "steel", 1.0)
+    b.add_sphere((0, 0, R - 1e-5), R, "soil", blocked="xyzXYZ", velocity=(0, 0, 0.01))
+    b.add_mesh("plate", *square((0, 0, 0), 0.05), "steel")
+    model, state = b.finalize(DEVICE, n_worlds=len(adhesion), overrides={"pair:soil:steel:adhesion": adhesion})
+    sim = wd.Simulation(model, state, dt=1e-6)
+    sphere = np.arange(len(adhesion)) * model.bodies_per_world
+    un, fn = [], []
+    for _ in range(steps):
+        un.append(R - state.body_pos.numpy()[sphere[0], 2])  # the overlap the step's force is computed at
+        sim.step()
+        fn.append(sim.data.body_force.numpy()[sphere, 2].astype(np.float64))
+    return np.asarray(un), np.asarray(fn)
+
+
+def test_a_pairs_adhesion_bonds_its_new_contacts_to_their_strength() -> None:
+    # Reference: Yade's cohesive bond of CohFrictPhys, given here to every new contact of one material pair
+    # (ModelBuilder.set_pair_adhesion) and to no other: its strength a_n = C_a min(R1, R2)^2, min(R1, R2) = R for a
+    # facet (contact radius 2R), so C_a = 2e4 Pa gives 2 N; kn = 2 (E 2R)(E R) / (E 2R + E R) = 4/3 E R =
+    # 1.33e5 N/m. The fragile bond carries tension kn un down to un = -a_n / kn = -15 um, then none; without the
+    # pair's adhesion (the other world: the simulation's rule, no cohesion on new contacts) the contact carries no
+    # tension at all. Tolerance: one step of pulling, v dt kn = 1.3e-3 N.
+    kn, an = 4.0 / 3.0 * E * R, 2e4 * R**2
+    un, fn = pulled_off_facet([2e4, -1.0], 4000)
+    bonded, free = fn[:, 0], fn[:, 1]
+    assert bonded.min() == pytest.approx(-an, abs=1.4e-3)
+    broke = int(np.argmax((un < 0) & (bonded == 0.0)))
+    assert un[broke] == pytest.approx(-an / kn, abs=1.1e-8)
+    assert np.all(bonded[broke:] == 0.0)
+    touching = un > 1e-7
+    np.testing.assert_allclose(bonded[touching], kn * un[touching], rtol=1e-3, atol=1.4e-3)
+    assert free.min() >= 0.0 and np.all(free[un < 0] == 0.0)
+    np.testing.assert_allclose(free[touching], bonded[touching], rtol=1e-6)
+    hm = wd.ModelBuilder()
+    hm.add_material("a", wd.HertzMindlinMaterial(young=1e7, poisson=0.3, density=2600, friction_angle=25))
+    with pytest.raises(wd.InputError, match="pair adhesion needs cohesive-frictional"):
+        hm.set_pair_adhesion("a", "a", 1e3)
+    cf = wd.ModelBuilder()
+    cf.add_material("s", soil())
+    with pytest.raises(wd.InputError, match="pair adhesion"):
+        cf.set_pair_adhesion("s", "s", -1.0)

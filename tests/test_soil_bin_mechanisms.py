@@ -155,6 +155,46 @@ def test_the_soil_steel_friction_knob_reaches_the_rigid_and_the_passive_runs() -
     assert (bound.low, bound.high) == pytest.approx((0.5 * 32.3, 32.3)) and "Potyondy" in bound.source
 
 
+def test_the_soil_steel_adhesion_knob_reaches_the_rigid_and_the_passive_runs() -> None:
+    """Reference: a quasi-static soil bin (written here) whose draught is 300 N (1 + Ca / 10 kPa) less 0.2 % per
+    spring, Ca the soil-steel adhesion the runs get (0 without the knob): with tool_adhesion the rigid reference runs
+    with the same adhesion, so the reduction stays the spring count's alone while the draught and the displacement
+    follow the adhesion; together with tool_friction the rigid run gets both. The knob's bound is the soil's own
+    contact cohesion (no interface stronger than the soil), here the ``soil`` given to the rig model."""
+    seen: list[tuple[int, float, float]] = []
+
+    def run(config, springs, speeds, knobs, soil):  # noqa: ANN001, ANN202
+        steady = []
+        for w, (n, v) in enumerate(zip(springs, speeds, strict=True)):
+            ca = float((knobs or {}).get("tool_adhesion", [0.0] * len(springs))[w])
+            delta = float((knobs or {}).get("tool_friction", [20.0] * len(springs))[w])
+            seen.append((n, ca, delta))
+            f = 300.0 * (1 + ca / 1e4) * (1 - (0.002 * n if n else 0.0))
+            k = float(knobs["stiffness"][w]) if n else math.inf
+            steady.append({"springs": n, "speed": v, "draught_mean": f, "draught_sem": 0.5,
+                           "displacement_mean": f * H / (k * A), "displacement_sem": 1e-5, "displacement_trend": 0.0,
+                           "displacement_trend_sem": 1e-5, "steady_time_mean": 1.0})
+        t = np.linspace(0.0, 1.0, 5)
+        series = {"displacement": np.tile([r["displacement_mean"] for r in steady], (len(t), 1)),
+                  "draught": np.tile([r["draught_mean"] for r in steady], (len(t), 1))}
+        return sb.SoilBinRun(tuple(springs), tuple(speeds), t, np.outer(t, speeds), series, steady)
+
+    from calibration.rig_models import Case
+
+    m = _measured(1.0, 1.0, 0)
+    data = Measured({**m.summary, "reduction": np.zeros(len(m.summary["springs"]))}, {})
+    rig = SoilBinRigModel(data, simulator=run, observables=("reduction", "displacement_mean"),
+                          soil={"friction_angle": 20.0, "normal_cohesion": 3e4})
+    base, sticky, both = rig.simulate([Case(3, {}), Case(3, {"tool_adhesion": 5e3}),
+                                       Case(3, {"tool_adhesion": 5e3, "tool_friction": 30.0})]).values
+    assert {(ca, d) for n, ca, d in seen if n == 0} == {(0.0, 20.0), (5e3, 20.0), (5e3, 30.0)}  # a rigid run each
+    assert {ca for n, ca, d in seen if n == 16} == {0.0, 5e3}  # a case without the knob has no adhesion
+    assert base[0] == pytest.approx(sticky[0]) == pytest.approx(both[0]) == pytest.approx(100 * 0.002 * 16)
+    assert sticky[1] / base[1] == pytest.approx(1.5)
+    bound = mech.get("soil_tool_adhesion").physical(rig.facts())["tool_adhesion"]
+    assert (bound.low, bound.high) == pytest.approx((10.0, 3e4)) and "soil's own contact cohesion" in bound.source
+
+
 def test_a_rows_own_standard_error_weighs_it_in_the_fit() -> None:
     """Reference: weighted least squares in closed form. Quasi-static data (written here) read 0.3 mm low at every
     spring count, and the 4-spring row is 1 mm off besides but says so: its ``displacement_mean_se`` is 2 mm

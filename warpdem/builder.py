@@ -72,6 +72,7 @@ class ModelBuilder:
         self.materials: list[laws.Material | laws.HertzMindlinMaterial] = []
         self.material_names: dict[str, int] = {}
         self.pair_friction: dict[tuple[int, int], float] = {}
+        self.pair_adhesion: dict[tuple[int, int], float] = {}
         self.groups: dict[str, int] = {}
         self.group_damping: list[float] = []
         # bodies, stored as chunks of rows (see _push_bodies) and concatenated on demand
@@ -135,6 +136,21 @@ class ModelBuilder:
         i, j = self._material(a), self._material(b)
         degrees_to_radians("pair friction_angle", friction_angle)
         self.pair_friction[(min(i, j), max(i, j))] = float(friction_angle)
+
+    def set_pair_adhesion(self, a: str, b: str, adhesion: float) -> None:
+        """Adhesion [Pa] (>= 0) between materials ``a`` and ``b`` (names), e.g. moist soil on steel: every new
+        contact of the pair is bonded, with tensile and shear strength adhesion x min(R1, R2)^2 [N] (a facet's
+        contact radius is twice its sphere's, so min(R1, R2) is the sphere's radius), whatever the simulation's
+        cohesion rule; a bond that fails goes on as a frictional contact (broken for good where either material is
+        fragile, yielding otherwise, as cohesion's bonds). Cohesive-frictional materials only. Per world with the
+        override ``pair:<a>:<b>:adhesion``."""
+        i, j = self._material(a), self._material(b)
+        check_nonnegative("pair adhesion", adhesion)
+        for k in (i, j):
+            if self.materials[k].LAW != laws.COHFRICT:
+                raise InputError(f"pair adhesion needs cohesive-frictional materials: {a!r} and {b!r}, got "
+                                 f"{type(self.materials[k]).__name__}")
+        self.pair_adhesion[(min(i, j), max(i, j))] = float(adhesion)
 
     def _group(self, group: str) -> int:
         if group not in self.groups:
@@ -526,6 +542,7 @@ class ModelBuilder:
                 ``material:<name>:<field>`` (fields: young, poisson, density, friction_angle [deg],
                 normal_cohesion, shear_cohesion, eta_roll, eta_twist, alpha_kr, alpha_ktw),
                 ``pair:<a>:<b>:friction_angle`` [deg] (a material pair's own, :meth:`set_pair_friction`),
+                ``pair:<a>:<b>:adhesion`` [Pa] (:meth:`set_pair_adhesion`; negative: none in that world),
                 ``spring:<name>:<stiffness|damping|rest_length|preload|progressive|stop_stiffness>``,
                 ``spring:<name>:point_a`` / ``point_b`` (shape (n_worlds, 3) [m]: the attachment point in the world
                 as built, like :meth:`add_spring`'s; e.g. an anchor that sits elsewhere in each world),
@@ -567,6 +584,9 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
     t["pair_friction"] = np.full((n_worlds, nm, nm), np.nan)
     for (i, j), angle in b.pair_friction.items():
         t["pair_friction"][:, i, j] = t["pair_friction"][:, j, i] = angle
+    t["pair_adhesion"] = np.full((n_worlds, nm, nm), -1.0)
+    for (i, j), adhesion in b.pair_adhesion.items():
+        t["pair_adhesion"][:, i, j] = t["pair_adhesion"][:, j, i] = adhesion
     t["damping"] = np.tile(np.array(b.group_damping, dtype=np.float64), (n_worlds, 1))
     for f in SPRING_FIELDS:
         t["spring_" + f] = np.tile(np.array([getattr(s, f) for s in b.springs], dtype=np.float64), (n_worlds, 1))
@@ -594,6 +614,12 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
             for v in col:
                 degrees_to_radians(f"override {key!r}", float(v))
             t["pair_friction"][:, i, j] = t["pair_friction"][:, j, i] = col
+        elif parts[0] == "pair" and len(parts) == 4 and parts[3] == "adhesion":
+            i, j = b._material(parts[1]), b._material(parts[2])
+            if laws.law_of(b.materials) != laws.COHFRICT:
+                raise InputError(f"override {key!r}: adhesion needs cohesive-frictional materials")
+            col = _per_world(key, values, n_worlds)
+            t["pair_adhesion"][:, i, j] = t["pair_adhesion"][:, j, i] = np.where(col < 0.0, -1.0, col)
         elif parts[0] == "spring" and len(parts) == 3 and parts[2] in ("point_a", "point_b"):
             if parts[1] not in spring_names:
                 raise InputError(f"override {key!r}: unknown spring {parts[1]!r}")
@@ -641,7 +667,7 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
             t[parts[2]][:, idx] = col
         else:
             raise InputError(
-                f"unknown override {key!r}; expected material:<name>:<field>, pair:<a>:<b>:friction_angle, "
+                f"unknown override {key!r}; expected material:<name>:<field>, pair:<a>:<b>:friction_angle|adhesion, "
                 "spring:<name>:<field>, "
                 "spring:<name>:point_a|point_b, damping:<group> or "
                 "body:<name>:velocity|angular_velocity|mass|pivot_friction"
@@ -759,6 +785,7 @@ def _material_and_spring_arrays(b: ModelBuilder, W: int, t: dict[str, np.ndarray
     out["mat_flags"] = arr(np.tile(np.array([m.flags for m in b.materials], dtype=np.int32), W), wp.int32)
     pair = t["pair_friction"].reshape(-1)
     out["mat_pair_tan"] = arr(np.where(np.isnan(pair), -1.0, np.tan(np.radians(pair))).astype(np.float32), wp.float32)
+    out["mat_pair_adhesion"] = arr(t["pair_adhesion"].reshape(-1).astype(np.float32), wp.float32)
     out["group_damping"] = arr(t["damping"].reshape(-1).astype(np.float32), wp.float32)
     nb, nk = b._n_bodies, len(b.springs)
     off = np.repeat(np.arange(W) * nb, nk)

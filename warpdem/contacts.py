@@ -138,7 +138,7 @@ def sphere_pair(
         p = phys_of(mats, w, mi, spheres.material[j], r1, r2)
         is_new = int(0)
         if active == 0:
-            h = new_hist(p, n, wp.max(opts.cohesion_on_new, now))
+            h = new_hist(p, n, wp.max(wp.max(opts.cohesion_on_new, now), p.adhesive))
             is_new = int(1)
         elif now != 0:
             h = set_cohesion(h, p)
@@ -364,7 +364,7 @@ def sphere_triangle_one(
         is_new = int(0)
         if active == 0:
             is_new = int(1)
-            h = new_hist(p, n, wp.max(opts.cohesion_on_new, now))
+            h = new_hist(p, n, wp.max(wp.max(opts.cohesion_on_new, now), p.adhesive))
             # inherit from a contact of the same mesh that existed last step and no longer does
             for k2 in range(k0, k1):
                 h2 = st.hist[k2]

@@ -113,6 +113,10 @@ class Model:
     mat_pair_tan: wp.array
     """tan of a material pair's own friction angle [-], float32 (n_worlds * n_materials * n_materials,); -1: the
     smaller of the two materials' angles (``ModelBuilder.set_pair_friction``)."""
+    mat_pair_adhesion: wp.array
+    """a material pair's adhesion [Pa], float32 (n_worlds * n_materials * n_materials,): every new contact of the
+    pair is bonded with tensile and shear strength adhesion x min(R1, R2)^2 (``ModelBuilder.set_pair_adhesion``);
+    -1: none (the pair's cohesion follows its materials)."""
 
     # Local damping per world and group (n_worlds * n_groups,)
     group_damping: wp.array

@@ -106,7 +106,7 @@ def _materials_of(model: Model) -> laws.MaterialTables:
         ("young", model.mat_young), ("poisson", model.mat_poisson), ("normal_coh", model.mat_normal_cohesion),
         ("shear_coh", model.mat_shear_cohesion), ("eta_roll", model.mat_eta_roll), ("eta_twist", model.mat_eta_twist),
         ("alpha_kr", model.mat_alpha_kr), ("alpha_ktw", model.mat_alpha_ktw), ("flags", model.mat_flags),
-        ("pair_tan", pair_tan),
+        ("pair_tan", pair_tan), ("pair_adh", model.mat_pair_adhesion),
     ):
         setattr(materials, name, arr)
     materials.n_materials = model.n_materials

@@ -70,6 +70,8 @@ class Phys:
     """normal adhesion this contact would get [N], float32 (CohFrict)."""
     as_: float
     """shear adhesion this contact would get [N], float32 (CohFrict)."""
+    adhesive: int
+    """1: the pair of materials has an adhesion of its own, so a new contact is bonded (CohFrict), int32."""
     law: int
     """the contact law (COHFRICT, HERTZ_MINDLIN), int32."""
 
@@ -116,6 +118,9 @@ class MaterialTables:
     n_materials,) in world, first, second material order: the pair's own angle where one is set
     (``ModelBuilder.set_pair_friction``, Yade's MatchMaker on the Ip2's frictAngle), else the smaller of its two
     materials' angles (both laws' rule, Yade's default)."""
+    pair_adh: wp.array(dtype=float)
+    """adhesion of each pair of materials [Pa], float32, laid out as ``pair_tan``; -1: none
+    (``ModelBuilder.set_pair_adhesion``; CohFrict)."""
     n_materials: int
     """materials per world, int32."""
 

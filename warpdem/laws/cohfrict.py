@@ -142,6 +142,12 @@ def make_phys(mats: CohFrictMaterials, mi: int, mj: int, pair: int, r1: float, r
     rmin = wp.min(r1, r2)
     p.an = wp.min(mats.normal_coh[mi], mats.normal_coh[mj]) * rmin * rmin
     p.as_ = wp.min(mats.shear_coh[mi], mats.shear_coh[mj]) * rmin * rmin
+    adhesion = mats.pair_adh[pair]
+    if adhesion >= 0.0:  # the pair's own adhesion: its bonds' strength, given to every new contact
+        p.adhesive = 1
+        p.cohesive = 1
+        p.an = adhesion * rmin * rmin
+        p.as_ = p.an
     return p
 
 
