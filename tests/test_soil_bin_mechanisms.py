@@ -115,21 +115,19 @@ def test_a_stack_seated_off_the_sensor_lever_is_named_and_the_sensor_at_its_boun
     assert bound[0]["value"] == pytest.approx(1 + SENSOR_MOUNT_TOLERANCE / rig.facts().lever, rel=1e-3)
 
 
-def test_the_soil_steel_friction_knob_reaches_the_rigid_and_the_passive_runs() -> None:
-    """Reference: a quasi-static soil bin (written here) whose draught is 300 N (1 + tan(delta)) less 0.2 % per
-    spring, delta the soil-steel friction angle the runs get (the scene's 20 deg without the knob: a soil of 20 deg on
-    40 deg steel):
-    with tool_friction the rigid reference runs at the same angle, so the reduction stays the spring count's alone
-    (0.2 % per spring) while the displacement follows the draught; the knob's bound comes from the laboratory's
-    internal friction angle (Potyondy's ratios)."""
-    seen: list[tuple[int, float]] = []
+def _tool_bin(seen: list[tuple[int, float, float]], scale: object) -> object:
+    """A quasi-static soil bin (written here, a simulator for SoilBinRigModel) whose draught is 300 N x
+    scale(tool_adhesion [Pa], tool_friction [deg]) less 0.2 % per spring (0 and 20 deg without the knobs: a soil of
+    20 deg on 40 deg steel), the displacement following the draught through the stack's rate; it notes each world's
+    (springs, adhesion, angle) in ``seen``."""
 
     def run(config, springs, speeds, knobs, soil):  # noqa: ANN001, ANN202
         steady = []
         for w, (n, v) in enumerate(zip(springs, speeds, strict=True)):
+            ca = float((knobs or {}).get("tool_adhesion", [0.0] * len(springs))[w])
             delta = float((knobs or {}).get("tool_friction", [20.0] * len(springs))[w])
-            seen.append((n, delta))
-            f = 300.0 * (1 + math.tan(math.radians(delta))) * (1 - (0.002 * n if n else 0.0))
+            seen.append((n, ca, delta))
+            f = 300.0 * scale(ca, delta) * (1 - (0.002 * n if n else 0.0))
             k = float(knobs["stiffness"][w]) if n else math.inf
             steady.append({"springs": n, "speed": v, "draught_mean": f, "draught_sem": 0.5,
                            "displacement_mean": f * H / (k * A), "displacement_sem": 1e-5, "displacement_trend": 0.0,
@@ -139,6 +137,17 @@ def test_the_soil_steel_friction_knob_reaches_the_rigid_and_the_passive_runs() -
                   "draught": np.tile([r["draught_mean"] for r in steady], (len(t), 1))}
         return sb.SoilBinRun(tuple(springs), tuple(speeds), t, np.outer(t, speeds), series, steady)
 
+    return run
+
+
+def test_the_soil_steel_friction_knob_reaches_the_rigid_and_the_passive_runs() -> None:
+    """Reference: a quasi-static soil bin (written here, ``_tool_bin``) whose draught is 300 N (1 + tan(delta)) less
+    0.2 % per spring, delta the soil-steel friction angle the runs get (the scene's 20 deg without the knob: a soil
+    of 20 deg on 40 deg steel): with tool_friction the rigid reference runs at the same angle, so the reduction
+    stays the spring count's alone (0.2 % per spring) while the displacement follows the draught; the knob's bound
+    comes from the laboratory's internal friction angle (Potyondy's ratios)."""
+    seen: list[tuple[int, float, float]] = []
+    run = _tool_bin(seen, lambda ca, delta: 1 + math.tan(math.radians(delta)))
     from calibration.rig_models import Case
 
     m = _measured(1.0, 1.0, 0)
@@ -146,8 +155,8 @@ def test_the_soil_steel_friction_knob_reaches_the_rigid_and_the_passive_runs() -
     rig = SoilBinRigModel(data, simulator=run, observables=("reduction", "displacement_mean"),
                           soil={"friction_angle": 20.0})  # the scene's soil-steel angle without the knob: 20 deg
     base, rough = rig.simulate([Case(3, {}), Case(3, {"tool_friction": 30.0})]).values
-    assert {d for n, d in seen if n == 0} == {20.0, 30.0}  # a rigid run at each angle
-    assert {d for n, d in seen if n == 16} == {20.0, 30.0}  # a case without the knob keeps the scene's angle
+    assert {d for n, _, d in seen if n == 0} == {20.0, 30.0}  # a rigid run at each angle
+    assert {d for n, _, d in seen if n == 16} == {20.0, 30.0}  # a case without the knob keeps the scene's angle
     assert base[0] == pytest.approx(rough[0]) == pytest.approx(100 * 0.002 * 16)  # springs 16: 3.2 %
     ratio = (1 + math.tan(math.radians(30.0))) / (1 + math.tan(math.radians(20.0)))
     assert rough[1] / base[1] == pytest.approx(ratio)
@@ -156,29 +165,14 @@ def test_the_soil_steel_friction_knob_reaches_the_rigid_and_the_passive_runs() -
 
 
 def test_the_soil_steel_adhesion_knob_reaches_the_rigid_and_the_passive_runs() -> None:
-    """Reference: a quasi-static soil bin (written here) whose draught is 300 N (1 + Ca / 10 kPa) less 0.2 % per
-    spring, Ca the soil-steel adhesion the runs get (0 without the knob): with tool_adhesion the rigid reference runs
-    with the same adhesion, so the reduction stays the spring count's alone while the draught and the displacement
-    follow the adhesion; together with tool_friction the rigid run gets both. The knob's bound is the soil's own
-    contact cohesion (no interface stronger than the soil), here the ``soil`` given to the rig model."""
+    """Reference: a quasi-static soil bin (written here, ``_tool_bin``) whose draught is 300 N (1 + Ca / 10 kPa)
+    less 0.2 % per spring, Ca the soil-steel adhesion the runs get (0 without the knob): with tool_adhesion the
+    rigid reference runs with the same adhesion, so the reduction stays the spring count's alone while the draught
+    and the displacement follow the adhesion; together with tool_friction the rigid run gets both. The knob's bound
+    is the soil's own contact cohesion (no interface stronger than the soil), here the ``soil`` given to the rig
+    model."""
     seen: list[tuple[int, float, float]] = []
-
-    def run(config, springs, speeds, knobs, soil):  # noqa: ANN001, ANN202
-        steady = []
-        for w, (n, v) in enumerate(zip(springs, speeds, strict=True)):
-            ca = float((knobs or {}).get("tool_adhesion", [0.0] * len(springs))[w])
-            delta = float((knobs or {}).get("tool_friction", [20.0] * len(springs))[w])
-            seen.append((n, ca, delta))
-            f = 300.0 * (1 + ca / 1e4) * (1 - (0.002 * n if n else 0.0))
-            k = float(knobs["stiffness"][w]) if n else math.inf
-            steady.append({"springs": n, "speed": v, "draught_mean": f, "draught_sem": 0.5,
-                           "displacement_mean": f * H / (k * A), "displacement_sem": 1e-5, "displacement_trend": 0.0,
-                           "displacement_trend_sem": 1e-5, "steady_time_mean": 1.0})
-        t = np.linspace(0.0, 1.0, 5)
-        series = {"displacement": np.tile([r["displacement_mean"] for r in steady], (len(t), 1)),
-                  "draught": np.tile([r["draught_mean"] for r in steady], (len(t), 1))}
-        return sb.SoilBinRun(tuple(springs), tuple(speeds), t, np.outer(t, speeds), series, steady)
-
+    run = _tool_bin(seen, lambda ca, delta: 1 + ca / 1e4)
     from calibration.rig_models import Case
 
     m = _measured(1.0, 1.0, 0)
