@@ -424,6 +424,8 @@ register(Mechanism(
     rigs=(SOIL_BIN.name,),
     signature="the draught and the deflection up together, rigid and passive alike",
     bounds=_tool_friction_bound))
+
+
 def _tool_adhesion_bound(f: RigFacts) -> dict[str, Bound]:
     if not (math.isfinite(f.soil_cohesion) and f.soil_cohesion > 0):
         return {}

@@ -32,10 +32,10 @@ run again (e.g. after its budget stopped it) neither repeats nor skips it."""
 
 def _held_out_box(problem: SoilProblem, genes: dict[str, float], path: Path, clock: Budget,
                   estimate: float) -> dict[str, object]:
-    """:meth:`SoilProblem.held_out_box` of ``genes``, read from ``path`` when it holds those genes' check with this
-    problem's simulation; else run
-    when ``estimate`` [s] (the GA's time per individual times the box samples: an individual's share of a batch,
-    soil bin and boxes, against one set's boxes alone) fits the budget, raising BudgetExhausted otherwise."""
+    """:meth:`SoilProblem.held_out_box` of ``genes``: read from ``path`` when it holds those genes' check with this
+    problem's simulation; else run when ``estimate`` [s] fits the budget (the GA's time per individual times the
+    box samples: an individual's share of a batch, soil bin and boxes, against one set's boxes alone), raising
+    BudgetExhausted otherwise."""
     if path.exists():
         saved = json.loads(path.read_text())
         if saved.get("genes") == {k: float(v) for k, v in genes.items()} and \
