@@ -9,7 +9,7 @@ the rig supports all of its knobs.
 Built-in mechanisms (rationale in each entry): ``pivot_friction``, ``progressive_spring``, ``series_compliance``,
 ``extra_mass``, ``load_inertia``, ``pose_change``, ``sensor_offset``, ``sensor_drift``, ``stack_preload``,
 ``speed_dependence``, ``rigid_reference_speed``, ``progressive_stack``, ``lever_geometry``, ``sensor_lever``,
-``soil_tool_friction``, ``soil_tool_adhesion``, ``mount_pitch``.
+``soil_tool_friction``, ``soil_tool_adhesion``, ``soil_bond_strength``, ``mount_pitch``.
 
 Physical bounds (issue #39, item 1): every gene of a mechanism has a physical range, from the rig (its
 :class:`RigFacts`: the stacks' rates and travel, the tool's mass, the first swing) where the rig states one, with its
@@ -445,6 +445,29 @@ register(Mechanism(
     rigs=(SOIL_BIN.name,),
     signature="the draught and the deflection up together, rigid and passive alike",
     bounds=_tool_adhesion_bound))
+BOND_STRENGTH_TOLERANCE = 0.25
+"""how far [-, relative] the soil's contact cohesion may sit from its calibrated value: the shear box's tolerance on
+c (25 %), taken onto the contact cohesion (an assumption: in the bonded soil's box c grows about in proportion with
+it, 5.2 to 15.7 kPa for 3x to 10x set 11's, docs/runs/bond_protocols_h100)."""
+
+
+def _bond_strength_bound(f: RigFacts) -> dict[str, Bound]:
+    return {"soil_cohesion_scale": Bound(1 - BOND_STRENGTH_TOLERANCE, 1 + BOND_STRENGTH_TOLERANCE,
+                                         "the soil's bonds as calibrated within the shear box's tolerance on c "
+                                         "(calibration.mechanisms.BOND_STRENGTH_TOLERANCE, an assumption)")}
+
+
+register(Mechanism(
+    "soil_bond_strength", "The soil's bonds stronger or weaker than calibrated",
+    "How many of the soil's bonds survive the bed's own weight and reach the tool depends on how and when they were "
+    "made (the bond protocol: on a settled bed or not, yielding or fragile) and on their strength against the "
+    "contact forces: bonds stronger than calibrated survive where weaker ones break, and the soil in front of the "
+    "blade fails as a stronger or a weaker block. Both rigid and passive runs change.",
+    genes=(Gene("soil_cohesion_scale", 0.1, 10.0, log=True, unit="-"),),
+    knobs=lambda p: {"soil_cohesion_scale": p["soil_cohesion_scale"]},
+    rigs=(SOIL_BIN.name,),
+    signature="the draught up or down, rigid and passive alike; the bonds surviving to the tool with it",
+    bounds=_bond_strength_bound))
 register(Mechanism(
     "mount_pitch", "The sweep clamped at another attitude",
     "The passive sweep is clamped to its hinge: turned back (or forward) on the clamp against the drawing, its blade "

@@ -53,20 +53,20 @@ class SimOutput:
     """per case, why the extraction failed ("" where it did not), when the rig says."""
 
 
-KNOB_OFF = {"series_stiffness": math.inf, "load_mass_fraction": 1.0}
+KNOB_OFF = {"series_stiffness": math.inf, "load_mass_fraction": 1.0, "soil_cohesion_scale": 1.0}
 """the value of a knob that leaves a rig as it is, where it is not 0 (a case without the knob gets it)."""
 READING_KNOBS = ("sensor_offset", "sensor_drift", "sensor_lever", "rigid_speed")
 """the soil-bin knobs that change how a run is read or compared, not the simulation."""
-TOOL_KNOBS = ("tool_friction", "tool_adhesion")
-"""the soil bin's knobs of the soil-steel contacts: the rigid tool's runs take them too."""
+SHARED_KNOBS = ("tool_friction", "tool_adhesion", "soil_cohesion_scale")
+"""the soil bin's knobs of the soil and its contacts with the steel: the rigid tool's runs take them too."""
 RIGID_SWEEP = (0.45, 0.55, 0.65, 0.75)
 """carriage speeds [m/s] of the rigid runs through which the soil-bin rig model fits the rigid draught's line against
 speed (for the rigid_speed knob), besides the measured speeds."""
 
 
-def _tool_knobs(params: dict[str, float]) -> dict[str, float]:
-    """The knobs of :data:`TOOL_KNOBS` among a case's parameters."""
-    return {k: float(params[k]) for k in TOOL_KNOBS if k in params}
+def _shared_knobs(params: dict[str, float]) -> dict[str, float]:
+    """The knobs of :data:`SHARED_KNOBS` among a case's parameters."""
+    return {k: float(params[k]) for k in SHARED_KNOBS if k in params}
 
 
 RINGING_UNCERTAINTY = {"frequency": 0.01, "damping": 0.10, "frequency_late": 0.02, "damping_late": 0.20,
@@ -726,7 +726,8 @@ class SoilBinRigModel:
     dashpot x lambda^2, progressive x lambda^4, preload / lambda; without a dashpot knob the measured damping ratio
     is kept), sensor_lever [-] (the sensor reads at this many times its stated lever: every displacement reading
     scaled by it, before the offset), tool_friction [deg] (the soil-steel contacts' own friction angle) and
-    tool_adhesion [Pa] (the soil-steel pair's adhesion), in the passive and the rigid runs alike
+    tool_adhesion [Pa] (the soil-steel pair's adhesion) and soil_cohesion_scale [-] (the soil's bonds' strength
+    times this), in the passive and the rigid runs alike
     (``scenes.soil_bin.KNOBS``), sensor_offset [m] (added to the displacement
     reading) and rigid_speed [m/s]
     (every reduction taken against a rigid run at this one speed instead of the configuration's own: the rigid
@@ -766,7 +767,7 @@ class SoilBinRigModel:
     uncertainty_defaults = SOIL_BIN_UNCERTAINTY
     knobs = frozenset({"pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
                        "stack_preload", "sensor_offset", "rigid_speed", "progressive_factor", "spring_lever",
-                       "sensor_lever", "tool_friction", "tool_adhesion", "mount_pitch"})
+                       "sensor_lever", "tool_friction", "tool_adhesion", "soil_cohesion_scale", "mount_pitch"})
     units = {"reduction": "%", "displacement_mean": "m", "displacement_trend": "m/s", "draught_mean": "N",
              "rigid_draught_mean": "N"}
     genes: tuple[Gene, ...] = ()
@@ -874,7 +875,7 @@ class SoilBinRigModel:
         self._rigid: dict[float, dict[str, float]] = {}
         self._rigid_line: tuple[float, float] | None = None
         self._rigid_tool: dict[tuple, dict[float, dict[str, float]]] = {}
-        """rigid runs with knobs of :data:`TOOL_KNOBS`: ((name, value), ...) -> speed -> mean, sem."""
+        """rigid runs with knobs of :data:`SHARED_KNOBS`: ((name, value), ...) -> speed -> mean, sem."""
         self.simulator = simulator
         self._passive: dict[tuple, dict[str, object]] = {}
         self._sim_sigma: np.ndarray | None = None
@@ -1012,7 +1013,7 @@ class SoilBinRigModel:
         return min(soil, paper.TOOL_FRICTION)
 
     def _rigid_table(self, tool: dict[str, float] | None) -> dict[float, dict[str, float]]:
-        """The rigid runs by speed: the scene's own, or with the knobs ``tool`` of :data:`TOOL_KNOBS`."""
+        """The rigid runs by speed: the scene's own, or with the knobs ``tool`` of :data:`SHARED_KNOBS`."""
         if not tool:
             return self._rigid
         return self._rigid_tool.setdefault(tuple(sorted((k, float(v)) for k, v in tool.items())), {})
@@ -1035,7 +1036,7 @@ class SoilBinRigModel:
         the rigid run at ``speed`` (Table 3's pairing), or with ``rigid_speed`` (the rigid_speed knob) that run
         moved along the rigid draught's line against speed to ``rigid_speed`` (the line's slope is fitted once,
         through rigid runs at :data:`RIGID_SWEEP` and every measured speed). With ``tool`` (knobs of
-        :data:`TOOL_KNOBS`, name -> value) the rigid tool runs with them too (the line's slope stays the scene's
+        :data:`SHARED_KNOBS`, name -> value) the rigid tool runs with them too (the line's slope stays the scene's
         own). Simulates what is missing."""
         from scenes import soil_bin as sb
         from scenes import speed_sweep
@@ -1116,7 +1117,7 @@ class SoilBinRigModel:
         """The observables of every case (n_cases, n_obs) (with ``_sem``: their simulation standard errors)."""
         from scenes import soil_bin as sb
 
-        tools = [_tool_knobs({**self.fixed, **c.params}) for c in cases]  # the rigid runs alike
+        tools = [_shared_knobs({**self.fixed, **c.params}) for c in cases]  # the rigid runs alike
         for tool in {tuple(sorted(t.items())) for t in tools}:
             self._run_rigid([self.configs[c.config]["speed"] for c, t in zip(cases, tools, strict=True)
                              if tuple(sorted(t.items())) == tool], progress, dict(tool))
@@ -1130,7 +1131,7 @@ class SoilBinRigModel:
             speed = self.configs[case.config]["speed"]
             run = self._passive[key]
             rigid_speed = p.get("rigid_speed")
-            rigid, rigid_sem = self.rigid_reference(speed, rigid_speed, _tool_knobs(p))
+            rigid, rigid_sem = self.rigid_reference(speed, rigid_speed, _shared_knobs(p))
             # the rigid tool moves at its carriage speed exactly
             drag = p.get("soil_viscosity", 0.0) * (speed if rigid_speed is None else rigid_speed)
             rigid, passive = rigid + drag, float(run["draught_mean"])

@@ -65,30 +65,31 @@ DEPOSIT_FRICTION = 30.0
 """contact friction [deg] of a bed's deposition (``SoilBinConfig.deposit_friction``'s default): porosity 0.456,
 coordination 4.9 at paper scale for assembly C (docs/fidelity.md)."""
 KNOBS = ("stiffness", "dashpot", "pivot_friction", "extra_mass", "progressive", "series_stiffness", "soil_viscosity",
-         "stack_preload", "tool_mass_scale", "tool_friction", "tool_adhesion", "mount_pitch")
-"""per-world settings and extensions of the passive rig with linear springs (``run_soil_bin(knobs=...)``), SI:
-stiffness [N/m] (default DIN 2093 of the configuration), dashpot [N s/m] (default: Table 2's measured damping
-ratio for the hinged tool alone), pivot_friction [N m] (Coulomb torque at the hinge), extra_mass [kg] (added to the
-tool, distributed like its own), progressive [N/m^3] (cubic term of the stack, F = k u + k3 u^3), series_stiffness
-[N/m] (frame and shank in series: k ks / (k + ks); inf = rigid), soil_viscosity [N s/m] (a rate-dependent soil
-resistance b v against travel at the share's tip; it adds to the draught), stack_preload [m] (the stack assembled
-compressed by this much at the drawing pose, against a stop: the tool rests on the stop until the spring's load
-exceeds k x stack_preload, then deflects by the excess / k; the stop is STOP_RATIO times the spring's rate). The rigid
-tool takes soil_viscosity, tool_friction and tool_adhesion only (its motion is prescribed).
-tool_mass_scale [-] (> 0) multiplies the tool's mass and inertia (``scenes.passive_tool.PassiveTool.inertia_factor``).
-tool_friction [deg] (0 <= phi < 90): the soil-steel contacts' own friction angle (``ModelBuilder.set_pair_friction``;
-without it they take the smaller of the soil's and the tool's, i.e. the soil's), the sweep's and the bin walls' alike
-(both are of the "tool" material). tool_adhesion [Pa] (>= 0; 0: none): the soil-steel pair's adhesion
-(``ModelBuilder.set_pair_adhesion``): every new contact of a soil particle with the sweep or a bin wall is bonded with
-tensile and shear strength tool_adhesion x R^2 (R the sphere's radius), a bond that fails leaving a frictional
-contact. mount_pitch [deg] (within +-MAX_MOUNT_PITCH): the sweep clamped to its hinge turned
-backwards by this angle (``scenes.sweep.pitch_matrix``): its triangles and centre of mass turned about the pivot, the
-spring's seat and the sensor's target on the clamp where the drawing has them (the spring unloaded at the start as
-without it); the tool then works at another attack angle with another moment of its weight, and the displacement
-is the clamp's, read from the start."""
+         "stack_preload", "tool_mass_scale", "tool_friction", "tool_adhesion", "soil_cohesion_scale", "mount_pitch")
+"""per-world settings and extensions of the passive rig with linear springs (``run_soil_bin(knobs=...)``), SI: stiffness
+[N/m] (default DIN 2093 of the configuration), dashpot [N s/m] (default: Table 2's measured damping ratio for the
+hinged tool alone), pivot_friction [N m] (Coulomb torque at the hinge), extra_mass [kg] (added to the tool,
+distributed like its own), progressive [N/m^3] (cubic term of the stack, F = k u + k3 u^3), series_stiffness [N/m]
+(frame and shank in series: k ks / (k + ks); inf = rigid), soil_viscosity [N s/m] (a rate-dependent soil resistance b
+v against travel at the share's tip; it adds to the draught), stack_preload [m] (the stack assembled compressed by
+this much at the drawing pose, against a stop: the tool rests on the stop until the spring's load exceeds k x
+stack_preload, then deflects by the excess / k; the stop is STOP_RATIO times the spring's rate). The rigid tool takes
+soil_viscosity, tool_friction, tool_adhesion and soil_cohesion_scale only (its motion is prescribed). tool_mass_scale
+[-] (> 0) multiplies the tool's mass and inertia (``scenes.passive_tool.PassiveTool.inertia_factor``). tool_friction
+[deg] (0 <= phi < 90): the soil-steel contacts' own friction angle (``ModelBuilder.set_pair_friction``; without it
+they take the smaller of the soil's and the tool's, i.e. the soil's), the sweep's and the bin walls' alike (both are
+of the "tool" material). tool_adhesion [Pa] (>= 0; 0: none): the soil-steel pair's adhesion
+(``ModelBuilder.set_pair_adhesion``): every new contact of a soil particle with the sweep or a bin wall is bonded
+with tensile and shear strength tool_adhesion x R^2 (R the sphere's radius), a bond that fails leaving a frictional
+contact. soil_cohesion_scale [-] (>= 0): the soil's normal and shear cohesion (its bonds' strength) times this, on
+top of the soil's own or overridden values. mount_pitch [deg] (within +-MAX_MOUNT_PITCH): the sweep clamped to its
+hinge turned backwards by this angle (``scenes.sweep.pitch_matrix``): its triangles and centre of mass turned about
+the pivot, the spring's seat and the sensor's target on the clamp where the drawing has them (the spring unloaded at
+the start as without it); the tool then works at another attack angle with another moment of its weight, and the
+displacement is the clamp's, read from the start."""
 MAX_MOUNT_PITCH = 15.0
 """the largest mount_pitch knob [deg] taken (a clamping error of the shank on its hinge)."""
-RIGID_KNOBS = ("soil_viscosity", "tool_friction", "tool_adhesion")
+RIGID_KNOBS = ("soil_viscosity", "tool_friction", "tool_adhesion", "soil_cohesion_scale")
 """the knobs a rigid tool takes (its motion is prescribed)."""
 STOP_RATIO = 100.0
 """stiffness of the preloaded stack's stop relative to the stack's rate: the tool presses into it by at most 1 % of
@@ -450,7 +451,7 @@ def _check_knobs(knobs: dict[str, object] | None, n_worlds: int, rigid: bool, sp
             raise ValueError(f"knobs: unknown knob {name!r}; known {KNOBS}")
         if rigid and name not in RIGID_KNOBS:
             raise ValueError(f"knobs: the rigid tool takes {', '.join(RIGID_KNOBS)} only, got {name!r}")
-        if not rigid and spring_model != "linear" and name not in ("tool_friction", "tool_adhesion"):
+        if not rigid and spring_model != "linear" and name not in RIGID_KNOBS[1:]:
             raise ValueError(f"knobs: {name!r} needs spring_model 'linear', got {spring_model!r}")
         a = np.broadcast_to(np.asarray(values, dtype=np.float64), (n_worlds,)).copy()
         check_per_world(name, tuple(a.tolist()))
@@ -509,6 +510,11 @@ def build_scene(config: SoilBinConfig, bed: Bed | list[Bed], tool: SweepTool, sp
         overrides["pair:soil:tool:friction_angle"] = knobs["tool_friction"]
     if "tool_adhesion" in knobs:  # 0: none (a bond of zero strength is not the same: it takes the moment law)
         overrides["pair:soil:tool:adhesion"] = np.where(knobs["tool_adhesion"] > 0.0, knobs["tool_adhesion"], -1.0)
+    if "soil_cohesion_scale" in knobs:
+        soil = config.soil_material()
+        for f in ("normal_cohesion", "shear_cohesion"):
+            base = np.asarray(overrides.get(f"material:soil:{f}", getattr(soil, f)), dtype=np.float64)
+            overrides[f"material:soil:{f}"] = knobs["soil_cohesion_scale"] * base
     if "soil_viscosity" in knobs:
         # a dashpot from a static anchor far ahead to the tip: its force is b v against travel
         tip = np.asarray(tool.tip, dtype=np.float64)

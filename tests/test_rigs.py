@@ -122,27 +122,34 @@ def test_soil_viscosity_adds_b_v_to_the_rigid_draught(ci_bed) -> None:
     moving = (run.travel[:, 0] >= 0.1) & (run.travel[:, 0] < 0.2 - 1e-9)
     diff = run.series["draught"][moving, 1] - run.series["draught"][moving, 0]
     assert abs(diff.mean() - b_visc * speed) < 3 * _sem(diff) + 1.0, (diff.mean(), b_visc * speed)
-    with pytest.raises(ValueError, match="rigid tool takes soil_viscosity, tool_friction, tool_adhesion only"):
+    with pytest.raises(ValueError, match="rigid tool takes soil_viscosity, .*soil_cohesion_scale only, got 'pivot"):
         sb.run_soil_bin(cfg, [0], bed=ci_bed, device=DEVICE, knobs={"pivot_friction": [0.1]})
 
 
-def test_the_soil_steel_knobs_raise_the_rigid_draught(ci_bed) -> None:
+def test_the_soil_and_soil_steel_knobs_raise_the_rigid_draught(ci_bed) -> None:
     """References: Coulomb friction on the blade, whose part of the draught grows with the soil-steel friction angle
     (``tool_friction`` sets the pair's own angle, ``ModelBuilder.set_pair_friction``, checked against Coulomb in
     test_closed_form), and soil that adheres to the blade, dragged along with it, so that the draught grows with the
     pair's adhesion (``tool_adhesion``, ``ModelBuilder.set_pair_adhesion``, its bond checked against its
     closed-form strength in test_closed_form). The same bed and tool in four worlds of one run: the soil on the
     steel at 5 and at 40 deg; at the scene's own angle without adhesion and with 2e6 Pa (bonds of 2e6 R^2 = 800 N on
-    the ci scale's 20 mm spheres: soil glued to the steel until torn off). The second of each pair draws more, by
-    more than two standard errors of the difference of their steady means. Measured on this project's CPU: 107.1
-    against 210.7 N (SE 31.1 N); 154.7 N without adhesion, 178.6 / 212.4 / 262.8 N with 2e4 / 2e5 / 2e6 Pa (SE
-    14-40 N; the weaker adhesions' rises are within two standard errors at this scale)."""
+    the ci scale's 20 mm spheres: soil glued to the steel until torn off). And the soil's own bonds
+    (``soil_cohesion_scale``): a quarter and four times their strength; stronger bonds survive the bed's weight and
+    the tool's approach where weaker ones break, so more are left at the end, and the soil ahead of the blade fails
+    as a stronger block. The second of each pair draws more, by more than two standard errors of the difference of
+    their steady means. Measured on this project's CPU: 107.1 against 210.7 N (SE 31.1 N); 154.7 N without
+    adhesion, 178.6 / 212.4 / 262.8 N with 2e4 / 2e5 / 2e6 Pa (SE 14-40 N; the weaker adhesions' rises are within
+    two standard errors at this scale); 140.1 against 495.9 N, 9 against 926 bonds left (of 1,162; 449 at the
+    calibrated strength)."""
     cfg = sb.SoilBinConfig(scale="ci", assembly="A", springs=(0,), travel=0.2, steady_travel=0.1)
     own = min(cfg.soil_material().friction_angle, paper.TOOL_FRICTION)  # the scene's soil-steel angle
-    run = sb.run_soil_bin(cfg, [0] * 4, bed=ci_bed, device=DEVICE, speeds=[0.6] * 4,
-                          knobs={"tool_friction": [5.0, 40.0, own, own], "tool_adhesion": [0.0, 0.0, 0.0, 2e6]})
+    run = sb.run_soil_bin(cfg, [0] * 6, bed=ci_bed, device=DEVICE, speeds=[0.6] * 6,
+                          knobs={"tool_friction": [5.0, 40.0, own, own, own, own],
+                                 "tool_adhesion": [0.0, 0.0, 0.0, 2e6, 0.0, 0.0],
+                                 "soil_cohesion_scale": [1.0, 1.0, 1.0, 1.0, 0.25, 4.0]})
     draught = [r["draught_mean"] for r in run.steady]
-    for low, high, what in ((0, 1, "5 -> 40 deg"), (2, 3, "no adhesion -> 2e6 Pa")):
+    assert run.steady[5]["bonds_end"] > 2 * run.steady[4]["bonds_end"], [r["bonds_end"] for r in run.steady]
+    for low, high, what in ((0, 1, "5 -> 40 deg"), (2, 3, "no adhesion -> 2e6 Pa"), (4, 5, "bonds x0.25 -> x4")):
         se = np.hypot(run.steady[low]["draught_sem"], run.steady[high]["draught_sem"])
         print(f"draught {what}: {draught[low]:.1f} -> {draught[high]:.1f} N (SE of the difference {se:.1f} N)")
         assert draught[high] > draught[low] + 2 * se, (what, draught, se)

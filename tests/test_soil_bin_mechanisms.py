@@ -115,19 +115,23 @@ def test_a_stack_seated_off_the_sensor_lever_is_named_and_the_sensor_at_its_boun
     assert bound[0]["value"] == pytest.approx(1 + SENSOR_MOUNT_TOLERANCE / rig.facts().lever, rel=1e-3)
 
 
-def _tool_bin(seen: list[tuple[int, float, float]], scale: object) -> object:
-    """A quasi-static soil bin (written here, a simulator for SoilBinRigModel) whose draught is 300 N x
-    scale(tool_adhesion [Pa], tool_friction [deg]) less 0.2 % per spring (0 and 20 deg without the knobs: a soil of
-    20 deg on 40 deg steel), the displacement following the draught through the stack's rate; it notes each world's
-    (springs, adhesion, angle) in ``seen``."""
+SHARED_OFF = {"tool_adhesion": 0.0, "tool_friction": 20.0, "soil_cohesion_scale": 1.0}
+"""the scene's values of the knobs the rigid runs share (a soil of 20 deg on 40 deg steel, no adhesion, the soil's
+own bonds)."""
+
+
+def _tool_bin(seen: list[tuple], scale: object) -> object:
+    """A quasi-static soil bin (written here, a simulator for SoilBinRigModel) whose draught is 300 N x scale(k) less
+    0.2 % per spring, k the world's values of the shared knobs (:data:`SHARED_OFF` where a run has none), the
+    displacement following the draught through the stack's rate; it notes each world's (springs, adhesion, angle,
+    cohesion scale) in ``seen``."""
 
     def run(config, springs, speeds, knobs, soil):  # noqa: ANN001, ANN202
         steady = []
         for w, (n, v) in enumerate(zip(springs, speeds, strict=True)):
-            ca = float((knobs or {}).get("tool_adhesion", [0.0] * len(springs))[w])
-            delta = float((knobs or {}).get("tool_friction", [20.0] * len(springs))[w])
-            seen.append((n, ca, delta))
-            f = 300.0 * scale(ca, delta) * (1 - (0.002 * n if n else 0.0))
+            k = {name: float((knobs or {}).get(name, [off] * len(springs))[w]) for name, off in SHARED_OFF.items()}
+            seen.append((n, k["tool_adhesion"], k["tool_friction"], k["soil_cohesion_scale"]))
+            f = 300.0 * scale(k) * (1 - (0.002 * n if n else 0.0))
             k = float(knobs["stiffness"][w]) if n else math.inf
             steady.append({"springs": n, "speed": v, "draught_mean": f, "draught_sem": 0.5,
                            "displacement_mean": f * H / (k * A), "displacement_sem": 1e-5, "displacement_trend": 0.0,
@@ -146,8 +150,8 @@ def test_the_soil_steel_friction_knob_reaches_the_rigid_and_the_passive_runs() -
     of 20 deg on 40 deg steel): with tool_friction the rigid reference runs at the same angle, so the reduction
     stays the spring count's alone (0.2 % per spring) while the displacement follows the draught; the knob's bound
     comes from the laboratory's internal friction angle (Potyondy's ratios)."""
-    seen: list[tuple[int, float, float]] = []
-    run = _tool_bin(seen, lambda ca, delta: 1 + math.tan(math.radians(delta)))
+    seen: list[tuple] = []
+    run = _tool_bin(seen, lambda k: 1 + math.tan(math.radians(k["tool_friction"])))
     from calibration.rig_models import Case
 
     m = _measured(1.0, 1.0, 0)
@@ -155,8 +159,8 @@ def test_the_soil_steel_friction_knob_reaches_the_rigid_and_the_passive_runs() -
     rig = SoilBinRigModel(data, simulator=run, observables=("reduction", "displacement_mean"),
                           soil={"friction_angle": 20.0})  # the scene's soil-steel angle without the knob: 20 deg
     base, rough = rig.simulate([Case(3, {}), Case(3, {"tool_friction": 30.0})]).values
-    assert {d for n, _, d in seen if n == 0} == {20.0, 30.0}  # a rigid run at each angle
-    assert {d for n, _, d in seen if n == 16} == {20.0, 30.0}  # a case without the knob keeps the scene's angle
+    assert {d for n, _, d, _ in seen if n == 0} == {20.0, 30.0}  # a rigid run at each angle
+    assert {d for n, _, d, _ in seen if n == 16} == {20.0, 30.0}  # a case without the knob keeps the scene's angle
     assert base[0] == pytest.approx(rough[0]) == pytest.approx(100 * 0.002 * 16)  # springs 16: 3.2 %
     ratio = (1 + math.tan(math.radians(30.0))) / (1 + math.tan(math.radians(20.0)))
     assert rough[1] / base[1] == pytest.approx(ratio)
@@ -164,15 +168,16 @@ def test_the_soil_steel_friction_knob_reaches_the_rigid_and_the_passive_runs() -
     assert (bound.low, bound.high) == pytest.approx((0.5 * 32.3, 32.3)) and "Potyondy" in bound.source
 
 
-def test_the_soil_steel_adhesion_knob_reaches_the_rigid_and_the_passive_runs() -> None:
+def test_the_soil_steel_adhesion_and_bond_strength_knobs_reach_the_rigid_and_the_passive_runs() -> None:
     """Reference: a quasi-static soil bin (written here, ``_tool_bin``) whose draught is 300 N (1 + Ca / 10 kPa)
     less 0.2 % per spring, Ca the soil-steel adhesion the runs get (0 without the knob): with tool_adhesion the
     rigid reference runs with the same adhesion, so the reduction stays the spring count's alone while the draught
     and the displacement follow the adhesion; together with tool_friction the rigid run gets both. The knob's bound
     is the soil's own contact cohesion (no interface stronger than the soil), here the ``soil`` given to the rig
-    model."""
-    seen: list[tuple[int, float, float]] = []
-    run = _tool_bin(seen, lambda ca, delta: 1 + ca / 1e4)
+    model. The soil's bond strength (soil_cohesion_scale, the draught in proportion) reaches both alike, its bound
+    the shear box's 25 % tolerance on c taken onto the contact cohesion."""
+    seen: list[tuple] = []
+    run = _tool_bin(seen, lambda k: (1 + k["tool_adhesion"] / 1e4) * k["soil_cohesion_scale"])
     from calibration.rig_models import Case
 
     m = _measured(1.0, 1.0, 0)
@@ -181,12 +186,18 @@ def test_the_soil_steel_adhesion_knob_reaches_the_rigid_and_the_passive_runs() -
                           soil={"friction_angle": 20.0, "normal_cohesion": 3e4})
     base, sticky, both = rig.simulate([Case(3, {}), Case(3, {"tool_adhesion": 5e3}),
                                        Case(3, {"tool_adhesion": 5e3, "tool_friction": 30.0})]).values
-    assert {(ca, d) for n, ca, d in seen if n == 0} == {(0.0, 20.0), (5e3, 20.0), (5e3, 30.0)}  # a rigid run each
-    assert {ca for n, ca, d in seen if n == 16} == {0.0, 5e3}  # a case without the knob has no adhesion
+    assert {(ca, d) for n, ca, d, _ in seen if n == 0} == {(0.0, 20.0), (5e3, 20.0), (5e3, 30.0)}  # a rigid run each
+    assert {ca for n, ca, _, _ in seen if n == 16} == {0.0, 5e3}  # a case without the knob has no adhesion
     assert base[0] == pytest.approx(sticky[0]) == pytest.approx(both[0]) == pytest.approx(100 * 0.002 * 16)
     assert sticky[1] / base[1] == pytest.approx(1.5)
     bound = mech.get("soil_tool_adhesion").physical(rig.facts())["tool_adhesion"]
     assert (bound.low, bound.high) == pytest.approx((10.0, 3e4)) and "soil's own contact cohesion" in bound.source
+    # the soil's bond strength: the same, and its bound the shear box's tolerance on c taken onto the bonds
+    strong = rig.simulate([Case(3, {"soil_cohesion_scale": 1.2})]).values[0]
+    assert (0.0, 20.0, 1.2) in {(ca, d, c) for n, ca, d, c in seen if n == 0}
+    assert strong[0] == pytest.approx(base[0]) and strong[1] / base[1] == pytest.approx(1.2)
+    bound = mech.get("soil_bond_strength").physical(rig.facts())["soil_cohesion_scale"]
+    assert (bound.low, bound.high) == pytest.approx((0.75, 1.25)) and "shear box's tolerance" in bound.source
 
 
 def test_a_rows_own_standard_error_weighs_it_in_the_fit() -> None:
