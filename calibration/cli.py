@@ -544,17 +544,24 @@ def run_soil_bin_cmd(args: argparse.Namespace) -> int:
 
 
 def _soil_from(args: argparse.Namespace) -> tuple[dict | None, dict[str, float] | None]:
-    """--soil-from: the calibration's record (``calibration.problems.calibrated_soil``) and its soil material's
-    fields, or (None, None); a bad folder or another assembly than the soil's is refused before --out is claimed."""
+    """--soil-from: the calibration's record (``calibration.problems.calibrated_soil``), or a study soil's by name
+    (``calibration.passive_study.SOILS``: assembly C, the box's own normal stresses), and its soil material's fields,
+    or (None, None); a bad folder or another assembly than the soil's is refused before --out is claimed."""
     if not args.soil_from:
         return None, None
     from calibration.genes import soil_fields
-    from calibration.problems import calibrated_soil
+    from calibration.passive_study import SOILS
+    from calibration.problems import DEPOSIT_FRICTION, calibrated_soil
 
-    cal = calibrated_soil(args.soil_from)
+    if args.soil_from in SOILS:
+        cal = {"assembly": "C", "deposit_friction": DEPOSIT_FRICTION, "box_changes": {}, **SOILS[args.soil_from]}
+        where = f"the study soil {args.soil_from}"
+    else:
+        cal = calibrated_soil(args.soil_from)
+        where = f"calibrated in {args.soil_from}"
     if args.assembly != cal["assembly"]:
-        raise InputError(f"--assembly {args.assembly} differs from the soil's ({cal['assembly']}, calibrated in "
-                         f"{args.soil_from}); give --assembly {cal['assembly']}")
+        raise InputError(f"--assembly {args.assembly} differs from the soil's ({cal['assembly']}, {where}); give "
+                         f"--assembly {cal['assembly']}")
     return cal, {k: float(v) for k, v in soil_fields(cal).items()}
 
 
@@ -1192,9 +1199,10 @@ def main(argv: list[str] | None = None) -> int:
                    help="carriage speeds [m/s] (default 0.45,0.50,...,0.75)")
     v.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
                    help="write ParaView (VTK) frames of every speed's world into OUT/vtk/ at every EVERY-th record")
-    v.add_argument("--soil-from", default=None, metavar="DIR",
+    v.add_argument("--soil-from", default=None, metavar="DIR|NAME",
                    help="the soil of a `warpdem calibrate draught` or `calibrate soil` folder: its best individual "
-                        "and the bed protocol it was calibrated with (default: the assembly's GA set)")
+                        "and the bed protocol it was calibrated with; or a study soil by name (workflow, bonded, "
+                        "dense: `passive-tool --soil`) (default: the assembly's GA set)")
     x = sub.add_parser("shear-box", help="direct shear box: Mohr-Coulomb cohesion and friction angle")
     common(x, "results/shear_box", scale=False, seed="the sample's deposition seed")
     x.add_argument("--scale", default="cpu", choices=("ci", "cpu", "paper"), help=SHEAR_SCALE_HELP)
@@ -1202,10 +1210,10 @@ def main(argv: list[str] | None = None) -> int:
     x.add_argument("--normal-stresses", type=_stresses, default=None, metavar="KPA,KPA,KPA",
                    help="the plate's normal stresses [kPa] (default 5,10,20, or --soil-from's calibration's; the "
                         "paper does not give the laboratory's)")
-    x.add_argument("--soil-from", default=None, metavar="DIR",
+    x.add_argument("--soil-from", default=None, metavar="DIR|NAME",
                    help="the soil of a `warpdem calibrate draught` or `calibrate soil` folder: its best individual, "
-                        "its bonds' rule and, from `calibrate soil`, the box's normal stresses (default: the "
-                        "assembly's GA set)")
+                        "its bonds' rule and, from `calibrate soil`, the box's normal stresses; or a study soil by "
+                        "name (workflow, bonded, dense: `passive-tool --soil`) (default: the assembly's GA set)")
     x.add_argument("--vtk", type=_number(int, ge=1), default=None, metavar="EVERY",
                    help="write ParaView (VTK) frames of every normal stress's sample into OUT/vtk/ while it is "
                         "sheared, at its start and at every EVERY-th record")

@@ -159,6 +159,8 @@ BAD = [
                                                "calibration's folder, got 'clay'"),
     ("speed-sweep --soil-from {tmp}/soil --assembly A --out {tmp}/s", "error: --assembly A differs from the soil's (C, "
                                                                       "calibrated in {tmp}/soil); give --assembly C"),
+    ("shear-box --soil-from bonded --assembly A --out {tmp}/s", "error: --assembly A differs from the soil's (C, the "
+                                                                "study soil bonded); give --assembly C"),
     ("calibrate soil --budget 0", "argument --budget: must be > 0 s"),
     ("calibrate draught --scale paper_2m", "argument --scale: invalid choice: 'paper_2m'"),
     ("calibrate ringing --gene young=1e8:1e6", "argument --gene: --gene must be NAME=LOW:HIGH with finite LOW < HIGH, "

@@ -143,3 +143,28 @@ def test_several_box_samples_average_the_boxes_a_user_gets_seed_by_seed(calibrat
     assert held["box_accepted"] == (abs(c1 - 6.4) <= 0.25 * 6.4 and abs(phi1 - 32.3) <= 3.0)
     text = "".join(held_out_lines(held, one_sample))
     assert f"c = {c1:.2f} kPa" in text and f"phi = {phi1:.2f} deg" in text and "seeds 1 " in text
+
+
+def test_a_study_soil_by_name_gives_the_box_its_fresh_samples_ran() -> None:
+    """`shear-box --soil-from bonded` (and `speed-sweep`'s) reads the study soil ``calibration.passive_study.SOILS``
+    ["bonded"]: its box must be the one docs/runs/bond_protocols_h100/box_seeds ran on its 19 fresh samples, built
+    there by hand from GA set 11 with 4x its normal and shear cohesion and yielding bonds (the same material field by
+    field), at the box's own normal stresses; the speed sweep gets its bed protocol (settled 1 s, deposited at 30
+    deg, yielding bonds). A configuration check against an independent construction, no simulation."""
+    import argparse
+
+    from calibration.cli import _soil_from
+    from calibration.passive_study import SOILS
+    from calibration.problems import calibrated_box
+    from scenes import shear_box
+
+    cal, fields = _soil_from(argparse.Namespace(soil_from="bonded", assembly="C"))
+    cli = shear_box.preset("cpu", "C", seed=4, **calibrated_box(cal))
+    by_hand = shear_box.preset("cpu", "C", ga_set=11, seed=4, fragile=False)
+    by_hand = by_hand.replace(normal_cohesion=4 * by_hand.normal_cohesion, shear_cohesion=4 * by_hand.shear_cohesion)
+    for f in ("friction_angle", "normal_cohesion", "shear_cohesion", "eta_roll", "eta_twist", "fragile",
+              "normal_stresses", "consolidation_time"):
+        assert getattr(cli, f) == pytest.approx(getattr(by_hand, f), rel=1e-12), f
+    assert fields["normal_cohesion"] == SOILS["bonded"]["normal_cohesion"]
+    assert {k: cal[k] for k in ("settle_time", "fragile", "deposit_friction")} == {
+        "settle_time": 1.0, "fragile": False, "deposit_friction": 30.0}
