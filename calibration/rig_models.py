@@ -57,16 +57,16 @@ KNOB_OFF = {"series_stiffness": math.inf, "load_mass_fraction": 1.0, "soil_cohes
 """the value of a knob that leaves a rig as it is, where it is not 0 (a case without the knob gets it)."""
 READING_KNOBS = ("sensor_offset", "sensor_drift", "sensor_lever", "rigid_speed")
 """the soil-bin knobs that change how a run is read or compared, not the simulation."""
-SHARED_KNOBS = ("tool_friction", "tool_adhesion", "soil_cohesion_scale")
-"""the soil bin's knobs of the soil and its contacts with the steel: the rigid tool's runs take them too."""
 RIGID_SWEEP = (0.45, 0.55, 0.65, 0.75)
 """carriage speeds [m/s] of the rigid runs through which the soil-bin rig model fits the rigid draught's line against
 speed (for the rigid_speed knob), besides the measured speeds."""
 
 
 def _shared_knobs(params: dict[str, float]) -> dict[str, float]:
-    """The knobs of :data:`SHARED_KNOBS` among a case's parameters."""
-    return {k: float(params[k]) for k in SHARED_KNOBS if k in params}
+    """The knobs of ``scenes.soil_bin.SOIL_KNOBS`` among a case's parameters (the rigid runs take them too)."""
+    from scenes.soil_bin import SOIL_KNOBS
+
+    return {k: float(params[k]) for k in SOIL_KNOBS if k in params}
 
 
 RINGING_UNCERTAINTY = {"frequency": 0.01, "damping": 0.10, "frequency_late": 0.02, "damping_late": 0.20,
@@ -875,7 +875,7 @@ class SoilBinRigModel:
         self._rigid: dict[float, dict[str, float]] = {}
         self._rigid_line: tuple[float, float] | None = None
         self._rigid_tool: dict[tuple, dict[float, dict[str, float]]] = {}
-        """rigid runs with knobs of :data:`SHARED_KNOBS`: ((name, value), ...) -> speed -> mean, sem."""
+        """rigid runs with knobs of ``scenes.soil_bin.SOIL_KNOBS``: ((name, value), ...) -> speed -> mean, sem."""
         self.simulator = simulator
         self._passive: dict[tuple, dict[str, object]] = {}
         self._sim_sigma: np.ndarray | None = None
@@ -1013,7 +1013,7 @@ class SoilBinRigModel:
         return min(soil, paper.TOOL_FRICTION)
 
     def _rigid_table(self, tool: dict[str, float] | None) -> dict[float, dict[str, float]]:
-        """The rigid runs by speed: the scene's own, or with the knobs ``tool`` of :data:`SHARED_KNOBS`."""
+        """The rigid runs by speed: the scene's own, or with the knobs ``tool`` of ``scenes.soil_bin.SOIL_KNOBS``."""
         if not tool:
             return self._rigid
         return self._rigid_tool.setdefault(tuple(sorted((k, float(v)) for k, v in tool.items())), {})
@@ -1036,8 +1036,8 @@ class SoilBinRigModel:
         the rigid run at ``speed`` (Table 3's pairing), or with ``rigid_speed`` (the rigid_speed knob) that run
         moved along the rigid draught's line against speed to ``rigid_speed`` (the line's slope is fitted once,
         through rigid runs at :data:`RIGID_SWEEP` and every measured speed). With ``tool`` (knobs of
-        :data:`SHARED_KNOBS`, name -> value) the rigid tool runs with them too (the line's slope stays the scene's
-        own). Simulates what is missing."""
+        ``scenes.soil_bin.SOIL_KNOBS``, name -> value) the rigid tool runs with them too (the line's slope stays the
+        scene's own). Simulates what is missing."""
         from scenes import soil_bin as sb
         from scenes import speed_sweep
 

@@ -36,16 +36,16 @@ def _held_out_box(problem: SoilProblem, genes: dict[str, float], path: Path, clo
     problem's simulation; else run when ``estimate`` [s] fits the budget (the GA's time per individual times the
     box samples: an individual's share of a batch, soil bin and boxes, against one set's boxes alone), raising
     BudgetExhausted otherwise."""
+    key = {"genes": {k: float(v) for k, v in genes.items()},
+           "simulation_key": json.loads(json.dumps(problem.simulation_key()))}
     if path.exists():
         saved = json.loads(path.read_text())
-        if saved.get("genes") == {k: float(v) for k, v in genes.items()} and \
-                saved.get("simulation_key") == json.loads(json.dumps(problem.simulation_key())):
+        if {k: saved.get(k) for k in key} == key:
             return {"held_out_box": saved["held_out_box"], "held_out_box_wall_s": saved["held_out_box_wall_s"]}
     clock.require(estimate, "the held-out shear box of the best set (the calibration itself is finished)")
     t0 = time.perf_counter()
     held = {"held_out_box": problem.held_out_box(genes), "held_out_box_wall_s": time.perf_counter() - t0}
-    write_json_atomic(path, {"genes": {k: float(v) for k, v in genes.items()},
-                             "simulation_key": problem.simulation_key(), **held})
+    write_json_atomic(path, {**key, **held})
     return held
 
 

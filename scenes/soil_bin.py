@@ -89,7 +89,10 @@ the start as without it); the tool then works at another attack angle with anoth
 displacement is the clamp's, read from the start."""
 MAX_MOUNT_PITCH = 15.0
 """the largest mount_pitch knob [deg] taken (a clamping error of the shank on its hinge)."""
-RIGID_KNOBS = ("soil_viscosity", "tool_friction", "tool_adhesion", "soil_cohesion_scale")
+SOIL_KNOBS = ("tool_friction", "tool_adhesion", "soil_cohesion_scale")
+"""the knobs of the soil and its contacts with the steel: any tool and spring model takes them (a rigid tool's runs
+compared with passive ones must take them too)."""
+RIGID_KNOBS = ("soil_viscosity", *SOIL_KNOBS)
 """the knobs a rigid tool takes (its motion is prescribed)."""
 STOP_RATIO = 100.0
 """stiffness of the preloaded stack's stop relative to the stack's rate: the tool presses into it by at most 1 % of
@@ -451,7 +454,7 @@ def _check_knobs(knobs: dict[str, object] | None, n_worlds: int, rigid: bool, sp
             raise ValueError(f"knobs: unknown knob {name!r}; known {KNOBS}")
         if rigid and name not in RIGID_KNOBS:
             raise ValueError(f"knobs: the rigid tool takes {', '.join(RIGID_KNOBS)} only, got {name!r}")
-        if not rigid and spring_model != "linear" and name not in RIGID_KNOBS[1:]:
+        if not rigid and spring_model != "linear" and name not in SOIL_KNOBS:
             raise ValueError(f"knobs: {name!r} needs spring_model 'linear', got {spring_model!r}")
         a = np.broadcast_to(np.asarray(values, dtype=np.float64), (n_worlds,)).copy()
         check_per_world(name, tuple(a.tolist()))
