@@ -483,6 +483,24 @@ def test_a_pair_friction_angle_replaces_the_smaller_of_the_two() -> None:
         b.set_pair_friction("s", "s", 90.0)
 
 
+def test_a_sphere_gets_one_contact_where_triangles_share_its_closest_point() -> None:
+    # Reference: one linear contact, Fn = kn un with kn = 4/3 E R (facet contact radius 2R), for a sphere above a
+    # square's diagonal (the two triangles' shared edge, which rounding put inside both on CUDA: two contacts) and
+    # 1e-14 m beside it (inside one triangle by a rounding's width: its edge's, geometry.EDGE_MARGIN). Tolerance:
+    # the float32 force, rel 1e-5.
+    kn, un = 4.0 / 3.0 * E * R, 1e-5
+    v, f = square((0, 0, 0), 0.05)
+    for x, y in [(0.0, 0.0), (1e-14, 0.0), (0.0, 1e-14)]:
+        b = wd.ModelBuilder(gravity=(0, 0, 0))
+        b.add_material("soil", soil())
+        b.add_sphere((x, y, R - un), R, "soil", blocked="xyzXYZ")
+        b.add_mesh("plate", v, f, "soil")
+        model, state = b.finalize(DEVICE)
+        sim = wd.Simulation(model, state, dt=1e-6)
+        sim.step()
+        assert sim.data.body_force.numpy()[0, 2] == pytest.approx(kn * un, rel=1e-5), (x, y)
+
+
 def pulled_off_facet(adhesion: list[float], steps: int) -> tuple[np.ndarray, np.ndarray]:
     """A soil sphere pushed 10 um into a static steel square, then pulled straight off it at 0.01 m/s, one world per
     ``adhesion`` of the soil-steel pair [Pa] (negative: none); returns (un (steps,), Fn (steps, worlds)), Fn the

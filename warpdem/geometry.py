@@ -6,12 +6,16 @@ import warp as wp
 
 wp.set_module_options({"enable_backward": False})
 
+EDGE_MARGIN = 1.0e-12  # barycentric distance under which a face point counts as its edge's (float64 rounding: 1e-16)
+
 
 @wp.func
 def closest_point_triangle(p: wp.vec3d, a: wp.vec3d, b: wp.vec3d, c: wp.vec3d) -> wp.vec4d:
     """Closest point of triangle abc to p, in float64 (Ericson, Real-Time Collision Detection 5.1.5).
 
-    Returns (x, y, z, feature) with feature 0 = face interior, 1 = edge, 2 = vertex.
+    Returns (x, y, z, feature) with feature 0 = face interior, 1 = edge, 2 = vertex. A face point within
+    ``EDGE_MARGIN`` (barycentric) of an edge is that edge's: rounding (CUDA's fused multiply-adds) can otherwise put a
+    point of an edge inside both triangles that share it, and the narrow phase merges contacts by feature.
     """
     zero = wp.float64(0.0)
     ab = b - a
@@ -50,4 +54,7 @@ def closest_point_triangle(p: wp.vec3d, a: wp.vec3d, b: wp.vec3d, c: wp.vec3d) -
     v = vb * denom
     w = vc * denom
     q = a + ab * v + ac * w
+    margin = wp.float64(EDGE_MARGIN)
+    if v < margin or w < margin or wp.float64(1.0) - v - w < margin:
+        return wp.vec4d(q[0], q[1], q[2], wp.float64(1.0))
     return wp.vec4d(q[0], q[1], q[2], zero)
