@@ -605,8 +605,9 @@ def run_passive_tool_cmd(args: argparse.Namespace) -> int:
         return _passive_beds(args)
     device = _setup(args)
     variants = args.variants or (DEFAULT_VARIANTS + (("described",) if args.tool else ()))
-    if "described" in variants and not args.tool:
-        raise InputError("--variants described needs --tool TOML (the tool to run)")
+    for v in ("described", "described_offsets"):
+        if v in variants and not args.tool:
+            raise InputError(f"--variants {v} needs --tool TOML (the tool to run)")
     if args.tool:
         from scenes.passive_tool import load_toml
 
@@ -1172,7 +1173,8 @@ def main(argv: list[str] | None = None) -> int:
                         "-4,-2,2,4,6,8,9)")
     t.add_argument("--variants", type=_variants, default=None,
                    help="tool variants of the passive runs, comma-separated (default fitted,din_preload, and "
-                        "described with --tool)")
+                        "described with --tool; described_offsets: that tool with Table 2's support offsets, on "
+                        "the same bed)")
     t.add_argument("--tool", default=None, metavar="TOML",
                    help="a described tool (variant 'described'), e.g. the tool_joint.toml that --joint-from writes; "
                         "its shank_length must be --shank-length")

@@ -24,7 +24,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
@@ -65,10 +65,12 @@ SOILS = {
 PRELOAD_TABLE3 = 1.44e-3
 """the stack preload [m] that Table 3's own displacements imply (d = 1.18 kN / k_DIN - 1.44 mm, r = 0.98): a
 variant with it is not an independent prediction of the displacements."""
-VARIANTS = ("fitted", "din_preload", "described")
+VARIANTS = ("fitted", "din_preload", "described", "described_offsets")
 """the tool variants of the passive stages: "fitted" (Table 2 fitted within bounds, one rate factor; no preload,
-no offsets), "din_preload" (DIN 2093 rates, CAD inertia, no series compliance, PRELOAD_TABLE3) and "described"
-(the study's ``tool_file``, e.g. the joint fit's ``tool_joint.toml``; not run by default)."""
+no offsets), "din_preload" (DIN 2093 rates, CAD inertia, no series compliance, PRELOAD_TABLE3), "described"
+(the study's ``tool_file``, e.g. the joint fit's ``tool_joint.toml``; not run by default) and "described_offsets"
+(the same tool with Table 2's support offsets, ``support_offsets = true``: on the study's own bed, so that the
+offsets' effect is read against the same soil)."""
 DEFAULT_VARIANTS = ("fitted", "din_preload")
 
 
@@ -169,10 +171,10 @@ class PassiveStudy:
             return from_dict(self.ringing()["fits"]["one rate"]["tool"])  # fitted on this study's geometry
         if variant == "din_preload":
             return PassiveTool(preload=PRELOAD_TABLE3, shank_length=self.shank_length)
-        if variant == "described":
+        if variant in ("described", "described_offsets"):
             if self.described is None:
-                raise InputError("variant 'described' needs a tool file (--tool)")
-            return self.described
+                raise InputError(f"variant {variant!r} needs a tool file (--tool)")
+            return replace(self.described, support_offsets=True) if variant == "described_offsets" else self.described
         raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
 
     def _run(self, stage: str, springs: list[int], speeds: list[float], deadline: float | None,

@@ -103,6 +103,7 @@ BAD = [
     ("passive-tool --travel -1", "argument --travel: must be > 0 m"),
     ("passive-tool --joint-from nowhere", "error: --joint-from: 'nowhere' holds no finished 'din_preload' passive run"),
     ("passive-tool --variants described", "error: --variants described needs --tool TOML"),
+    ("passive-tool --variants din_preload,described_offsets", "error: --variants described_offsets needs --tool TOML"),
     ("passive-tool --beds-from nowhere", "error: --beds-from: 'nowhere' holds no finished 'described' passive run"),
     ("passive-tool --beds-from a --joint-from b", "error: --joint-from and --beds-from are two jobs; give one"),
     ("passive-tool --beds-from a --variants fitted,described", "error: --beds-from combines one tool variant"),

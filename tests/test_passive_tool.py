@@ -329,6 +329,12 @@ def test_a_described_tool_of_another_shank_than_the_study_is_refused(tmp_path) -
         PassiveStudy(tmp_path / "a", scale="ci", shank_length=0.44, tool_file=p)
     study = PassiveStudy(tmp_path / "b", scale="ci", shank_length=0.5, tool_file=p)
     assert study.tool("described") == load_toml(p)
+    # 'described_offsets': the same tool with Table 2's support offsets (its support_offset_mm column, per stack)
+    offsets = study.tool("described_offsets")
+    assert offsets == replace(load_toml(p), support_offsets=True)
+    springs = list(paper.SPRING_COUNTS)
+    assert offsets.offsets(springs) == [1e-3 * paper.ringing_row(n)["support_offset_mm"] for n in springs]
+    assert study.tool("described").offsets(springs) == [0.0] * len(springs)
 
 
 def test_description_file_round_trip_and_refusals(tmp_path) -> None:
