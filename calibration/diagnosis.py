@@ -4,7 +4,10 @@
 
 1. **Fit the baseline**: the rig as described, with its first-order unknowns (``rig.genes``: e.g. a dashpot, a
    factor on the inertia, a factor on the spring rates) fitted by weighted least squares on the residuals
-   r = (sim - measured) / sigma (sigma: the rig model's 1-sigma uncertainty of each measured value), in the genes'
+   r = (sim - measured) / sigma (sigma: the rig model's 1-sigma uncertainty of each measured value), generalized
+   least squares where the rig model states how its residuals correlate (``rig.residual_correlation()``, e.g. the
+   soil bin's reductions that share one rigid reference run; every loss below is then r^T C^-1 r, see
+   ``Whitening``), in the genes'
    unit coordinates (log-scaled genes in decades): a grid over the whole ranges, then Levenberg-Marquardt rounds
    with forward differences. Every point is one DEM run of every configuration; all candidates' points of a round
    are the worlds of one batched simulation. The simulations serve every fold: a fold's fit is the best simulated
@@ -147,7 +150,8 @@ class Fit:
     pred_heldout: np.ndarray
     """(n_configs, n_obs): configuration j predicted by the fit without it."""
     heldout_loss: np.ndarray
-    """(n_configs,) sum_k r_jk^2 of the held-out predictions."""
+    """(n_configs,) sum_k r_jk^2 of the held-out predictions (with correlated residuals: the whitened ones,
+    ``Whitening``)."""
     chi2_in: float
     n_points: int
     aicc: float = math.nan
@@ -241,6 +245,9 @@ class Diagnosis:
     """the named causes' sizes with their uncertainty along the inertia-stiffness ridge (or fixed by a datum)."""
     convergence: dict[str, dict[str, object]] = field(default_factory=dict)
     """per refined fit (the baseline, each named model): converged, extra rounds, last fall of the loss."""
+    correlation: np.ndarray | None = None
+    """the residuals' correlation the losses were whitened with (n_configs n_obs, n_configs n_obs), configuration-
+    major, in units of sigma; None: independent residuals (``Whitening``)."""
 
     @property
     def baseline(self) -> Fit:
@@ -263,6 +270,102 @@ def residuals(pred: np.ndarray, measured: np.ndarray, sigma: np.ndarray, bound: 
     fail = np.where(np.isfinite(b), np.maximum(b - measured, 0.0) / sigma, 0.0)
     r = np.where(np.isnan(pred), fail, r)
     return np.where(np.isnan(measured), 0.0, r)
+
+
+class Whitening:
+    """Generalized least squares: the residuals' correlation and the one transform that every loss goes through.
+
+    ``corr``: the correlation of the residuals r = (sim - measured) / sigma (the rig model's
+    ``residual_correlation()``), (n_configs n_obs, n_configs n_obs) over the flattened residuals, configuration-major
+    (entry j n_obs + k is configuration j's observable k), in units of sigma (unit diagonal); None: independent. A
+    set of residuals (``keep``: the configurations of a fold, the finite entries of a Jacobian; always only the
+    measured values) is whitened with its own marginal correlation C (C's rows and columns of the kept entries):
+    w = C^(-1/2) r with the symmetric inverse square root (zero-phase, "ZCA", whitening), so that sum w^2 =
+    r^T C^-1 r, the generalized least-squares loss, and w ~ N(0, I) when r ~ N(0, C).
+
+    Held-out residuals: configuration j's held-out residuals come from the fit without j, yet they share the errors
+    that C describes (e.g. one rigid reference) with the other configurations'. The held-out residuals of all
+    configurations (each predicted by its own fold) are whitened together, as one vector, with the full C; each
+    configuration's held-out loss is its share, sum_k w_jk^2. Their sum is r_held^T C^-1 r_held, chi^2 with one dof
+    per datum under the stated errors (the noise gate); the shares are independent N(0, 1) sums, so the paired
+    comparisons over configurations keep their meaning; the symmetric square root, unlike a Cholesky factor, does
+    not depend on the order of the configurations and keeps each share the closest to that configuration's own
+    residuals among all whitening transforms (Kessy, Lewin and Strimmer 2018, Am. Stat. 72(4)). A shared error
+    thus counts once, by its own variance, not once per configuration; a fold's training loss is its own
+    configurations' r^T C^-1 r (C marginalized over them), which is what a fit without j sees. Failed simulated
+    extractions keep their score (``residuals``) inside the whitened vector; a Jacobian drops them (``keep``).
+
+    Without correlations every method reduces to the independent residuals' sums of squares (the same arithmetic,
+    the same bits).
+    """
+
+    def __init__(self, corr: np.ndarray | None, measured: np.ndarray) -> None:
+        self.shape = np.shape(measured)
+        self.measured = ~np.isnan(np.asarray(measured, dtype=np.float64))
+        self.corr = None if corr is None else np.asarray(corr, dtype=np.float64)
+        self._w: dict[bytes, np.ndarray] = {}
+        if self.corr is None:
+            return
+        n = self.measured.size
+        if self.corr.shape != (n, n):
+            raise ValueError(f"residual correlation: shape {self.corr.shape}, expected ({n}, {n}) (configurations x "
+                             f"observables, {self.shape})")
+        if not np.allclose(self.corr, self.corr.T, rtol=0.0, atol=1e-12):
+            raise ValueError("residual correlation: not symmetric")
+        if np.linalg.eigvalsh(self.corr)[0] <= 1e-10:
+            raise ValueError("residual correlation: not positive definite (a shared error as large as a stated "
+                             "uncertainty?)")
+
+    @property
+    def correlated(self) -> bool:
+        return self.corr is not None
+
+    def _matrix(self, mask: np.ndarray) -> np.ndarray:
+        """C_mm^(-1/2) (symmetric) of the entries ``mask`` (flattened), cached."""
+        key = mask.tobytes()
+        if key not in self._w:
+            idx = np.flatnonzero(mask)
+            lam, vec = np.linalg.eigh(self.corr[np.ix_(idx, idx)])
+            self._w[key] = (vec / np.sqrt(lam)) @ vec.T
+        return self._w[key]
+
+    def __call__(self, r: np.ndarray, keep: np.ndarray | None = None) -> np.ndarray:
+        """Whitened residuals (..., n_configs, n_obs) of r (..., n_configs, n_obs), over the entries ``keep``
+        ((n_configs, n_obs) or (n_configs, 1) bool; default all) that are measured; zero elsewhere. Without
+        correlations: r (with zeros outside ``keep``)."""
+        if self.corr is None:
+            return r if keep is None else np.where(keep, r, 0.0)
+        mask = self.measured if keep is None else self.measured & np.broadcast_to(keep, self.shape)
+        flat = mask.reshape(-1)
+        lead = r.shape[:-2]
+        x = r.reshape(*lead, -1)[..., flat]
+        out = np.zeros(lead + (flat.size,))
+        out[..., flat] = x @ self._matrix(flat)
+        return out.reshape(r.shape)
+
+    def losses(self, r: np.ndarray) -> np.ndarray:
+        """Each configuration's share of the loss, sum_k w_jk^2 (..., n_configs), all configurations whitened
+        together; their sum is r^T C^-1 r."""
+        return np.sum(self(r) ** 2, axis=-1)
+
+    def chi2(self, r: np.ndarray) -> float:
+        """r^T C^-1 r of one set of residuals (n_configs, n_obs)."""
+        return float(np.sum(self(r) ** 2))
+
+    def train_losses(self, r: np.ndarray) -> np.ndarray:
+        """Fold j's training loss (..., n_configs): r^T C^-1 r over every configuration but j, C marginalized over
+        them."""
+        if self.corr is None:
+            loss = self.losses(r)
+            return loss.sum(axis=-1)[..., None] - loss
+        n = self.shape[0]
+        return np.stack([np.sum(self(r, (np.arange(n) != j)[:, None]) ** 2, axis=(-2, -1)) for j in range(n)],
+                        axis=-1)
+
+    def heldout_losses(self, r: np.ndarray, i_fold: np.ndarray) -> np.ndarray:
+        """Held-out losses (n_configs,): configuration j's residuals taken at point i_fold[j] of r
+        (m, n_configs, n_obs), the assembled vector whitened together (class docstring)."""
+        return self.losses(r[i_fold, np.arange(self.shape[0])])
 
 
 def _grid(box: np.ndarray, n: int) -> np.ndarray:
@@ -330,6 +433,8 @@ class _Fitter:
             log(f"  resumed from {self.checkpoint}: {len(self.cache)} simulated parameter sets")
         self.sigma = rig.sigma  # fixed before any fit (a rig may simulate its own noise level here)
         self.bound = rig.failure_bound() if hasattr(rig, "failure_bound") else None
+        self.white = Whitening(rig.residual_correlation() if hasattr(rig, "residual_correlation") else None,
+                               rig.measured)
 
     def save(self) -> None:
         if self.checkpoint is None:
@@ -388,17 +493,16 @@ class _Fitter:
         keys = list(dict.fromkeys(self.seen.get(cand.name, [])))
         return np.array([k[1] for k in keys]).reshape(len(keys), -1), np.array([self.cache[k] for k in keys])
 
-    def losses(self, pred: np.ndarray) -> np.ndarray:
-        """Per point and configuration: sum_k r^2, (m, n_cfg)."""
-        return np.sum(residuals(pred, self.rig.measured, self.sigma, self.bound) ** 2, axis=-1)
+    def residuals(self, pred: np.ndarray) -> np.ndarray:
+        """Residuals (..., n_cfg, n_obs) of predictions (..., n_cfg, n_obs) in units of the rig's sigma."""
+        return residuals(pred, self.rig.measured, self.sigma, self.bound)
 
     def best(self, cand: Candidate) -> tuple[np.ndarray, np.ndarray]:
         """Index of the best point for all data and for each fold: (all,), (n_cfg,)."""
         pts, pred = self.points(cand)
-        loss = self.losses(pred)  # (m, n_cfg)
-        total = loss.sum(axis=1)
-        i_all = int(np.argmin(total))
-        i_fold = np.argmin(total[:, None] - loss, axis=0)
+        r = self.residuals(pred)  # (m, n_cfg, n_obs)
+        i_all = int(np.argmin(self.white.losses(r).sum(axis=1)))
+        i_fold = np.argmin(self.white.train_losses(r), axis=0)
         return np.array([i_all]), i_fold
 
     def sloppy_direction(self, cand: Candidate, z: np.ndarray, label: str) -> np.ndarray:
@@ -408,7 +512,7 @@ class _Fitter:
         self.evaluate([(cand, z)] + [(cand, p) for p in self._stencil(z)],
                       f"{label} (the fit's least determined direction)", record=False)
         _, jac, valid = self._jacobian(cand, z)
-        a = jac[valid]
+        a = self._whitened_jacobian(jac, valid)[valid]
         if len(a) == 0:
             return np.zeros(len(z))
         _, vecs = np.linalg.eigh(a.T @ a)
@@ -475,10 +579,9 @@ class _Fitter:
     def _fit_losses(self, cand: Candidate) -> tuple[float, float]:
         """The best in-sample chi^2 over the candidate's points and the sum of its folds' held-out losses."""
         _, pred = self.points(cand)
-        loss = self.losses(pred)
-        total = loss.sum(axis=1)
-        i_fold = np.argmin(total[:, None] - loss, axis=0)
-        return float(total.min()), float(loss[i_fold, np.arange(loss.shape[1])].sum())
+        r = self.residuals(pred)
+        i_fold = np.argmin(self.white.train_losses(r), axis=0)
+        return float(self.white.losses(r).sum(axis=1).min()), float(self.white.heldout_losses(r, i_fold).sum())
 
     def refine(self, cand: Candidate, label: str) -> dict[str, object]:
         """The convergence check: more Levenberg-Marquardt rounds about the candidate's best point until neither its
@@ -524,6 +627,10 @@ class _Fitter:
         valid = np.isfinite(p0) & np.all(np.isfinite(np.stack([self.cache[k] for k in keys])), axis=0)
         return r0, jac, valid & np.all(np.isfinite(jac), axis=-1)
 
+    def _whitened_jacobian(self, jac: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """The forward differences (n_cfg, n_obs, n_genes) whitened over the entries ``rows`` (n_cfg, n_obs)."""
+        return np.moveaxis(self.white(np.moveaxis(jac, -1, 0), rows), 0, -1)
+
     def _lm_steps(self, cand: Candidate, x0: np.ndarray) -> list[np.ndarray]:
         """Damped Gauss-Newton steps of every fold and of all data from x0, by the simulated forward differences
         about it."""
@@ -533,7 +640,7 @@ class _Fitter:
         masks = [np.ones(n_cfg, bool)] + [np.arange(n_cfg) != j for j in range(n_cfg)]
         for mask in masks:
             rows = valid & mask[:, None]
-            a, b = jac[rows], r0[rows]
+            a, b = self._whitened_jacobian(jac, rows)[rows], self.white(r0, rows)[rows]
             if a.size == 0:
                 continue
             jtj, jtr = a.T @ a, a.T @ b
@@ -549,11 +656,9 @@ class _Fitter:
         n_cfg = self.rig.n_configs
         pred_all = pred[i_all[0]]
         held = np.array([pred[i_fold[j], j] for j in range(n_cfg)])
-        r_held = residuals(held, self.rig.measured, self.sigma, self.bound)
-        r_in = residuals(pred_all, self.rig.measured, self.sigma, self.bound)
         n_points = int(np.sum(~np.isnan(self.rig.measured)))
-        fit = Fit(cand, pts[i_all[0]], pts[i_fold], pred_all, held, np.sum(r_held**2, axis=1),
-                  float(np.sum(r_in**2)), n_points)
+        fit = Fit(cand, pts[i_all[0]], pts[i_fold], pred_all, held, self.white.losses(self.residuals(held)),
+                  self.white.chi2(self.residuals(pred_all)), n_points)
         p = fit.n_params
         corr = 2 * p * (p + 1) / (n_points - p - 1) if n_points - p - 1 > 0 else math.inf
         fit.aicc = fit.chi2_in + 2 * p + corr
@@ -597,7 +702,8 @@ def _paired_p(a: Fit, b: Fit) -> float:
 
 
 def _noise_p(fit: Fit) -> float:
-    """p-value of the held-out residuals under the stated uncertainties (chi^2 with one dof per data point)."""
+    """p-value of the held-out residuals under the stated uncertainties (chi^2 with one dof per data point; with
+    correlated residuals their whitened loss, r^T C^-1 r)."""
     return float(stats.chi2.sf(fit.heldout_loss.sum(), fit.n_points))
 
 
@@ -874,6 +980,7 @@ def diagnose(rig: object, settings: DiagnosisSettings | None = None,
                    for m in mechanisms_for(rig, s)}
     diag.sizes = cause_sizes(rig, current)
     diag.steps = steps
+    diag.correlation = fitter.white.corr
     diag.residual_left = bool(noise_final < s.noise_p)
     if hasattr(rig, "describe_fit"):
         diag.adjustments = rig.describe_fit(base.params_all())
@@ -929,6 +1036,7 @@ def verify(rig: object, diag: Diagnosis, log: Callable[[str], None] = lambda s: 
         for j in range(n_cfg):
             cases.append(Case(j, f.candidate.params(f.z_all)))
             index.append((name, "all", j))
+    white = Whitening(diag.correlation, diag.measured)
     t0 = time.perf_counter()
     out = rig.simulate(cases, keep_series=True)
     log(f"  re-simulation of {', '.join(names)}: {len(cases)} worlds, {time.perf_counter() - t0:.1f} s")
@@ -942,7 +1050,7 @@ def verify(rig: object, diag: Diagnosis, log: Callable[[str], None] = lambda s: 
         rel = err / np.abs(diag.measured)
         res[name] = {
             "heldout_pred": held, "all_pred": out.values[sel_all],
-            "heldout_loss": np.sum(r**2, axis=1),
+            "heldout_loss": white.losses(r),
             "heldout_rms_rel": np.sqrt(_nanmean(rel**2)),
             "heldout_rms": np.sqrt(_nanmean(err**2)),
             "heldout_mae": _nanmean(np.abs(err)),

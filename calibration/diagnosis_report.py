@@ -302,7 +302,10 @@ def write(d: Diagnosis, out: str | Path, command: str = "") -> Path:
                 row[f"{name} extended"] = float(d.verification["+".join(d.cause)]["heldout_pred"][j, k])
         rows.append(row)
     lines += [markdown_table(rows), ""]
-    lines += ["Stated 1-sigma uncertainties: " + ", ".join(f"{k} {u}" for k, u in d.uncertainty.items()),
+    lines += ["Stated 1-sigma uncertainties: " + ", ".join(f"{k} {u}" for k, u in d.uncertainty.items())
+              + ("; the residuals correlate (e.g. reductions sharing a rigid reference run): every loss is the "
+                 "generalized least-squares r^T C^-1 r (calibration.diagnosis.Whitening)"
+                 if d.correlation is not None else ""),
               "", f"{d.n_simulations} simulated worlds (a point simulated before is reused, not run again), "
               f"{d.wall_s:.0f} s of wall time{UNTIMED if d.wall_untimed else ''}.", ""]
     lines += [f"![{f}]({f})" for f in files]

@@ -856,6 +856,7 @@ class SoilBinRigModel:
         if not np.all(np.isfinite(self.stated_sigma)):
             raise InputError("measured soil-bin data: a standard-error column has an empty cell for an observable's "
                              "row")
+        self._data_reference = self._shared_data_reference(columns)
         fields = ("friction_angle", "normal_cohesion", "shear_cohesion", "eta_roll", "eta_twist")
         self.soil = {k: float(v) for k, v in (soil or {}).items()}
         for k, v in self.soil.items():
@@ -879,6 +880,7 @@ class SoilBinRigModel:
         self.simulator = simulator
         self._passive: dict[tuple, dict[str, object]] = {}
         self._sim_sigma: np.ndarray | None = None
+        self._sim_reference: tuple[np.ndarray, np.ndarray] | None = None
         if runs_from is not None:  # the same scene's simulated runs, e.g. for a second data set
             if runs_from.settings() != self.settings():
                 raise ValueError("runs_from: the other rig model simulates another scene (settings differ)")
@@ -916,7 +918,106 @@ class SoilBinRigModel:
         if self._sim_sigma is None:
             out = self.simulate([Case(j, {}) for j in range(self.n_configs)], _sem=True)
             self._sim_sigma = np.nan_to_num(out.values, nan=0.0)
+            self._sim_reference = self._shared_simulated_reference()
         return self._sim_sigma
+
+    def _shared_data_reference(self, columns: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """The measured reductions' shared rigid references: per row, the index of its rigid run (-1: none known)
+        and the reduction's loading on that run's error, a_j = 100 P_j s_R / R^2 [percentage points]
+        (d reduction / d R = 100 P / R^2, P = R (1 - reduction / 100) the passive draught the row's reduction
+        implies), so that Cov(reduction_i, reduction_j) = a_i a_j for rows of one rigid run.
+
+        Rows share a rigid run when the summary gives ``rigid_draught_mean`` and ``rigid_draught_mean_se`` and
+        they agree in both and in speed (the Yade twin's tables: one rigid ensemble for every row). A summary that
+        pairs each row with a rigid run of its own (Table 3: each row's rigid draught differs) or gives no rigid
+        standard error has none: the data's reductions are then taken as independent of one another (only the
+        simulation's shared rigid runs correlate them). The stated uncertainty of a row's reduction is taken to
+        include its rigid run's part (a row's ``reduction_se`` propagated from both, as the twin's tables are;
+        the default 2 points, from two runs' scatter): a loading above it is refused."""
+        from scenes import soil_bin as sb
+
+        n = self.n_configs
+        group, load = np.full(n, -1), np.zeros(n)
+        if "reduction" not in self.observables or not {"rigid_draught_mean", "rigid_draught_mean_se"} <= set(columns):
+            return group, load
+        k = self.observables.index("reduction")
+        rigid = np.asarray(columns["rigid_draught_mean"], dtype=np.float64)
+        se = np.asarray(columns["rigid_draught_mean_se"], dtype=np.float64)
+        red = self.measured[:, k]
+        ok = np.isfinite(rigid) & np.isfinite(se) & np.isfinite(red) & (rigid > 0)
+        keys = [(sb.speed_key(c["speed"]), float(r), float(e)) for c, r, e in zip(self.configs, rigid, se,
+                                                                                    strict=True)]
+        index: dict[tuple, int] = {}
+        for j in np.flatnonzero(ok):
+            group[j] = index.setdefault(keys[j], len(index))
+            load[j] = (100.0 - red[j]) * se[j] / rigid[j]
+        if np.any(load > self.stated_sigma[:, k] * (1 + 1e-9)):
+            j = int(np.argmax(load - self.stated_sigma[:, k]))
+            raise InputError(f"measured soil-bin data: {self.describe_config(j)}'s stated reduction uncertainty "
+                             f"{self.stated_sigma[j, k]:.3g} % is below its rigid reference's own part "
+                             f"{load[j]:.3g} % (100 P s_R / R^2)")
+        return group, load
+
+    def _shared_simulated_reference(self) -> tuple[np.ndarray, np.ndarray]:
+        """The baseline's simulated reductions' shared rigid runs: per configuration, the index of the rigid run its
+        reduction is taken against (one per speed and shared knobs) and the loading a_j = 100 P_j s_R / R^2
+        [percentage points] on that run's standard error s_R (P_j the baseline's passive draught, R the rigid
+        draught, with the ``fixed`` knobs), as :meth:`simulation_sigma` fixes the simulation's errors at the
+        baseline. With ``rigid_speed`` the reference is the run at the configuration's own speed moved along the
+        rigid line: its error is that run's (the line's slope is taken as exact, as in ``rigid_reference``)."""
+        from scenes import soil_bin as sb
+
+        n = self.n_configs
+        group, load = np.full(n, -1), np.zeros(n)
+        if "reduction" not in self.observables:
+            return group, load
+        index: dict[tuple, int] = {}
+        for j in range(n):
+            case = Case(j, {})
+            p = dict(self.fixed)
+            speed = self.configs[j]["speed"]
+            tool = _shared_knobs(p)
+            rigid, rigid_sem = self.rigid_reference(speed, p.get("rigid_speed"), tool)
+            rigid += p.get("soil_viscosity", 0.0) * (speed if p.get("rigid_speed") is None else p["rigid_speed"])
+            passive = float(self._passive[self._physical(case)]["draught_mean"])
+            if not (math.isfinite(rigid) and math.isfinite(rigid_sem) and math.isfinite(passive) and rigid != 0):
+                continue
+            group[j] = index.setdefault((tuple(sorted(tool.items())), sb.speed_key(speed)), len(index))
+            load[j] = 100.0 * abs(passive) * rigid_sem / rigid**2
+        return group, load
+
+    def residual_correlation(self) -> np.ndarray | None:
+        """The correlation of the residuals (sim - measured) / sigma (n_configs n_obs, n_configs n_obs), flattened
+        configuration-major (entry j n_obs + k: configuration j, observable k), in units of :attr:`sigma`; None
+        where they are independent. Reductions that share a rigid reference share its error, on either side
+        (``calibration.diagnosis.Whitening`` whitens the residuals with it):
+
+            Cov(red_i, red_j) = (100 P_i / R^2)(100 P_j / R^2) var(R)
+
+        for each side whose rows i != j share one rigid run R: the measured data's (:meth:`_shared_data_reference`:
+        the rigid run's standard error where the data give it) and the simulation's (warpdem's rigid run at the
+        configuration's speed, its standard error from the baseline's run, :meth:`_shared_simulated_reference`).
+        Both sides' errors are independent of each other and add. The diagonal stays 1: each reduction's own
+        sigma already holds its rigid run's share (the simulation's by ``scenes.soil_bin.reduction``'s
+        propagation; the data's by assumption, see :meth:`_shared_data_reference`). Other observables (and a
+        ``rigid_draught_mean`` observable) are taken as independent."""
+        if "reduction" not in self.observables:
+            return None
+        sigma = self.sigma[:, self.observables.index("reduction")]
+        if self._sim_reference is None:
+            self._sim_reference = self._shared_simulated_reference()
+        n, n_obs = self.n_configs, len(self.observables)
+        cov = np.zeros((n, n))
+        for group, load in (self._data_reference, self._sim_reference):
+            same = (group[:, None] == group[None, :]) & (group[:, None] >= 0)
+            cov += np.where(same, np.outer(load, load), 0.0)
+        np.fill_diagonal(cov, 0.0)
+        if not np.any(cov):
+            return None
+        corr = np.eye(n * n_obs)
+        idx = np.arange(n) * n_obs + self.observables.index("reduction")
+        corr[np.ix_(idx, idx)] += cov / np.outer(sigma, sigma)
+        return corr
 
     @property
     def sigma(self) -> np.ndarray:
@@ -944,6 +1045,7 @@ class SoilBinRigModel:
         """The simulation's standard errors and the rigid runs, which a resumed diagnosis must reuse (a new
         realisation would not match the fitted points)."""
         return {"sim_sigma": None if self._sim_sigma is None else self._sim_sigma.tolist(),
+                "sim_reference": None if self._sim_reference is None else [a.tolist() for a in self._sim_reference],
                 "rigid": [[v, r["mean"], r["sem"]] for v, r in self._rigid.items()],
                 "rigid_tool": [[[list(kv) for kv in a], v, r["mean"], r["sem"]] for a, t in self._rigid_tool.items()
                                for v, r in t.items()],
@@ -953,6 +1055,9 @@ class SoilBinRigModel:
         """Take back :meth:`state`."""
         if state.get("sim_sigma") is not None:
             self._sim_sigma = np.array(state["sim_sigma"], dtype=np.float64)
+        if state.get("sim_reference") is not None:
+            group, load = state["sim_reference"]
+            self._sim_reference = (np.array(group, dtype=int), np.array(load, dtype=np.float64))
         for v, mean, sem in state.get("rigid", []):
             self._rigid[round(float(v), 6)] = {"mean": float(mean), "sem": float(sem)}  # soil_bin.speed_key
         for a, v, mean, sem in state.get("rigid_tool", []):  # a: [[knob, value], ...], or an angle (saved earlier)
