@@ -469,6 +469,18 @@ register(Mechanism(
     signature="the draught up or down, rigid and passive alike; the bonds surviving to the tool with it",
     bounds=_bond_strength_bound))
 register(Mechanism(
+    "bed_density", "A denser or looser bed",
+    "How densely the bin's soil is packed sets each particle's contacts, how far the soil must dilate to shear and "
+    "how much of it the blade lifts: a denser bed draws more and fails in larger blocks, a looser one less. The "
+    "simulation's bed density is its deposition's (a protocol, not a soil property): deposited with a lower "
+    "contact friction the bed packs denser (paper scale: porosity 0.327 at 0 deg, 0.456 at the default 30 deg). "
+    "The laboratory's bed density is not given, so the range is the one this deposition makes, not a measured "
+    "bound. Rigid and passive runs change alike (each on its own bed).",
+    genes=(Gene("deposit_friction", 0.0, 30.0, unit="deg"),),
+    knobs=lambda p: {"deposit_friction": p["deposit_friction"]},
+    rigs=(SOIL_BIN.name,),
+    signature="the draught up with the density, rigid and passive alike; the deflection with the draught"))
+register(Mechanism(
     "mount_pitch", "The sweep clamped at another attitude",
     "The passive sweep is clamped to its hinge: turned back (or forward) on the clamp against the drawing, its blade "
     "works at another attack angle and its weight hangs at another lever, while the stack's seat and the sensor's "

@@ -57,16 +57,21 @@ KNOB_OFF = {"series_stiffness": math.inf, "load_mass_fraction": 1.0, "soil_cohes
 """the value of a knob that leaves a rig as it is, where it is not 0 (a case without the knob gets it)."""
 READING_KNOBS = ("sensor_offset", "sensor_drift", "sensor_lever", "rigid_speed")
 """the soil-bin knobs that change how a run is read or compared, not the simulation."""
+BED_KNOBS = ("deposit_friction",)
+"""the soil-bin knobs that change the bed itself (deposit_friction [deg]: the bed deposited again with this contact
+friction, ``scenes.soil_bin.SoilBinConfig.deposit_friction``, so denser or looser): a simulation's worlds share one
+bed, so the rig model runs each value's worlds apart, on that value's bed."""
 RIGID_SWEEP = (0.45, 0.55, 0.65, 0.75)
 """carriage speeds [m/s] of the rigid runs through which the soil-bin rig model fits the rigid draught's line against
 speed (for the rigid_speed knob), besides the measured speeds."""
 
 
 def _shared_knobs(params: dict[str, float]) -> dict[str, float]:
-    """The knobs of ``scenes.soil_bin.SOIL_KNOBS`` among a case's parameters (the rigid runs take them too)."""
+    """The knobs of ``scenes.soil_bin.SOIL_KNOBS`` and :data:`BED_KNOBS` among a case's parameters (the rigid runs
+    take them too)."""
     from scenes.soil_bin import SOIL_KNOBS
 
-    return {k: float(params[k]) for k in SOIL_KNOBS if k in params}
+    return {k: float(params[k]) for k in SOIL_KNOBS + BED_KNOBS if k in params}
 
 
 RINGING_UNCERTAINTY = {"frequency": 0.01, "damping": 0.10, "frequency_late": 0.02, "damping_late": 0.20,
@@ -728,7 +733,9 @@ class SoilBinRigModel:
     scaled by it, before the offset), tool_friction [deg] (the soil-steel contacts' own friction angle) and
     tool_adhesion [Pa] (the soil-steel pair's adhesion) and soil_cohesion_scale [-] (the soil's bonds' strength
     times this), in the passive and the rigid runs alike
-    (``scenes.soil_bin.KNOBS``), sensor_offset [m] (added to the displacement
+    (``scenes.soil_bin.KNOBS``), deposit_friction [deg] (the bed deposited again with this contact friction: a
+    denser or looser bed, passive and rigid runs alike; :data:`BED_KNOBS`, only where the rig model deposits its own
+    beds, not with a given ``bed`` or ``tool``), sensor_offset [m] (added to the displacement
     reading) and rigid_speed [m/s]
     (every reduction taken against a rigid run at this one speed instead of the configuration's own: the rigid
     draught at the configuration's speed moved along the rigid draught's line against speed, fitted through rigid
@@ -870,6 +877,10 @@ class SoilBinRigModel:
         if self._beds is not None and not self._beds:
             raise InputError("bed: an empty list of realizations")
         self._bed = self._beds[0] if self._beds else bed
+        self._other_beds: dict[float, object] = {}
+        """beds deposited with another contact friction (the deposit_friction knob) by that friction [deg]."""
+        if bed is None and tool is None and (runs_from is None or runs_from.deposits_beds):
+            self.knobs = self.knobs | set(BED_KNOBS)
         self.tool = tool
         self.cache_dir = cache_dir
         self.max_worlds = int(max_worlds)
@@ -888,6 +899,7 @@ class SoilBinRigModel:
             self._beds = runs_from._beds
             self.tool = runs_from.tool
             self._rigid_tool = runs_from._rigid_tool
+            self._other_beds = runs_from._other_beds
             self.simulator = runs_from.simulator
 
     @property
@@ -1074,10 +1086,24 @@ class SoilBinRigModel:
             out["displacement"] = self.measured[:, self.observables.index("displacement_mean")]
         return out
 
-    def bed(self) -> object:
-        """The bed (with realizations: the first)."""
+    @property
+    def deposits_beds(self) -> bool:
+        """Whether the rig model deposits its own beds (no ``bed`` or ``tool`` given), so that the bed's density is
+        a knob (:data:`BED_KNOBS`)."""
+        return "deposit_friction" in self.knobs
+
+    def bed(self, deposit_friction: float | None = None) -> object:
+        """The bed (with realizations: the first); with ``deposit_friction`` [deg] other than the config's, the bed
+        of the same config deposited with that contact friction (made or read from ``cache_dir``, kept)."""
+        from dataclasses import replace
+
         from scenes import soil_bin as sb
 
+        if deposit_friction is not None and deposit_friction != self.config.deposit_friction:
+            if deposit_friction not in self._other_beds:
+                config = replace(self.config, deposit_friction=deposit_friction)
+                self._other_beds[deposit_friction] = sb.bed_for(config, device=self.device, cache_dir=self.cache_dir)
+            return self._other_beds[deposit_friction]
         if self._bed is None:
             self._bed = sb.bed_for(self.config, device=self.device, cache_dir=self.cache_dir)
         return self._bed
@@ -1093,19 +1119,30 @@ class SoilBinRigModel:
 
     def _run(self, springs: list[int], speeds: list[float], knobs: dict[str, list[float]] | None,
              progress: object | None) -> object:
-        """One simulation of the soil bin (the DEM, or ``simulator``): a ``scenes.soil_bin.SoilBinRun``."""
+        """One simulation of the soil bin (the DEM, or ``simulator``): a ``scenes.soil_bin.SoilBinRun``. A
+        deposit_friction knob (:data:`BED_KNOBS`) must be one value for every world: they run on its bed."""
+        from dataclasses import replace
+
         from scenes import soil_bin as sb
 
+        config, friction = self.config, None
+        if knobs and "deposit_friction" in knobs:
+            values = {float(v) for v in knobs["deposit_friction"]}
+            if len(values) != 1:
+                raise ValueError(f"deposit_friction: one simulation runs on one bed, got {sorted(values)} deg")
+            friction = values.pop()
+            knobs = {k: v for k, v in knobs.items() if k != "deposit_friction"} or None
+            config = replace(config, deposit_friction=friction)
         r = self.realizations
         if r > 1:  # every world once per realization, realization-minor
             springs, speeds = [n for n in springs for _ in range(r)], [v for v in speeds for _ in range(r)]
             knobs = {k: [x for x in v for _ in range(r)] for k, v in (knobs or {}).items()} or None
         soil = self._soil(len(springs))
         if self.simulator is not None:
-            run = self.simulator(self.config, springs, speeds, knobs, soil)
+            run = self.simulator(config, springs, speeds, knobs, soil)
         else:
-            bed = self._beds * (len(springs) // r) if r > 1 else self.bed()
-            run = sb.run_soil_bin(self.config, springs, bed=bed, device=self.device, speeds=speeds, knobs=knobs,
+            bed = self._beds * (len(springs) // r) if r > 1 else self.bed(friction)
+            run = sb.run_soil_bin(config, springs, bed=bed, device=self.device, speeds=speeds, knobs=knobs,
                                   progress=progress, soil_overrides=soil, tool=self.tool, place=self.tool is None)
         return run if r == 1 else combine_realizations(run, r)
 
@@ -1187,8 +1224,10 @@ class SoilBinRigModel:
         todo = [k for k in dict.fromkeys(keys) if k not in self._passive
                 or (keep_series and "series" not in self._passive[k])]
         per_run = max(1, self.max_worlds // self.realizations)
-        for start in range(0, len(todo), per_run):
-            chunk = todo[start:start + per_run]
+        bed_of = [dict(k[1:]).get("deposit_friction", self.config.deposit_friction) for k in todo]
+        chunks = [[k for k, b in zip(todo, bed_of, strict=True) if b == bed][start:start + per_run]
+                  for bed in dict.fromkeys(bed_of) for start in range(0, bed_of.count(bed), per_run)]
+        for chunk in chunks:  # a simulation's worlds share one bed
             cfgs = [self.configs[k[0]] for k in chunk]
             params = [dict(k[1:]) for k in chunk]
             for p, c in zip(params, cfgs, strict=True):  # a stack's hardening by its own rate and DIN travel
@@ -1205,7 +1244,8 @@ class SoilBinRigModel:
             for name in sorted({n for p in params for n in p}):
                 if name == "dashpot" and not all(name in p for p in params):
                     raise ValueError("dashpot must be given for every case or none")
-                off = self._tool_friction_off() if name == "tool_friction" else KNOB_OFF.get(name, 0.0)
+                off = (self._tool_friction_off() if name == "tool_friction" else self.config.deposit_friction
+                       if name == "deposit_friction" else KNOB_OFF.get(name, 0.0))
                 knobs[name] = [p.get(name, off) for p in params]
             run = self._run([c["springs"] for c in cfgs], [c["speed"] for c in cfgs], knobs, progress)
             for w, (key, row) in enumerate(zip(chunk, run.steady, strict=True)):

@@ -15,6 +15,24 @@ wp.init()
 DEVICE = os.environ.get("WARPDEM_TEST_DEVICE", "cpu")
 
 
+def quasi_static_bin(springs: list[int], speeds: list[float], draught: list[float], stiffness: list[float],
+                     sem: float = 0.5, arm_ratio: float = 2.5) -> object:
+    """A quasi-static soil bin's run (written for the tests, not warpdem's DEM), as ``scenes.soil_bin.SoilBinRun``:
+    world w draws ``draught[w]`` [N] (standard error ``sem`` [N]) and its tool deflects by the moment balance
+    x = F (h / a) / k at the sensor, ``arm_ratio`` = h / a (the draught's depth below the pivot over the spring's and
+    sensor's lever), k = ``stiffness[w]`` [N/m] (inf: the rigid tool); steady from the start, no drift."""
+    from scenes import soil_bin as sb
+
+    steady = [{"springs": n, "speed": v, "draught_mean": f, "draught_sem": sem,
+               "displacement_mean": f * arm_ratio / k, "displacement_sem": 1e-5, "displacement_trend": 0.0,
+               "displacement_trend_sem": 1e-5, "steady_time_mean": 1.0}
+              for n, v, f, k in zip(springs, speeds, draught, stiffness, strict=True)]
+    t = np.linspace(0.0, 1.0, 5)
+    series = {"displacement": np.tile([r["displacement_mean"] for r in steady], (len(t), 1)),
+              "draught": np.tile([r["draught_mean"] for r in steady], (len(t), 1))}
+    return sb.SoilBinRun(tuple(springs), tuple(speeds), t, np.outer(t, speeds), series, steady)
+
+
 def square(center: tuple[float, float, float], half: float, normal_tilt_deg: float = 0.0):
     """Two triangles forming a square of side 2*half in the plane z = center_z, tilted about y by the angle given
     (the plane then descends along +x). Returns (vertices (4, 3), faces (2, 3))."""

@@ -13,13 +13,13 @@ import math
 
 import numpy as np
 import pytest
+from conftest import quasi_static_bin
 from scipy import stats
 
 from calibration import diagnosis
 from calibration.measured import Measured, from_paper, load
 from calibration.rig_models import SoilBinRigModel
 from scenes import paper
-from scenes import soil_bin as sb
 
 SPRINGS = np.array(paper.SPRING_COUNTS)
 """Table 3's spring counts (4-32)."""
@@ -103,23 +103,18 @@ def test_whitened_losses_are_the_generalized_least_squares_losses() -> None:
 
 
 def _bin(pitch_gain: float = 0.01, sem: float = 0.3):  # noqa: ANN202
-    """A quasi-static soil bin (a simulator for SoilBinRigModel, written here): the rigid tool draws 300 N, the
-    passive one 300 N (1 - 0.004 n) (1 + pitch_gain x mount_pitch [deg]) (the clamp's attitude acts on the passive
-    runs alone), every steady mean with standard error ``sem`` [N]; the displacement follows the draught."""
+    """A quasi-static soil bin (``conftest.quasi_static_bin``, a simulator for SoilBinRigModel): the rigid tool draws
+    300 N, the passive one 300 N (1 - 0.004 n) (1 + pitch_gain x mount_pitch [deg]) (the clamp's attitude acts on
+    the passive runs alone), every steady mean with standard error ``sem`` [N]; the displacement follows the
+    draught."""
 
     def run(config, springs, speeds, knobs, soil):  # noqa: ANN001, ANN202
-        steady = []
-        for w, (n, v) in enumerate(zip(springs, speeds, strict=True)):
-            pitch = float((knobs or {}).get("mount_pitch", [0.0] * len(springs))[w]) if n else 0.0
-            f = 300.0 * (1 - 0.004 * n) * (1 + pitch_gain * pitch) if n else 300.0
-            k = float(knobs["stiffness"][w]) if n else math.inf
-            steady.append({"springs": n, "speed": v, "draught_mean": f, "draught_sem": sem,
-                           "displacement_mean": f * 0.25 / (k * 0.1), "displacement_sem": 1e-5,
-                           "displacement_trend": 0.0, "displacement_trend_sem": 1e-5, "steady_time_mean": 1.0})
-        t = np.linspace(0.0, 1.0, 5)
-        series = {"displacement": np.tile([r["displacement_mean"] for r in steady], (len(t), 1)),
-                  "draught": np.tile([r["draught_mean"] for r in steady], (len(t), 1))}
-        return sb.SoilBinRun(tuple(springs), tuple(speeds), t, np.outer(t, speeds), series, steady)
+        pitch = [float((knobs or {}).get("mount_pitch", [0.0] * len(springs))[w]) if n else 0.0
+                 for w, n in enumerate(springs)]
+        draught = [300.0 * (1 - 0.004 * n) * (1 + pitch_gain * p) if n else 300.0 for n, p in zip(springs, pitch,
+                                                                                                strict=True)]
+        stiffness = [float(knobs["stiffness"][w]) if n else math.inf for w, n in enumerate(springs)]
+        return quasi_static_bin(springs, speeds, draught, stiffness, sem=sem, arm_ratio=0.25 / 0.1)
 
     return run
 

@@ -1,4 +1,5 @@
-"""Soil-bin mechanisms of the lever geometry (issue #39, item 3): the stacks' load line and the sensor's lever.
+"""Soil-bin mechanisms (issue #39, item 3): the stacks' load line and the sensor's lever, the soil-steel contact,
+the bonds' strength and the bed's density.
 
 References: the moment balance about the pivot (closed form) for the DEM's equivalent spring, and an independent
 quasi-static model of the passive tool in soil (written here, not warpdem's DEM) that carries a hidden geometry the
@@ -13,13 +14,13 @@ import math
 
 import numpy as np
 import pytest
+from conftest import DEVICE, quasi_static_bin
 
 from calibration import diagnosis
 from calibration import mechanisms as mech
 from calibration.measured import Measured
 from calibration.rig_models import SoilBinRigModel, lever_scaling
 from scenes import paper
-from scenes import soil_bin as sb
 from scenes.passive_tool import DISC_OUTER_RADIUS, SENSOR_MOUNT_TOLERANCE
 
 A = 0.1
@@ -53,18 +54,10 @@ def _quasi_static(seat: float, sensor: float):  # noqa: ANN202
     with the knobs the model passes (its stiffness already scaled by spring_lever)."""
 
     def run(config, springs, speeds, knobs, soil):  # noqa: ANN001, ANN202
-        steady = []
-        for w, (n, v) in enumerate(zip(springs, speeds, strict=True)):
-            f = 300.0 * (1 - (0.002 * n if n else 0.0))
-            k = float(knobs["stiffness"][w]) if n else math.inf
-            theta = f * H / (k * (seat * A) ** 2)
-            steady.append({"springs": n, "speed": v, "draught_mean": f, "draught_sem": 0.5,
-                           "displacement_mean": sensor * A * theta, "displacement_sem": 1e-5,
-                           "displacement_trend": 0.0, "displacement_trend_sem": 1e-5, "steady_time_mean": 1.0})
-        t = np.linspace(0.0, 1.0, 5)
-        series = {"displacement": np.tile([r["displacement_mean"] for r in steady], (len(t), 1)),
-                  "draught": np.tile([r["draught_mean"] for r in steady], (len(t), 1))}
-        return sb.SoilBinRun(tuple(springs), tuple(speeds), t, np.outer(t, speeds), series, steady)
+        draught = [300.0 * (1 - (0.002 * n if n else 0.0)) for n in springs]
+        stiffness = [float(knobs["stiffness"][w]) if n else math.inf for w, n in enumerate(springs)]
+        # theta = F H / (k (seat A)^2), read at sensor A: x = F (H sensor / (seat^2 A)) / k
+        return quasi_static_bin(springs, speeds, draught, stiffness, arm_ratio=H * sensor / (seat**2 * A))
 
     return run
 
@@ -120,26 +113,25 @@ SHARED_OFF = {"tool_adhesion": 0.0, "tool_friction": 20.0, "soil_cohesion_scale"
 own bonds)."""
 
 
-def _tool_bin(seen: list[tuple], scale: object) -> object:
-    """A quasi-static soil bin (written here, a simulator for SoilBinRigModel) whose draught is 300 N x scale(k) less
-    0.2 % per spring, k the world's values of the shared knobs (:data:`SHARED_OFF` where a run has none), the
+def _tool_bin(seen: list[tuple], scale: object, beds: list[tuple] | None = None) -> object:
+    """A quasi-static soil bin (``conftest.quasi_static_bin``, a simulator for SoilBinRigModel) whose draught is
+    300 N x scale(k) less 0.2 % per spring, k the world's values of the shared knobs (:data:`SHARED_OFF` where a run
+    has none) and its bed's deposition friction (``deposit_friction``: the config's, one bed a simulation), the
     displacement following the draught through the stack's rate; it notes each world's (springs, adhesion, angle,
-    cohesion scale) in ``seen``."""
+    cohesion scale) in ``seen`` and each simulation's (bed friction, springs) in ``beds``."""
 
     def run(config, springs, speeds, knobs, soil):  # noqa: ANN001, ANN202
-        steady = []
-        for w, (n, v) in enumerate(zip(springs, speeds, strict=True)):
+        assert "deposit_friction" not in (knobs or {})  # the bed is the config's, not a world's knob
+        if beds is not None:
+            beds.append((config.deposit_friction, tuple(springs)))
+        draught = []
+        for w, n in enumerate(springs):
             k = {name: float((knobs or {}).get(name, [off] * len(springs))[w]) for name, off in SHARED_OFF.items()}
+            k["deposit_friction"] = config.deposit_friction
             seen.append((n, k["tool_adhesion"], k["tool_friction"], k["soil_cohesion_scale"]))
-            f = 300.0 * scale(k) * (1 - (0.002 * n if n else 0.0))
-            k = float(knobs["stiffness"][w]) if n else math.inf
-            steady.append({"springs": n, "speed": v, "draught_mean": f, "draught_sem": 0.5,
-                           "displacement_mean": f * H / (k * A), "displacement_sem": 1e-5, "displacement_trend": 0.0,
-                           "displacement_trend_sem": 1e-5, "steady_time_mean": 1.0})
-        t = np.linspace(0.0, 1.0, 5)
-        series = {"displacement": np.tile([r["displacement_mean"] for r in steady], (len(t), 1)),
-                  "draught": np.tile([r["draught_mean"] for r in steady], (len(t), 1))}
-        return sb.SoilBinRun(tuple(springs), tuple(speeds), t, np.outer(t, speeds), series, steady)
+            draught.append(300.0 * scale(k) * (1 - (0.002 * n if n else 0.0)))
+        stiffness = [float(knobs["stiffness"][w]) if n else math.inf for w, n in enumerate(springs)]
+        return quasi_static_bin(springs, speeds, draught, stiffness, arm_ratio=H / A)
 
     return run
 
@@ -276,3 +268,47 @@ def test_the_pivot_friction_is_bounded_by_the_springs_moment_at_work() -> None:
     assert bound.high == pytest.approx(float(np.min(k * np.abs(x) * facts.lever)), rel=1e-12)
     assert bound.high == pytest.approx(300.0 * (1 - 0.002 * 32) * H, rel=0.01)
     assert bound.low == pytest.approx(1e-3) and "moment" in bound.source
+
+
+def test_the_bed_density_knob_runs_rigid_and_passive_on_a_bed_of_their_own() -> None:
+    """Reference: a quasi-static soil bin (written here) whose draught is 300 N (1 + (30 deg - phi_d) / 100 deg)
+    less 0.2 % per spring, phi_d the contact friction its bed was deposited with (the config each simulation gets):
+    with deposit_friction the rigid reference runs on the same bed as its passive case, so the reduction stays the
+    spring count's alone (0.2 % per spring) while the draught and the displacement follow the bed; a simulation
+    never mixes two beds (its worlds share one); a case without the knob runs on the config's bed. With a bed given
+    to the rig model (a twin's export) it cannot deposit another, and the mechanism is not offered."""
+    from calibration.rig_models import Case
+
+    calls: list[tuple[float, tuple[int, ...]]] = []
+    run = _tool_bin([], lambda k: 1 + (30.0 - k["deposit_friction"]) / 100.0, calls)
+
+    m = _measured(1.0, 1.0, 0)
+    data = Measured({**m.summary, "reduction": np.zeros(len(m.summary["springs"]))}, {})
+    rig = SoilBinRigModel(data, simulator=run, observables=("reduction", "displacement_mean"))
+    base, dense, denser = rig.simulate([Case(3, {}), Case(3, {"deposit_friction": 10.0}),
+                                        Case(5, {"deposit_friction": 0.0})]).values
+    assert {f for f, springs in calls if springs == (0,)} == {30.0, 10.0, 0.0}  # a rigid run on each bed
+    assert {(f, springs) for f, springs in calls if springs != (0,)} == {(30.0, (16,)), (10.0, (16,)), (0.0, (24,))}
+    assert base[0] == pytest.approx(dense[0]) == pytest.approx(100 * 0.002 * 16)  # springs 16: 3.2 %
+    assert denser[0] == pytest.approx(100 * 0.002 * 24)
+    assert dense[1] / base[1] == pytest.approx(1.2 / 1.0)
+    offered = {x.name for x in diagnosis.mechanisms_for(rig, diagnosis.DiagnosisSettings())}
+    assert "bed_density" in offered
+    given = SoilBinRigModel(data, simulator=run, observables=("reduction", "displacement_mean"), bed=object())
+    assert "bed_density" not in {x.name for x in diagnosis.mechanisms_for(given, diagnosis.DiagnosisSettings())}
+    with pytest.raises(ValueError, match="needs knobs"):
+        diagnosis.candidates_for(given, diagnosis.DiagnosisSettings(mechanisms=("bed_density",)))
+
+
+def test_a_bed_deposited_denser_for_the_knob_draws_more() -> None:
+    """Reference: a granular bed packed denser has more contacts per particle and must dilate more to shear, so the
+    rigid blade draws more. The rig model's deposit_friction knob deposits the ``ci`` bed again without contact
+    friction: its porosity falls by more than 0.03, and its rigid draught rises by more than two standard errors of
+    the difference. Measured on this project's CPU: porosity 0.425 -> 0.347, draught 154.7 +- 13.9 -> 382.9 +- 77.5
+    N at 0.6 m/s (the depositions about 25 s)."""
+    rig = SoilBinRigModel(_measured(1.0, 1.0, 0), scale="ci", assembly="A", travel=0.2, steady_travel=0.1,
+                          device=DEVICE)
+    assert rig.bed(0.0).porosity < rig.bed().porosity - 0.03
+    loose, loose_se = rig.rigid_reference(0.6)
+    dense, dense_se = rig.rigid_reference(0.6, None, {"deposit_friction": 0.0})
+    assert dense > loose + 2 * math.hypot(loose_se, dense_se), (loose, loose_se, dense, dense_se)

@@ -599,80 +599,88 @@ def _world_tables(b: ModelBuilder, n_worlds: int, overrides: dict[str, object]) 
     t["pivot_friction"] = np.zeros((n_worlds, nb))
     spring_names = {s.name: i for i, s in enumerate(b.springs)}
     for key, values in overrides.items():
-        parts = key.split(":")
-        if parts[0] == "material" and len(parts) == 3:
-            if parts[1] not in b.material_names:
-                raise InputError(f"override {key!r}: unknown material {parts[1]!r}")
-            check_choice(f"override {key!r} field", parts[2], b.materials[b.material_names[parts[1]]].FIELDS)
-            col = _per_world(key, values, n_worlds)
-            for v in col:  # validate each world's material like a user-built one
-                b.materials[b.material_names[parts[1]]].replace(**{parts[2]: float(v)})
-            t[parts[2]][:, b.material_names[parts[1]]] = col
-        elif parts[0] == "pair" and len(parts) == 4 and parts[3] == "friction_angle":
-            i, j = b._material(parts[1]), b._material(parts[2])
-            col = _per_world(key, values, n_worlds)
-            for v in col:
-                degrees_to_radians(f"override {key!r}", float(v))
-            t["pair_friction"][:, i, j] = t["pair_friction"][:, j, i] = col
-        elif parts[0] == "pair" and len(parts) == 4 and parts[3] == "adhesion":
-            i, j = b._material(parts[1]), b._material(parts[2])
-            if laws.law_of(b.materials) != laws.COHFRICT:
-                raise InputError(f"override {key!r}: adhesion needs cohesive-frictional materials")
-            col = _per_world(key, values, n_worlds)
-            t["pair_adhesion"][:, i, j] = t["pair_adhesion"][:, j, i] = np.where(col < 0.0, -1.0, col)
-        elif parts[0] == "spring" and len(parts) == 3 and parts[2] in ("point_a", "point_b"):
-            if parts[1] not in spring_names:
-                raise InputError(f"override {key!r}: unknown spring {parts[1]!r}")
-            spring = b.springs[spring_names[parts[1]]]
-            body = spring.body_a if parts[2] == "point_a" else spring.body_b
-            points = _per_world(key, values, n_worlds, (3,))
-            rot = massprops.quat_to_matrix(b.body_array("quat")[body])
-            local = massprops.rows_times(points - b.body_array("pos")[body], rot)
-            t["spring_" + parts[2]][:, spring_names[parts[1]]] = local
-        elif parts[0] == "spring" and len(parts) == 3:
-            if parts[1] not in spring_names:
-                raise InputError(f"override {key!r}: unknown spring {parts[1]!r}")
-            check_choice(f"override {key!r} field", parts[2], SPRING_FIELDS)
-            col = _per_world(key, values, n_worlds)
-            if parts[2] != "preload":
-                check_nonnegative(f"override {key!r}", col)
-            t["spring_" + parts[2]][:, spring_names[parts[1]]] = col
-        elif parts[0] == "damping" and len(parts) == 2:
-            if parts[1] not in b.groups:
-                raise InputError(f"override {key!r}: unknown group {parts[1]!r}")
-            col = _per_world(key, values, n_worlds)
-            if np.any((col < 0) | (col >= 1)):
-                raise InputError(f"override {key!r}: local damping must be in [0, 1), got {col.tolist()}")
-            t["damping"][:, b.groups[parts[1]]] = col
-        elif parts[0] == "body" and len(parts) == 3 and parts[2] in ("velocity", "angular_velocity"):
-            if parts[1] not in b.body_names:
-                raise InputError(f"override {key!r}: unknown body {parts[1]!r}")
-            t["vel" if parts[2] == "velocity" else "angvel"][:, b.body_names[parts[1]]] = _per_world(
-                key, values, n_worlds, (3,)
-            )
-        elif parts[0] == "body" and len(parts) == 3 and parts[2] in ("mass", "pivot_friction"):
-            if parts[1] not in b.body_names:
-                raise InputError(f"override {key!r}: unknown body {parts[1]!r}")
-            idx = b.body_names[parts[1]]
-            col = _per_world(key, values, n_worlds)
-            if parts[2] == "mass":
-                if not b.body_array("mass")[idx] > 0:
-                    raise InputError(f"override {key!r}: body {parts[1]!r} has no mass to scale")
-                if np.any(col <= 0):
-                    raise InputError(f"override {key!r}: mass must be positive, got {col.tolist()}")
-            else:
-                check_nonnegative(f"override {key!r}", col)
-                if np.isnan(b.body_array("pivot")[idx, 0]):
-                    raise InputError(f"override {key!r}: body {parts[1]!r} is not hinged (it has no pivot)")
-            t[parts[2]][:, idx] = col
-        else:
-            raise InputError(
-                f"unknown override {key!r}; expected material:<name>:<field>, pair:<a>:<b>:friction_angle|adhesion, "
-                "spring:<name>:<field>, "
-                "spring:<name>:point_a|point_b, damping:<group> or "
-                "body:<name>:velocity|angular_velocity|mass|pivot_friction"
-            )
+        _apply_override(b, t, key, values, n_worlds, spring_names)
     return t
+
+
+def _apply_override(b: ModelBuilder, t: dict[str, np.ndarray], key: str, values: object, n_worlds: int,
+                    spring_names: dict[str, int]) -> None:
+    """One override ``key`` (``material:<name>:<field>``, ``pair:<a>:<b>:friction_angle|adhesion``, ...) with its
+    per-world ``values`` written into the per-world tables ``t`` (``_world_tables``), checked like a user-built
+    model."""
+    parts = key.split(":")
+    if parts[0] == "material" and len(parts) == 3:
+        if parts[1] not in b.material_names:
+            raise InputError(f"override {key!r}: unknown material {parts[1]!r}")
+        check_choice(f"override {key!r} field", parts[2], b.materials[b.material_names[parts[1]]].FIELDS)
+        col = _per_world(key, values, n_worlds)
+        for v in col:  # validate each world's material like a user-built one
+            b.materials[b.material_names[parts[1]]].replace(**{parts[2]: float(v)})
+        t[parts[2]][:, b.material_names[parts[1]]] = col
+    elif parts[0] == "pair" and len(parts) == 4 and parts[3] == "friction_angle":
+        i, j = b._material(parts[1]), b._material(parts[2])
+        col = _per_world(key, values, n_worlds)
+        for v in col:
+            degrees_to_radians(f"override {key!r}", float(v))
+        t["pair_friction"][:, i, j] = t["pair_friction"][:, j, i] = col
+    elif parts[0] == "pair" and len(parts) == 4 and parts[3] == "adhesion":
+        i, j = b._material(parts[1]), b._material(parts[2])
+        if laws.law_of(b.materials) != laws.COHFRICT:
+            raise InputError(f"override {key!r}: adhesion needs cohesive-frictional materials")
+        col = _per_world(key, values, n_worlds)
+        t["pair_adhesion"][:, i, j] = t["pair_adhesion"][:, j, i] = np.where(col < 0.0, -1.0, col)
+    elif parts[0] == "spring" and len(parts) == 3 and parts[2] in ("point_a", "point_b"):
+        if parts[1] not in spring_names:
+            raise InputError(f"override {key!r}: unknown spring {parts[1]!r}")
+        spring = b.springs[spring_names[parts[1]]]
+        body = spring.body_a if parts[2] == "point_a" else spring.body_b
+        points = _per_world(key, values, n_worlds, (3,))
+        rot = massprops.quat_to_matrix(b.body_array("quat")[body])
+        local = massprops.rows_times(points - b.body_array("pos")[body], rot)
+        t["spring_" + parts[2]][:, spring_names[parts[1]]] = local
+    elif parts[0] == "spring" and len(parts) == 3:
+        if parts[1] not in spring_names:
+            raise InputError(f"override {key!r}: unknown spring {parts[1]!r}")
+        check_choice(f"override {key!r} field", parts[2], SPRING_FIELDS)
+        col = _per_world(key, values, n_worlds)
+        if parts[2] != "preload":
+            check_nonnegative(f"override {key!r}", col)
+        t["spring_" + parts[2]][:, spring_names[parts[1]]] = col
+    elif parts[0] == "damping" and len(parts) == 2:
+        if parts[1] not in b.groups:
+            raise InputError(f"override {key!r}: unknown group {parts[1]!r}")
+        col = _per_world(key, values, n_worlds)
+        if np.any((col < 0) | (col >= 1)):
+            raise InputError(f"override {key!r}: local damping must be in [0, 1), got {col.tolist()}")
+        t["damping"][:, b.groups[parts[1]]] = col
+    elif parts[0] == "body" and len(parts) == 3 and parts[2] in ("velocity", "angular_velocity"):
+        if parts[1] not in b.body_names:
+            raise InputError(f"override {key!r}: unknown body {parts[1]!r}")
+        t["vel" if parts[2] == "velocity" else "angvel"][:, b.body_names[parts[1]]] = _per_world(
+            key, values, n_worlds, (3,)
+        )
+    elif parts[0] == "body" and len(parts) == 3 and parts[2] in ("mass", "pivot_friction"):
+        if parts[1] not in b.body_names:
+            raise InputError(f"override {key!r}: unknown body {parts[1]!r}")
+        idx = b.body_names[parts[1]]
+        col = _per_world(key, values, n_worlds)
+        if parts[2] == "mass":
+            if not b.body_array("mass")[idx] > 0:
+                raise InputError(f"override {key!r}: body {parts[1]!r} has no mass to scale")
+            if np.any(col <= 0):
+                raise InputError(f"override {key!r}: mass must be positive, got {col.tolist()}")
+        else:
+            check_nonnegative(f"override {key!r}", col)
+            if np.isnan(b.body_array("pivot")[idx, 0]):
+                raise InputError(f"override {key!r}: body {parts[1]!r} is not hinged (it has no pivot)")
+        t[parts[2]][:, idx] = col
+    else:
+        raise InputError(
+            f"unknown override {key!r}; expected material:<name>:<field>, pair:<a>:<b>:friction_angle|adhesion, "
+            "spring:<name>:<field>, "
+            "spring:<name>:point_a|point_b, damping:<group> or "
+            "body:<name>:velocity|angular_velocity|mass|pivot_friction"
+        )
 
 
 def _sphere_rows(b: ModelBuilder) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
