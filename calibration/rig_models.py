@@ -57,21 +57,22 @@ KNOB_OFF = {"series_stiffness": math.inf, "load_mass_fraction": 1.0, "soil_cohes
 """the value of a knob that leaves a rig as it is, where it is not 0 (a case without the knob gets it)."""
 READING_KNOBS = ("sensor_offset", "sensor_drift", "sensor_lever", "rigid_speed")
 """the soil-bin knobs that change how a run is read or compared, not the simulation."""
-BED_KNOBS = ("deposit_friction",)
-"""the soil-bin knobs that change the bed itself (deposit_friction [deg]: the bed deposited again with this contact
-friction, ``scenes.soil_bin.SoilBinConfig.deposit_friction``, so denser or looser): a simulation's worlds share one
-bed, so the rig model runs each value's worlds apart, on that value's bed."""
+CONFIG_KNOBS = ("deposit_friction", "settle_time")
+"""the soil-bin knobs that are fields of the run's ``scenes.soil_bin.SoilBinConfig``, one value for all the worlds
+of a simulation, so the rig model runs each value's worlds apart: deposit_friction [deg] (the bed deposited again
+with this contact friction, denser or looser, and the runs on that bed) and settle_time [s] (the bed settled this
+long before the bonds are set on its contacts and the tool moves: bonds made on a bed at rest or not)."""
 RIGID_SWEEP = (0.45, 0.55, 0.65, 0.75)
 """carriage speeds [m/s] of the rigid runs through which the soil-bin rig model fits the rigid draught's line against
 speed (for the rigid_speed knob), besides the measured speeds."""
 
 
 def _shared_knobs(params: dict[str, float]) -> dict[str, float]:
-    """The knobs of ``scenes.soil_bin.SOIL_KNOBS`` and :data:`BED_KNOBS` among a case's parameters (the rigid runs
-    take them too)."""
+    """The knobs of ``scenes.soil_bin.SOIL_KNOBS`` and :data:`CONFIG_KNOBS` among a case's parameters (the rigid
+    runs take them too)."""
     from scenes.soil_bin import SOIL_KNOBS
 
-    return {k: float(params[k]) for k in SOIL_KNOBS + BED_KNOBS if k in params}
+    return {k: float(params[k]) for k in SOIL_KNOBS + CONFIG_KNOBS if k in params}
 
 
 RINGING_UNCERTAINTY = {"frequency": 0.01, "damping": 0.10, "frequency_late": 0.02, "damping_late": 0.20,
@@ -734,8 +735,9 @@ class SoilBinRigModel:
     tool_adhesion [Pa] (the soil-steel pair's adhesion) and soil_cohesion_scale [-] (the soil's bonds' strength
     times this), in the passive and the rigid runs alike
     (``scenes.soil_bin.KNOBS``), deposit_friction [deg] (the bed deposited again with this contact friction: a
-    denser or looser bed, passive and rigid runs alike; :data:`BED_KNOBS`, only where the rig model deposits its own
-    beds, not with a given ``bed`` or ``tool``), sensor_offset [m] (added to the displacement
+    denser or looser bed) and settle_time [s] (the bed settled this long before its bonds are set and the tool
+    moves), passive and rigid runs alike (:data:`CONFIG_KNOBS`; only where the rig model deposits its own beds, not
+    with a given ``bed`` or ``tool``), sensor_offset [m] (added to the displacement
     reading) and rigid_speed [m/s]
     (every reduction taken against a rigid run at this one speed instead of the configuration's own: the rigid
     draught at the configuration's speed moved along the rigid draught's line against speed, fitted through rigid
@@ -880,7 +882,7 @@ class SoilBinRigModel:
         self._other_beds: dict[float, object] = {}
         """beds deposited with another contact friction (the deposit_friction knob) by that friction [deg]."""
         if bed is None and tool is None and (runs_from is None or runs_from.deposits_beds):
-            self.knobs = self.knobs | set(BED_KNOBS)
+            self.knobs = self.knobs | set(CONFIG_KNOBS)
         self.tool = tool
         self.cache_dir = cache_dir
         self.max_worlds = int(max_worlds)
@@ -1088,8 +1090,8 @@ class SoilBinRigModel:
 
     @property
     def deposits_beds(self) -> bool:
-        """Whether the rig model deposits its own beds (no ``bed`` or ``tool`` given), so that the bed's density is
-        a knob (:data:`BED_KNOBS`)."""
+        """Whether the rig model deposits its own beds (no ``bed`` or ``tool`` given), so that the bed's density and
+        its bond protocol are knobs (:data:`CONFIG_KNOBS`)."""
         return "deposit_friction" in self.knobs
 
     def bed(self, deposit_friction: float | None = None) -> object:
@@ -1119,20 +1121,20 @@ class SoilBinRigModel:
 
     def _run(self, springs: list[int], speeds: list[float], knobs: dict[str, list[float]] | None,
              progress: object | None) -> object:
-        """One simulation of the soil bin (the DEM, or ``simulator``): a ``scenes.soil_bin.SoilBinRun``. A
-        deposit_friction knob (:data:`BED_KNOBS`) must be one value for every world: they run on its bed."""
+        """One simulation of the soil bin (the DEM, or ``simulator``): a ``scenes.soil_bin.SoilBinRun``. A knob of
+        :data:`CONFIG_KNOBS` must be one value for every world: it is the simulation's config (and bed)."""
         from dataclasses import replace
 
         from scenes import soil_bin as sb
 
-        config, friction = self.config, None
-        if knobs and "deposit_friction" in knobs:
-            values = {float(v) for v in knobs["deposit_friction"]}
-            if len(values) != 1:
-                raise ValueError(f"deposit_friction: one simulation runs on one bed, got {sorted(values)} deg")
-            friction = values.pop()
-            knobs = {k: v for k, v in knobs.items() if k != "deposit_friction"} or None
-            config = replace(config, deposit_friction=friction)
+        config = self.config
+        for name in CONFIG_KNOBS:
+            if knobs and name in knobs:
+                values = {float(v) for v in knobs[name]}
+                if len(values) != 1:
+                    raise ValueError(f"{name}: one simulation's worlds share their config, got {sorted(values)}")
+                config = replace(config, **{name: values.pop()})
+                knobs = {k: v for k, v in knobs.items() if k != name} or None
         r = self.realizations
         if r > 1:  # every world once per realization, realization-minor
             springs, speeds = [n for n in springs for _ in range(r)], [v for v in speeds for _ in range(r)]
@@ -1141,7 +1143,7 @@ class SoilBinRigModel:
         if self.simulator is not None:
             run = self.simulator(config, springs, speeds, knobs, soil)
         else:
-            bed = self._beds * (len(springs) // r) if r > 1 else self.bed(friction)
+            bed = self._beds * (len(springs) // r) if r > 1 else self.bed(config.deposit_friction)
             run = sb.run_soil_bin(config, springs, bed=bed, device=self.device, speeds=speeds, knobs=knobs,
                                   progress=progress, soil_overrides=soil, tool=self.tool, place=self.tool is None)
         return run if r == 1 else combine_realizations(run, r)
@@ -1224,10 +1226,10 @@ class SoilBinRigModel:
         todo = [k for k in dict.fromkeys(keys) if k not in self._passive
                 or (keep_series and "series" not in self._passive[k])]
         per_run = max(1, self.max_worlds // self.realizations)
-        bed_of = [dict(k[1:]).get("deposit_friction", self.config.deposit_friction) for k in todo]
-        chunks = [[k for k, b in zip(todo, bed_of, strict=True) if b == bed][start:start + per_run]
-                  for bed in dict.fromkeys(bed_of) for start in range(0, bed_of.count(bed), per_run)]
-        for chunk in chunks:  # a simulation's worlds share one bed
+        run_of = [tuple(dict(k[1:]).get(n, getattr(self.config, n)) for n in CONFIG_KNOBS) for k in todo]
+        chunks = [[k for k, c in zip(todo, run_of, strict=True) if c == cfg][start:start + per_run]
+                  for cfg in dict.fromkeys(run_of) for start in range(0, run_of.count(cfg), per_run)]
+        for chunk in chunks:  # a simulation's worlds share one config and bed
             cfgs = [self.configs[k[0]] for k in chunk]
             params = [dict(k[1:]) for k in chunk]
             for p, c in zip(params, cfgs, strict=True):  # a stack's hardening by its own rate and DIN travel
@@ -1244,8 +1246,8 @@ class SoilBinRigModel:
             for name in sorted({n for p in params for n in p}):
                 if name == "dashpot" and not all(name in p for p in params):
                     raise ValueError("dashpot must be given for every case or none")
-                off = (self._tool_friction_off() if name == "tool_friction" else self.config.deposit_friction
-                       if name == "deposit_friction" else KNOB_OFF.get(name, 0.0))
+                off = (self._tool_friction_off() if name == "tool_friction" else getattr(self.config, name)
+                       if name in CONFIG_KNOBS else KNOB_OFF.get(name, 0.0))
                 knobs[name] = [p.get(name, off) for p in params]
             run = self._run([c["springs"] for c in cfgs], [c["speed"] for c in cfgs], knobs, progress)
             for w, (key, row) in enumerate(zip(chunk, run.steady, strict=True)):

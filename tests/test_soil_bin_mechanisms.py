@@ -116,18 +116,18 @@ own bonds)."""
 def _tool_bin(seen: list[tuple], scale: object, beds: list[tuple] | None = None) -> object:
     """A quasi-static soil bin (``conftest.quasi_static_bin``, a simulator for SoilBinRigModel) whose draught is
     300 N x scale(k) less 0.2 % per spring, k the world's values of the shared knobs (:data:`SHARED_OFF` where a run
-    has none) and its bed's deposition friction (``deposit_friction``: the config's, one bed a simulation), the
-    displacement following the draught through the stack's rate; it notes each world's (springs, adhesion, angle,
-    cohesion scale) in ``seen`` and each simulation's (bed friction, springs) in ``beds``."""
+    has none) and its config's ``deposit_friction`` and ``settle_time`` (one of each a simulation), the displacement
+    following the draught through the stack's rate; it notes each world's (springs, adhesion, angle, cohesion scale)
+    in ``seen`` and each simulation's (bed friction, settling time, springs) in ``beds``."""
 
     def run(config, springs, speeds, knobs, soil):  # noqa: ANN001, ANN202
-        assert "deposit_friction" not in (knobs or {})  # the bed is the config's, not a world's knob
+        assert not {"deposit_friction", "settle_time"} & set(knobs or {})  # the config's, not a world's knobs
         if beds is not None:
-            beds.append((config.deposit_friction, tuple(springs)))
+            beds.append((config.deposit_friction, config.settle_time, tuple(springs)))
         draught = []
         for w, n in enumerate(springs):
             k = {name: float((knobs or {}).get(name, [off] * len(springs))[w]) for name, off in SHARED_OFF.items()}
-            k["deposit_friction"] = config.deposit_friction
+            k["deposit_friction"], k["settle_time"] = config.deposit_friction, config.settle_time
             seen.append((n, k["tool_adhesion"], k["tool_friction"], k["soil_cohesion_scale"]))
             draught.append(300.0 * scale(k) * (1 - (0.002 * n if n else 0.0)))
         stiffness = [float(knobs["stiffness"][w]) if n else math.inf for w, n in enumerate(springs)]
@@ -270,32 +270,39 @@ def test_the_pivot_friction_is_bounded_by_the_springs_moment_at_work() -> None:
     assert bound.low == pytest.approx(1e-3) and "moment" in bound.source
 
 
-def test_the_bed_density_knob_runs_rigid_and_passive_on_a_bed_of_their_own() -> None:
+def test_the_bed_and_bond_protocol_knobs_run_rigid_and_passive_on_their_own_bed() -> None:
     """Reference: a quasi-static soil bin (written here) whose draught is 300 N (1 + (30 deg - phi_d) / 100 deg)
-    less 0.2 % per spring, phi_d the contact friction its bed was deposited with (the config each simulation gets):
-    with deposit_friction the rigid reference runs on the same bed as its passive case, so the reduction stays the
-    spring count's alone (0.2 % per spring) while the draught and the displacement follow the bed; a simulation
-    never mixes two beds (its worlds share one); a case without the knob runs on the config's bed. With a bed given
-    to the rig model (a twin's export) it cannot deposit another, and the mechanism is not offered."""
+    (1 + t_s / 2 s) less 0.2 % per spring, phi_d the contact friction its bed was deposited with and t_s the time it
+    settled before its bonds were set (the config each simulation gets): with deposit_friction or settle_time the
+    rigid reference runs on the same bed and protocol as its passive case, so the reduction stays the spring
+    count's alone (0.2 % per spring) while the draught and the displacement follow the bed; a simulation never mixes
+    two (its worlds share one config); a case without the knobs runs on the config's. With a bed given to the rig
+    model (a twin's export) it cannot deposit or settle another, and the mechanisms are not offered."""
     from calibration.rig_models import Case
 
-    calls: list[tuple[float, tuple[int, ...]]] = []
-    run = _tool_bin([], lambda k: 1 + (30.0 - k["deposit_friction"]) / 100.0, calls)
+    calls: list[tuple[float, float, tuple[int, ...]]] = []
+    run = _tool_bin([], lambda k: (1 + (30.0 - k["deposit_friction"]) / 100.0) * (1 + k["settle_time"] / 2.0), calls)
 
     m = _measured(1.0, 1.0, 0)
     data = Measured({**m.summary, "reduction": np.zeros(len(m.summary["springs"]))}, {})
     rig = SoilBinRigModel(data, simulator=run, observables=("reduction", "displacement_mean"))
-    base, dense, denser = rig.simulate([Case(3, {}), Case(3, {"deposit_friction": 10.0}),
-                                        Case(5, {"deposit_friction": 0.0})]).values
-    assert {f for f, springs in calls if springs == (0,)} == {30.0, 10.0, 0.0}  # a rigid run on each bed
-    assert {(f, springs) for f, springs in calls if springs != (0,)} == {(30.0, (16,)), (10.0, (16,)), (0.0, (24,))}
-    assert base[0] == pytest.approx(dense[0]) == pytest.approx(100 * 0.002 * 16)  # springs 16: 3.2 %
+    base, dense, denser, settled = rig.simulate([
+        Case(3, {}), Case(3, {"deposit_friction": 10.0}), Case(5, {"deposit_friction": 0.0}),
+        Case(3, {"settle_time": 1.0})]).values
+    assert {(f, t) for f, t, springs in calls if springs == (0,)} == {(30.0, 0.0), (10.0, 0.0), (0.0, 0.0),
+                                                                      (30.0, 1.0)}  # a rigid run on each
+    assert {c for c in calls if c[2] != (0,)} == {(30.0, 0.0, (16,)), (10.0, 0.0, (16,)), (0.0, 0.0, (24,)),
+                                                 (30.0, 1.0, (16,))}
+    for red in (base, dense, settled):  # springs 16: 3.2 %
+        assert red[0] == pytest.approx(100 * 0.002 * 16)
     assert denser[0] == pytest.approx(100 * 0.002 * 24)
     assert dense[1] / base[1] == pytest.approx(1.2 / 1.0)
+    assert settled[1] / base[1] == pytest.approx(1.5 / 1.0)
     offered = {x.name for x in diagnosis.mechanisms_for(rig, diagnosis.DiagnosisSettings())}
-    assert "bed_density" in offered
+    assert {"bed_density", "bond_settling"} <= offered
     given = SoilBinRigModel(data, simulator=run, observables=("reduction", "displacement_mean"), bed=object())
-    assert "bed_density" not in {x.name for x in diagnosis.mechanisms_for(given, diagnosis.DiagnosisSettings())}
+    assert not {"bed_density", "bond_settling"} & {
+        x.name for x in diagnosis.mechanisms_for(given, diagnosis.DiagnosisSettings())}
     with pytest.raises(ValueError, match="needs knobs"):
         diagnosis.candidates_for(given, diagnosis.DiagnosisSettings(mechanisms=("bed_density",)))
 
