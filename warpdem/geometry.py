@@ -14,8 +14,8 @@ def closest_point_triangle(p: wp.vec3d, a: wp.vec3d, b: wp.vec3d, c: wp.vec3d) -
     """Closest point of triangle abc to p, in float64 (Ericson, Real-Time Collision Detection 5.1.5).
 
     Returns (x, y, z, feature) with feature 0 = face interior, 1 = edge, 2 = vertex. A face point within
-    ``EDGE_MARGIN`` (barycentric) of an edge is that edge's: rounding (CUDA's fused multiply-adds) can otherwise put a
-    point of an edge inside both triangles that share it, and the narrow phase merges contacts by feature.
+    ``EDGE_MARGIN`` (barycentric) of an edge is that edge's: rounding can otherwise put a point of an edge inside both
+    triangles that share it (it did on CUDA), and the narrow phase merges contacts by feature.
     """
     zero = wp.float64(0.0)
     ab = b - a
