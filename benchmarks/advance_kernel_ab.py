@@ -1,8 +1,8 @@
 """The ringing batch's world kernel alone against a calibration's records: the same 13 worlds advanced 11,400 steps
 in one advance (one ``world_steps_kernel`` launch: the kernel's own time per step) and in 200 advances of 57 steps
 (a calibration's records: host reads and launches between them), then a host profile of the records. With the
-long advance, each world's clock cycles per step (lane 0, its four stages summed): the kernel lasts as long as its
-slowest world.
+long advance, each world's clock cycles per step (lane 0, its four stages summed; and every world's four stages):
+the kernel lasts as long as its slowest world.
 
     cd benchmarks && python3 advance_kernel_ab.py            # on the GPU machine, after its staging
     cd _ab/benchmarks && python3 /path/to/advance_kernel_ab.py  # another tree (gpu_ab.sh's _ab*/ sides)
@@ -41,6 +41,8 @@ def main() -> None:
         print("  cycles per step of each world (lane 0, stages summed): min", round(total.min()), "mean",
               round(total.mean()), "max", round(total.max()), "; the slowest world's stages",
               [round(c) for c in cycles[total.argmax()]])
+        print("  every world's stages (contacts, bodies, spheres, end):",
+              "; ".join(" ".join(str(round(c)) for c in row) for row in cycles))
         t = time.perf_counter()
         for _ in range(200):
             sim.advance(57)
