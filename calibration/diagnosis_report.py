@@ -267,7 +267,10 @@ def write(d: Diagnosis, out: str | Path, command: str = "") -> Path:
                   f"({100 * js['gain_rel']:.1f} %).", ""]
     if d.pattern:
         which = "named model" if d.cause else "baseline"
-        lines += [f"Residual pattern of the {which} (held out):", ""] + [f"- {p}" for p in d.pattern] + [""]
+        shared = (" The residuals are shown as they are, not whitened: where they share an error (reductions against "
+                  "one rigid run), part of a common offset is that one error, which the losses count once."
+                  if d.correlation is not None else "")
+        lines += [f"Residual pattern of the {which} (held out).{shared}", ""] + [f"- {p}" for p in d.pattern] + [""]
     lines += [f"Baseline held-out residuals vs the stated uncertainties: chi^2 p = {d.noise_p_baseline:.3g}; best "
               f"candidate: p = {d.noise_p_best:.3g}.", ""]
     lines += ["## Held-out errors (over configurations, re-simulated)", ""]

@@ -178,7 +178,7 @@ def _one_reference_data(seed: int, rigid_error: float) -> Measured:
                      "rigid_draught_mean_se": np.full(len(SPRINGS), se_r)}, {})
 
 
-def test_one_rigid_references_error_is_no_discrepancy() -> None:
+def test_one_rigid_references_error_is_no_discrepancy(tmp_path) -> None:  # noqa: ANN001
     """Data with no hidden effect whose eight reductions share one rigid draught measured 2.5 of its standard
     errors high (a 1-in-80 draw, once for all rows): every measured reduction is high by about 2.3 points against
     1.1-1.2 of stated uncertainty. The clamp's attitude (mount_pitch, within its 3 deg) lowers the passive
@@ -219,6 +219,9 @@ def test_one_rigid_references_error_is_no_discrepancy() -> None:
     assert d.baseline.heldout_loss.sum() == pytest.approx(chi2, rel=1e-3)
     assert d.noise_p_baseline == pytest.approx(stats.chi2.sf(chi2, 8), rel=1e-2)
     assert d.noise_p_baseline > 0.01
+    from calibration import diagnosis_report
+
+    assert "generalized least-squares r^T C^-1 r" in diagnosis_report.write(d, tmp_path).read_text()
 
 
 def test_independent_residuals_are_scored_as_before() -> None:
