@@ -361,9 +361,9 @@ def beds_table(folders: list[str | Path], variant: str = "described") -> list[di
     own combined standard error (root mean square of the beds' / sqrt(b)) [%]; disp_mm and disp_std_mm, the beds'
     means of each bed's mean and std [mm]; disp_between_std_mm [mm] and passive_between_std_n [N], the sample std
     of the beds' means (NaN for one bed: the scatter of a run's mean from bed to bed, which Table 3's std columns
-    may be, see :func:`beds_lines`); rigid_n and passive_n, the beds' mean draughts [N]; the lab's columns as
-    :func:`passive_table`'s (and lab_passive_std_n [N]). Folders of different shank lengths are refused
-    (:func:`passive_runs`)."""
+    may be, see :func:`beds_lines`); rigid_n and passive_n, the beds' mean draughts [N], rigid_per_bed_n (b,) [N]
+    (each bed's rigid run at the configuration's speed); the lab's columns as :func:`passive_table`'s (and
+    lab_passive_std_n, lab_rigid_n [N]). Folders of different shank lengths are refused (:func:`passive_runs`)."""
     folders = list(folders)
     tables = []
     for f, passive in zip(folders, passive_runs(folders, variant), strict=True):
@@ -382,6 +382,8 @@ def beds_table(folders: list[str | Path], variant: str = "described") -> list[di
         rows.append({**{k: per[0][k] for k in ("springs", "speed", "lab_reduction_pct", "lab_disp_mm",
                                                   "lab_disp_std_mm")}, **between,
                      "lab_passive_std_n": _table3()[per[0]["springs"]]["passive_draught_std_n"],
+                     "lab_rigid_n": _table3()[per[0]["springs"]]["rigid_draught_mean_n"],
+                     "rigid_per_bed_n": [float(r["rigid_n"]) for r in per],
                      "per_bed_pct": red.tolist(), "reduction_pct": float(red.mean()),
                      "reduction_se": float(red.std(ddof=1) / math.sqrt(b)) if b > 1 else 0.0,
                      "own_se_pct": float(math.sqrt(np.mean([r["reduction_se"] ** 2 for r in per]) / b)),
@@ -390,9 +392,44 @@ def beds_table(folders: list[str | Path], variant: str = "described") -> list[di
     return rows
 
 
+def reduction_slope(rows: list[dict[str, object]]) -> dict[str, float]:
+    """The reductions against the displacements, simulated and measured [pp/mm]: slope and its standard error of a
+    line through the configurations' mean reductions (``reduction_pct`` against ``disp_mm``) weighted by
+    1 / ``reduction_se``^2 (the SE from the weights alone, (A^T W A)^-1; NaN with fewer than two beds), and of the
+    ordinary least-squares line through the lab's rows (``lab_reduction_pct`` against ``lab_disp_mm``; SE from its
+    residuals, as ``scipy.stats.linregress``)."""
+    from scipy.stats import linregress
+
+    x = np.array([r["disp_mm"] for r in rows], dtype=np.float64)
+    y = np.array([r["reduction_pct"] for r in rows], dtype=np.float64)
+    se = np.array([r["reduction_se"] for r in rows], dtype=np.float64)
+    slope = slope_se = math.nan
+    if np.all(se > 0):
+        w = 1.0 / se**2
+        a = np.column_stack([np.ones_like(x), x])
+        cov = np.linalg.inv(a.T @ (w[:, None] * a))
+        slope, slope_se = float((cov @ a.T @ (w * y))[1]), float(math.sqrt(cov[1, 1]))
+    lab = linregress([r["lab_disp_mm"] for r in rows], [r["lab_reduction_pct"] for r in rows])
+    return {"slope_pp_per_mm": slope, "slope_se": slope_se, "lab_slope_pp_per_mm": float(lab.slope),
+            "lab_slope_se": float(lab.stderr)}
+
+
+def rigid_by_speed(rows: list[dict[str, object]]) -> list[dict[str, float]]:
+    """The rigid draught over the beds at each measured speed: speed [m/s], mean and standard error over the beds
+    [N] (sample std / sqrt(b); NaN for one bed), beds, and the lab's mean over its rows at that speed [N]."""
+    out = []
+    for v in sorted({round(r["speed"], 2) for r in rows}):
+        at = [r for r in rows if round(r["speed"], 2) == v]
+        per = np.array(at[0]["rigid_per_bed_n"], dtype=np.float64)  # one rigid run a bed and speed
+        out.append({"speed": v, "rigid_n": float(per.mean()), "beds": len(per),
+                    "rigid_se_n": float(per.std(ddof=1) / math.sqrt(len(per))) if len(per) > 1 else math.nan,
+                    "lab_rigid_n": float(np.mean([r["lab_rigid_n"] for r in at]))})
+    return out
+
+
 def beds_lines(folders: list[str | Path], rows: list[dict[str, object]], variant: str) -> list[str]:
     """The report's section on a :func:`beds_table`."""
-    dv, rv = displacement_verdict(rows), reduction_verdict(rows)
+    dv, rv, sl = displacement_verdict(rows), reduction_verdict(rows), reduction_slope(rows)
     return [f"## Table 3 with the '{variant}' tool over {len(folders)} bed(s)", "",
             "Beds: " + ", ".join(f"`{f}`" for f in folders) + ". Each reduction is taken against the rigid run of "
             "its own bed at the same speed; mean and standard error over the beds (the records' own combined SE in "
@@ -409,6 +446,16 @@ def beds_lines(folders: list[str | Path], rows: list[dict[str, object]], variant
               f"+- {r['reduction_se']:.2f} ({r['own_se_pct']:.2f}) | {r['lab_reduction_pct']:+.2f} | "
               f"{r['disp_mm']:.2f} | {r['disp_std_mm']:.2f} | {r['lab_disp_mm']:.2f} | {r['lab_disp_std_mm']:.2f} |"
               for r in rows], "",
+            ("Reduction against displacement: " + (
+                f"{sl['slope_pp_per_mm']:+.2f} +- {sl['slope_se']:.2f} pp/mm (a line through the means above, "
+                "weighted by their between-bed SEs)" if math.isfinite(sl["slope_pp_per_mm"]) else
+                "not weighed with one bed (its between-bed SEs need two or more)")
+             + f"; the lab's {sl['lab_slope_pp_per_mm']:+.2f} +- {sl['lab_slope_se']:.2f} pp/mm (least squares "
+             "through Table 3's rows)."), "",
+            "| speed [m/s] | rigid draught over the beds [N] | lab [N] |", "|---:|---:|---:|",
+            *[f"| {q['speed']:.2f} | {q['rigid_n']:.1f}"
+              + (f" +- {q['rigid_se_n']:.1f} ({q['beds']} beds)" if q["beds"] > 1 else " (one bed)")
+              + f" | {q['lab_rigid_n']:.1f} |" for q in rigid_by_speed(rows)], "",
             *_between_lines(rows)]
 
 

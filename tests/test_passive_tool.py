@@ -32,6 +32,8 @@ from calibration.passive_study import (
     displacement_noise,
     passive_table,
     quasi_static_sensitivity,
+    reduction_slope,
+    rigid_by_speed,
     soil_levers,
 )
 from calibration.tool_fit import fit_joint, fit_table2
@@ -283,11 +285,45 @@ def test_table3_over_beds_pairs_each_bed_with_its_own_rigid_run(tmp_path) -> Non
     one = passive_table(json.loads((folders[0] / "rigid.json").read_text()),
                         json.loads((folders[0] / "passive_described.json").read_text()))
     assert [r["disp_mm"] for r in beds_table(folders[:1])] == [r["disp_mm"] for r in one]
+    # the rigid draught by speed: each bed's one rigid run at that speed, their mean and sample SE
+    by_speed = {q["speed"]: q for q in rigid_by_speed(rows)}
+    rig = np.array([[r["draught_mean"] for r, p in zip(st["rows"], st["pitch"] or [0.0] * len(st["rows"]),
+                                                         strict=True) if p == 0 and round(r["speed"], 2) == 0.52]
+                    for st in (json.loads((f / "rigid.json").read_text()) for f in folders)]).ravel()
+    assert by_speed[0.52]["rigid_n"] == pytest.approx(rig.mean(), rel=1e-12)
+    assert by_speed[0.52]["rigid_se_n"] == pytest.approx(rig.std(ddof=1) / math.sqrt(3), rel=1e-12)
+    assert by_speed[0.68]["lab_rigid_n"] == pytest.approx((332.5 + 341.56) / 2)  # Table 3's two rows at 0.68 m/s
     lone = tmp_path / "lone"
     lone.mkdir()
     (lone / "passive_described.json").write_text((folders[0] / "passive_described.json").read_text())
     with pytest.raises(InputError, match="holds no finished rigid stage"):
         beds_table([folders[0], lone])
+
+
+def test_the_reduction_against_displacement_line_is_weighted_least_squares() -> None:
+    """Reference: the closed form of a weighted straight line, slope = sum w (x - xw)(y - yw) / sum w (x - xw)^2
+    with xw, yw the weighted means and SE 1 / sqrt(sum w (x - xw)^2), w = 1 / se^2; on points exactly on a line the
+    slope is that line's. The lab's line: ordinary least squares, slope and SE by the textbook formulas."""
+    rng = np.random.default_rng(3)
+    x = np.linspace(0.5, 12.0, 8)
+    se = rng.uniform(0.5, 1.5, 8)
+    y = 2.0 - 0.3 * x + se * rng.standard_normal(8)
+    lab_x, lab_y = np.linspace(0.2, 12.5, 8), 5.0 - 0.8 * np.linspace(0.2, 12.5, 8) + rng.standard_normal(8)
+    rows = [{"disp_mm": a, "reduction_pct": b, "reduction_se": c, "lab_disp_mm": d, "lab_reduction_pct": e}
+            for a, b, c, d, e in zip(x, y, se, lab_x, lab_y, strict=True)]
+    sl = reduction_slope(rows)
+    w = 1 / se**2
+    xw, yw = np.sum(w * x) / w.sum(), np.sum(w * y) / w.sum()
+    sxx = np.sum(w * (x - xw) ** 2)
+    assert sl["slope_pp_per_mm"] == pytest.approx(np.sum(w * (x - xw) * (y - yw)) / sxx, rel=1e-10)
+    assert sl["slope_se"] == pytest.approx(1 / math.sqrt(sxx), rel=1e-10)
+    dx = lab_x - lab_x.mean()
+    b = np.sum(dx * (lab_y - lab_y.mean())) / np.sum(dx**2)
+    resid = lab_y - lab_y.mean() - b * dx
+    assert sl["lab_slope_pp_per_mm"] == pytest.approx(b, rel=1e-10)
+    assert sl["lab_slope_se"] == pytest.approx(math.sqrt(np.sum(resid**2) / 6 / np.sum(dx**2)), rel=1e-10)
+    exact = [{**r, "reduction_pct": 1.0 - 0.5 * r["disp_mm"]} for r in rows]
+    assert reduction_slope(exact)["slope_pp_per_mm"] == pytest.approx(-0.5, rel=1e-12)
 
 
 def test_joint_fit_recovers_the_tables_of_a_tool_within_its_bounds() -> None:
