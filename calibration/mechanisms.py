@@ -9,7 +9,8 @@ the rig supports all of its knobs.
 Built-in mechanisms (rationale in each entry): ``pivot_friction``, ``progressive_spring``, ``series_compliance``,
 ``extra_mass``, ``load_inertia``, ``pose_change``, ``sensor_offset``, ``sensor_drift``, ``stack_preload``,
 ``speed_dependence``, ``rigid_reference_speed``, ``progressive_stack``, ``lever_geometry``, ``sensor_lever``,
-``soil_tool_friction``, ``soil_tool_adhesion``, ``soil_bond_strength``, ``mount_pitch``.
+``soil_tool_friction``, ``soil_tool_adhesion``, ``soil_bond_strength``, ``bed_density``, ``bond_settling``,
+``mount_pitch``.
 
 Physical bounds (issue #39, item 1): every gene of a mechanism has a physical range, from the rig (its
 :class:`RigFacts`: the stacks' rates and travel, the tool's mass, the first swing) where the rig states one, with its

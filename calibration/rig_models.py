@@ -991,8 +991,7 @@ class SoilBinRigModel:
             p = dict(self.fixed)
             speed = self.configs[j]["speed"]
             tool = _shared_knobs(p)
-            rigid, rigid_sem = self.rigid_reference(speed, p.get("rigid_speed"), tool)
-            rigid += p.get("soil_viscosity", 0.0) * (speed if p.get("rigid_speed") is None else p["rigid_speed"])
+            rigid, rigid_sem = self._compared_rigid(speed, p)
             passive = float(self._passive[self._physical(case)]["draught_mean"])
             if not (math.isfinite(rigid) and math.isfinite(rigid_sem) and math.isfinite(passive) and rigid != 0):
                 continue
@@ -1197,6 +1196,15 @@ class SoilBinRigModel:
             self._rigid_line = (line.intercept, line.slope)
         return rig["mean"] + self._rigid_line[1] * (rigid_speed - speed), rig["sem"]
 
+    def _compared_rigid(self, speed: float, params: dict[str, float]) -> tuple[float, float]:
+        """The rigid draught [N] and its standard error [N] that a passive case at ``speed`` [m/s] with ``params``
+        (the fixed knobs and the case's) is compared with: :meth:`rigid_reference` with its rigid_speed and shared
+        knobs, plus the soil_viscosity's drag on the rigid tool, which moves at its carriage speed exactly."""
+        rigid_speed = params.get("rigid_speed")
+        rigid, rigid_sem = self.rigid_reference(speed, rigid_speed, _shared_knobs(params))
+        drag = params.get("soil_viscosity", 0.0) * (speed if rigid_speed is None else rigid_speed)
+        return rigid + drag, rigid_sem
+
     def facts(self) -> object:
         """What the soil-bin rig states that bounds the mechanisms (``calibration.mechanisms.RigFacts``): the stated
         rates, each stack's DIN 2093 travel, the measured mean displacements (the stacks' working deflection), the
@@ -1277,11 +1285,8 @@ class SoilBinRigModel:
             p = {**self.fixed, **case.params}
             speed = self.configs[case.config]["speed"]
             run = self._passive[key]
-            rigid_speed = p.get("rigid_speed")
-            rigid, rigid_sem = self.rigid_reference(speed, rigid_speed, _shared_knobs(p))
-            # the rigid tool moves at its carriage speed exactly
-            drag = p.get("soil_viscosity", 0.0) * (speed if rigid_speed is None else rigid_speed)
-            rigid, passive = rigid + drag, float(run["draught_mean"])
+            rigid, rigid_sem = self._compared_rigid(speed, p)
+            passive = float(run["draught_mean"])
             reduction, reduction_sem = sb.reduction(passive, float(run["draught_sem"]), rigid, rigid_sem)
             # the sensor: offset + drift x time since the record's start (the measured record's time base)
             offset, drift, gain = p.get("sensor_offset", 0.0), p.get("sensor_drift", 0.0), p.get("sensor_lever", 1.0)
