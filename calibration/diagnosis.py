@@ -667,7 +667,8 @@ class _Fitter:
 
 def _lr_p(fit: Fit, reference: Fit) -> float:
     """Likelihood-ratio p-value of ``fit`` against the nested ``reference``: with the stated uncertainties the
-    fall of the in-sample chi^2 is chi^2-distributed with one degree of freedom per added gene (at least one)."""
+    fall of the in-sample chi^2 is chi^2-distributed with one degree of freedom per added gene (at least one: a
+    mechanism without genes, a discrete alternative, counts its choice as one)."""
     drop = reference.chi2_in - fit.chi2_in
     return float(stats.chi2.sf(drop, max(fit.n_params - reference.n_params, 1))) if drop > 0 else 1.0
 
@@ -734,9 +735,11 @@ def _pattern(cov: dict[str, np.ndarray], rig: object, fit: Fit, bound: np.ndarra
 def mechanisms_for(rig: object, settings: DiagnosisSettings) -> list[mech.Mechanism]:
     """The registered mechanisms (or ``settings.mechanisms``) that apply to the rig: it has their knobs (and their
     series, where they need them), and the data vary in the covariates that tell their effect
-    (``Mechanism.varies``; not checked for mechanisms named in ``settings.mechanisms``)."""
+    (``Mechanism.varies``; not checked for mechanisms named in ``settings.mechanisms``), and a discrete alternative
+    changes it (``Mechanism.applies`` on the rig's facts: yielding bonds only where the soil's break)."""
     names = settings.mechanisms or tuple(mech.REGISTRY)
     cov = rig.covariates() if hasattr(rig, "covariates") else {}
+    facts = rig.facts() if hasattr(rig, "facts") else None
     out = []
     for n in names:
         m = mech.get(n)
@@ -748,6 +751,10 @@ def mechanisms_for(rig: object, settings: DiagnosisSettings) -> list[mech.Mechan
                                  f"{rig.rig} rig does not have (or that its fitted baseline already covers)")
             continue
         if m.needs_series and not getattr(rig, "has_series", False):
+            continue
+        if m.applies is not None and facts is not None and not m.applies(facts):
+            if settings.mechanisms:
+                raise ValueError(f"mechanism {n!r} changes nothing in this {rig.rig} rig (it is that way already)")
             continue
         if not settings.mechanisms and any(k in cov and np.ptp(np.asarray(cov[k], dtype=float)) == 0.0
                                            for k in m.varies):

@@ -10,7 +10,10 @@ Built-in mechanisms (rationale in each entry): ``pivot_friction``, ``progressive
 ``extra_mass``, ``load_inertia``, ``pose_change``, ``sensor_offset``, ``sensor_drift``, ``stack_preload``,
 ``speed_dependence``, ``rigid_reference_speed``, ``progressive_stack``, ``lever_geometry``, ``sensor_lever``,
 ``soil_tool_friction``, ``soil_tool_adhesion``, ``soil_bond_strength``, ``bed_density``, ``bond_settling``,
-``mount_pitch``.
+``yielding_bonds``, ``fragile_bonds``, ``mount_pitch``.
+
+A mechanism without genes is a discrete alternative (the soil's bonds yield instead of breaking): its fit is the
+baseline's genes refitted with its knobs set, and the diagnosis counts the choice as one degree of freedom.
 
 Physical bounds (issue #39, item 1): every gene of a mechanism has a physical range, from the rig (its
 :class:`RigFacts`: the stacks' rates and travel, the tool's mass, the first swing) where the rig states one, with its
@@ -65,7 +68,8 @@ class RigFacts:
     stacks' and the sensor's stated lever about the pivot; seat_radius [m]: how far from its axis a stack's seat may
     bear on the shank (the discs' outer radius); sensor_tolerance [m]: how far the sensor's contact point may sit
     from its stated lever; soil_friction [deg]: the soil's internal friction angle (its shear box); soil_cohesion
-    [Pa]: the soil's own contact normal cohesion (its bonds' tensile strength per R^2)."""
+    [Pa]: the soil's own contact normal cohesion (its bonds' tensile strength per R^2); soil_fragile: whether the
+    soil's bonds break for good at their strength (True) or yield (False; None where the rig does not say)."""
 
     rig: str
     springs: tuple[int, ...] = ()
@@ -79,6 +83,7 @@ class RigFacts:
     sensor_tolerance: float = math.nan
     soil_friction: float = math.nan
     soil_cohesion: float = math.nan
+    soil_fragile: bool | None = None
 
 
 @dataclass(frozen=True)
@@ -109,6 +114,9 @@ class Mechanism:
     produces: tuple[str, ...] = ()
     """baseline deviations it would make a fitted baseline absorb: "stiffness_high", "stiffness_low",
     "inertia_high", "inertia_low" (the search tries these mechanisms first when the baseline shows one)."""
+    applies: Callable[[RigFacts], bool] | None = None
+    """whether it changes a rig with these facts (a discrete alternative offered only where the rig is the other
+    way; None: wherever the rig has its knobs)."""
     ridge: dict[str, float] = field(default_factory=dict)
     """gene -> p: along the inertia-stiffness ridge of a ringing fit (rates and inertia scaled together) the gene's
     fitted value scales as J^p (a torque, a series stiffness, a mass: 1; a cubic spring term, whose stiffening at
@@ -493,6 +501,23 @@ register(Mechanism(
     knobs=lambda p: {"settle_time": p["settle_time"]},
     rigs=(SOIL_BIN.name,),
     signature="the draught up with the bonds that survive to the tool, rigid and passive alike"))
+_BOND_RULE = (
+    "Yade's cohesive-frictional law either breaks a bond for good once its normal or shear force reaches its "
+    "strength (fragile, Yade's default) or lets it yield: a tensile bond stretches plastically, a sheared one slides "
+    "at its strength and keeps its cohesion. Which the paper used is not given (its CohFrictMat settings are not "
+    "listed). Yielding bonds survive the bed's settling and the blade's first touch, so the soil ahead of the tool "
+    "holds together longer; fragile ones leave a frictional soil. A choice, not a range: no gene. Rigid and passive "
+    "runs change alike.")
+register(Mechanism(
+    "yielding_bonds", "The soil's bonds yield instead of breaking",
+    _BOND_RULE, genes=(), knobs=lambda p: {"fragile": 0.0}, rigs=(SOIL_BIN.name,),
+    signature="the draught up with the bonds that hold, rigid and passive alike",
+    applies=lambda f: f.soil_fragile is True))
+register(Mechanism(
+    "fragile_bonds", "The soil's bonds break for good at their strength",
+    _BOND_RULE, genes=(), knobs=lambda p: {"fragile": 1.0}, rigs=(SOIL_BIN.name,),
+    signature="the draught down with the bonds lost, rigid and passive alike",
+    applies=lambda f: f.soil_fragile is False))
 register(Mechanism(
     "mount_pitch", "The sweep clamped at another attitude",
     "The passive sweep is clamped to its hinge: turned back (or forward) on the clamp against the drawing, its blade "

@@ -57,11 +57,12 @@ KNOB_OFF = {"series_stiffness": math.inf, "load_mass_fraction": 1.0, "soil_cohes
 """the value of a knob that leaves a rig as it is, where it is not 0 (a case without the knob gets it)."""
 READING_KNOBS = ("sensor_offset", "sensor_drift", "sensor_lever", "rigid_speed")
 """the soil-bin knobs that change how a run is read or compared, not the simulation."""
-CONFIG_KNOBS = ("deposit_friction", "settle_time")
+CONFIG_KNOBS = ("deposit_friction", "settle_time", "fragile")
 """the soil-bin knobs that are fields of the run's ``scenes.soil_bin.SoilBinConfig``, one value for all the worlds
 of a simulation, so the rig model runs each value's worlds apart: deposit_friction [deg] (the bed deposited again
-with this contact friction, denser or looser, and the runs on that bed) and settle_time [s] (the bed settled this
-long before the bonds are set on its contacts and the tool moves: bonds made on a bed at rest or not)."""
+with this contact friction, denser or looser, and the runs on that bed), settle_time [s] (the bed settled this
+long before the bonds are set on its contacts and the tool moves: bonds made on a bed at rest or not) and fragile
+[-] (1: the soil's bonds break for good at their strength; 0: they yield and hold, Yade's ``fragile=False``)."""
 RIGID_SWEEP = (0.45, 0.55, 0.65, 0.75)
 """carriage speeds [m/s] of the rigid runs through which the soil-bin rig model fits the rigid draught's line against
 speed (for the rigid_speed knob), besides the measured speeds."""
@@ -735,10 +736,10 @@ class SoilBinRigModel:
     tool_adhesion [Pa] (the soil-steel pair's adhesion) and soil_cohesion_scale [-] (the soil's bonds' strength
     times this), in the passive and the rigid runs alike
     (``scenes.soil_bin.KNOBS``), deposit_friction [deg] (the bed deposited again with this contact friction: a
-    denser or looser bed) and settle_time [s] (the bed settled this long before its bonds are set and the tool
-    moves), passive and rigid runs alike (:data:`CONFIG_KNOBS`; only where the rig model deposits its own beds, not
-    with a given ``bed`` or ``tool``), sensor_offset [m] (added to the displacement
-    reading) and rigid_speed [m/s]
+    denser or looser bed), settle_time [s] (the bed settled this long before its bonds are set and the tool
+    moves) and fragile [-] (1 or 0: the soil's bonds break at their strength or yield), passive and rigid runs
+    alike (:data:`CONFIG_KNOBS`; only where the rig model deposits its own beds, not with a given ``bed`` or
+    ``tool``), sensor_offset [m] (added to the displacement reading) and rigid_speed [m/s]
     (every reduction taken against a rigid run at this one speed instead of the configuration's own: the rigid
     draught at the configuration's speed moved along the rigid draught's line against speed, fitted through rigid
     runs at :data:`RIGID_SWEEP` and the measured speeds; the rigid runs are simulated once). Rigid runs (one per
@@ -1132,7 +1133,7 @@ class SoilBinRigModel:
                 values = {float(v) for v in knobs[name]}
                 if len(values) != 1:
                     raise ValueError(f"{name}: one simulation's worlds share their config, got {sorted(values)}")
-                config = replace(config, **{name: values.pop()})
+                config = replace(config, **{name: type(getattr(config, name))(values.pop())})  # fragile: a bool
                 knobs = {k: v for k, v in knobs.items() if k != name} or None
         r = self.realizations
         if r > 1:  # every world once per realization, realization-minor
@@ -1209,7 +1210,8 @@ class SoilBinRigModel:
         """What the soil-bin rig states that bounds the mechanisms (``calibration.mechanisms.RigFacts``): the stated
         rates, each stack's DIN 2093 travel, the measured mean displacements (the stacks' working deflection), the
         sweep's mass, its stacks' and sensor's lever, the discs' radius and the sensor's mounting tolerance, the
-        laboratory's internal friction angle, the soil's own contact normal cohesion."""
+        laboratory's internal friction angle, the soil's own contact normal cohesion and whether its bonds are
+        fragile."""
         from scenes.passive_tool import DISC_OUTER_RADIUS, SENSOR_MOUNT_TOLERANCE, lever, stack_travel
         from scenes.shear_box import lab_strength
         from scenes.sweep import build_sweep
@@ -1226,7 +1228,8 @@ class SoilBinRigModel:
                              lever=lever(tool), seat_radius=DISC_OUTER_RADIUS,
                              sensor_tolerance=SENSOR_MOUNT_TOLERANCE, soil_friction=lab_strength()[1],
                              soil_cohesion=float(self.soil.get("normal_cohesion",
-                                                               self.config.soil_material().normal_cohesion)))
+                                                               self.config.soil_material().normal_cohesion)),
+                             soil_fragile=bool(self.config.fragile))
 
     def _run_passive(self, keys: list[tuple], keep_series: bool, progress: object | None) -> None:
         from scenes.passive_tool import stack_travel
