@@ -19,6 +19,12 @@ the scale's). Each line also gives the setup's wall time (``setup_s``: model bui
 time per step without it (``run_ms_per_step``) and the candidate-list rebuilds (a world's displacement triggers one
 for all worlds, so worlds on one bed, moving alike, rebuild together, and distinct beds rebuild more often).
 
+    python benchmarks/soil_bin_throughput.py --device cuda --scale paper --worlds 4 --travel 0.2 --skin-factor 0.2 0.8
+
+``--skin-factor F ...``: one run per factor, the contact lists' skin F x the mean sphere radius
+(``run_soil_bin``'s ``skin_factor``; the engine's default 0.2): a larger skin rebuilds less often and holds more
+candidates per sphere; the records are the same (tests/test_broadphase.py), only the speed changes.
+
     python benchmarks/soil_bin_throughput.py --device cuda --scale paper --worlds 4 --travel 0.2 --kernel-times 25
 
 ``--kernel-times N`` (CUDA): Warp's activity timing (``wp.timing_begin``) over the whole run, setup included: the
@@ -61,6 +67,9 @@ def main() -> None:
                    help="CUDA: print the N activities of most GPU time (Warp's activity timing)")
     p.add_argument("--no-graphs", action="store_true",
                    help="launch each step's kernels one by one (Simulation(graph_steps=1)), no CUDA graphs")
+    p.add_argument("--skin-factor", type=float, nargs="+", default=[None], metavar="F",
+                   help="the contact lists' skin as F x the mean sphere radius, one run each (default: the engine's "
+                        "0.2)")
     p.add_argument("--rebuild-stats", action="store_true",
                    help="the spheres' displacements between list rebuilds (host reads at every rebuild)")
     args = p.parse_args()
@@ -86,14 +95,14 @@ def main() -> None:
         bed = [bed_for(config, device=args.device, cache_dir=args.cache, replica=r) for r in range(args.worlds)]
     else:
         bed = bed_for(config, device=args.device, cache_dir=args.cache)
-    for threads in args.threads:
+    for threads, skin in [(n, f) for n in args.threads for f in args.skin_factor]:
         if threads:
             os.environ["WARPDEM_CPU_THREADS"] = str(threads)
         else:
             os.environ.pop("WARPDEM_CPU_THREADS", None)
         if args.kernel_times:
             wp.timing_begin(cuda_filter=wp.TIMING_ALL)
-        run = run_soil_bin(config, [0] * args.worlds, bed=bed, device=args.device)
+        run = run_soil_bin(config, [0] * args.worlds, bed=bed, device=args.device, skin_factor=skin)
         if args.kernel_times:
             activity_table(wp.timing_end(), run.steps, run.wall_s, args.kernel_times, args.json)
         if args.rebuild_stats:
@@ -102,7 +111,8 @@ def main() -> None:
         scene = "soil bin, rigid sweep" + (", replica beds" if args.replicas else "") + \
             (", no graphs" if args.no_graphs else "")
         res = {"engine": "warpdem", "scene": scene, "device": args.device, "scale": args.scale,
-               "threads": threads or "all", "worlds": args.worlds, "spheres": run.n_spheres * args.worlds,
+               "threads": threads or "all", "skin_factor": skin or 0.2, "worlds": args.worlds,
+               "spheres": run.n_spheres * args.worlds,
                "steps": run.steps, "wall_s": run.wall_s,
                # with replica beds the layout's spheres include parked ones: compare wall_ms_per_step instead
                "particle_steps_per_s": None if args.replicas else run.n_spheres * args.worlds * run.steps / run.wall_s,

@@ -315,7 +315,11 @@ register(Mechanism(
 register(Mechanism(
     "series_compliance", "Compliance in series with the springs",
     "Shank, clamps and frame are not rigid: a stiffness ks in series gives the stack k ks/(k+ks), which lowers the "
-    "stiff configurations most and compresses the range of frequencies a spring count can give.",
+    "stiff configurations most and compresses the range of frequencies a spring count can give. In the soil bin it "
+    "softens the passive stacks; the rigid tool's own shank compliance is left out: pitched over -4 ... +9 deg the "
+    "rigid sweep's draught changes by +0.13 +- 0.21 % per degree (docs/runs/passive-tool-bonded-short-shank-h100_s3), "
+    "so its shank would have to bend it back by about 8 deg (2 deg at the slope's upper two-SE bound) to move the "
+    "rigid draught by 1 %.",
     genes=(Gene("series_stiffness", 1e3, 1e8, log=True, unit="N/m"),),
     knobs=lambda p: {"series_stiffness": p["series_stiffness"]},
     signature="stiff configurations softer than nominal; frequency ratio below sqrt of the stiffness ratio",
@@ -503,8 +507,9 @@ register(Mechanism(
     signature="the draught up with the bonds that survive to the tool, rigid and passive alike"))
 _BOND_RULE = (
     "Yade's cohesive-frictional law either breaks a bond for good once its normal or shear force reaches its "
-    "strength (fragile, Yade's default) or lets it yield: a tensile bond stretches plastically, a sheared one slides "
-    "at its strength and keeps its cohesion. Which the paper used is not given (its CohFrictMat settings are not "
+    "strength (fragile, Yade's default) or lets it yield: a sheared bond slides at its strength and keeps its "
+    "cohesion, a tensile one is deleted at its first yield (Yade's unpMax = 0, warpdem's default). Which the paper "
+    "used is not given (its CohFrictMat settings are not "
     "listed). Yielding bonds survive the bed's settling and the blade's first touch, so the soil ahead of the tool "
     "holds together longer; fragile ones leave a frictional soil. A choice, not a range: no gene. Rigid and passive "
     "runs change alike.")

@@ -695,7 +695,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
                  speeds: list[float] | None = None, knobs: dict[str, object] | None = None,
                  checkpoint: str | Path | None = None, checkpoint_every: float = 60.0,
                  deadline: float | None = None, place: bool = True, vtk: tuple[object, int] | None = None,
-                 passive_tool: PassiveTool | None = None, pitch: list[float] | None = None) -> SoilBinRun:
+                 passive_tool: PassiveTool | None = None, pitch: list[float] | None = None,
+                 skin_factor: float | None = None) -> SoilBinRun:
     """One simulation: rigid tools (every entry of ``springs`` 0) or passive configurations, one world each.
 
     ``bed``: the bed of every world, or replica beds (``assemblies.deposit(population_seed=...)``), one per world:
@@ -707,6 +708,10 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
 
     ``speeds``: carriage speed per world [m/s] (n_worlds,) (default: the config's speed of each spring count).
     ``knobs``: per-world settings and extensions, name -> (n_worlds,) values (see :data:`KNOBS`).
+    ``skin_factor``: the contact lists' skin as this multiple of the mean sphere radius (0 < f <= 2; None: the
+    engine's default, 0.2). A larger skin rebuilds the lists less often and holds more candidate pairs: the speed
+    changes, the physics does not (every touching pair is in the lists either way), so it is not part of a
+    checkpoint's identity.
 
     ``viewer``: an optional warpdem.viewer.RerunViewer factory ``f(sim) -> viewer`` streamed at every record with
     the draught, displacement and kinetic energies.
@@ -745,6 +750,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
         if len(bed) != len(springs):
             raise InputError(f"bed: replica beds need one per world ({len(springs)}), got {len(bed)}")
         replica_beds.check_replicas(bed)
+    if skin_factor is not None and not (math.isfinite(skin_factor) and 0.0 < skin_factor <= 2.0):
+        raise InputError(f"skin_factor must be in (0, 2] (or None for the engine's default), got {skin_factor!r}")
     rigid = all(n == 0 for n in springs)
     tool = place_tool(bed, config.working_depth, tool) if place or tool is None else tool
     rest = np.zeros(len(springs))
@@ -771,7 +778,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
     bin_size = bed.bin_size if isinstance(bed, Bed) else bed[0].bin_size
     lo = np.array([-bin_size[0], -0.5, min(-0.5, info.get("garage_bottom", 0.0) - 0.1)])
     hi = np.array([bin_size[0], bin_size[1] + travel + 1.0, 2.0])
-    sim = wd.Simulation(model, state, dt=dt, always_use_moment_law=True, bounds=(lo, hi),
+    skin = None if skin_factor is None else skin_factor * float(model.host["sphere_radius"].mean())
+    sim = wd.Simulation(model, state, dt=dt, always_use_moment_law=True, bounds=(lo, hi), skin=skin,
                         cohesion_on_new_contacts=config.cohesion_on_new_contacts,
                         bond_detection_factor=config.bond_detection_factor)
     speeds_a = np.asarray(speeds)
