@@ -199,7 +199,8 @@ def test_the_skin_changes_the_rebuilds_not_the_physics() -> None:
     sums keep their order. So a passive ``ci`` soil-bin run (two tools in GA set 11's cohesive soil, 2,125 steps)
     with three times the default skin gives the same records to the bit on the CPU, with fewer rebuilds (measured:
     92 -> 30). (On CUDA the lists' blocks follow the grid and a pair's place in them may move: there the runs are
-    compared by their steady means, within three combined standard errors.)"""
+    compared by their steady means, within three combined standard errors; a paper-scale rigid run on an H200 gave
+    the same draught to the bit at skins 0.2-0.8, benchmarks/README.md.)"""
     from scenes.soil_bin import SoilBinConfig, bed_for, run_soil_bin
     from warpdem.errors import InputError
 
