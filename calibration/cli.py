@@ -647,19 +647,24 @@ def _passive_joint(args: argparse.Namespace) -> int:
 
 
 def _passive_beds(args: argparse.Namespace) -> int:
-    """``warpdem passive-tool --beds-from``: Table 3 over several beds, from finished passive-tool folders (one
-    variant: ``--variants`` names it, default "described"); writes beds.json, beds.md and fig_table3_beds.png."""
-    from calibration.passive_study import beds_table, write_beds
+    """``warpdem passive-tool --beds-from``: Table 3 over several beds, from finished passive-tool folders (the
+    variant ``--variants`` names first, default "described"; a second: the first's runs against its on the beds
+    holding both); writes beds.json, beds.md and fig_table3_beds.png."""
+    from calibration.passive_study import beds_table, paired_changes, write_beds
 
     variants = args.variants or ("described",)
-    if len(variants) != 1:
-        raise InputError(f"--beds-from combines one tool variant; --variants names {len(variants)}: {list(variants)}")
-    try:
-        beds_table(args.beds_from, variants[0])  # refused before the folder is claimed
+    if len(variants) > 2:
+        raise InputError(f"--beds-from combines one tool variant, or one against another; --variants names "
+                         f"{len(variants)}: {list(variants)}")
+    against = variants[1] if len(variants) == 2 else None
+    try:  # refused before the folder is claimed
+        beds_table(args.beds_from, variants[0])
+        if against is not None:
+            paired_changes(args.beds_from, variants[0], against)
     except InputError as e:
         raise InputError(f"--beds-from: {e}") from None
     out = _claim(args, args.out)
-    rows = write_beds(out, args.beds_from, variants[0])
+    rows = write_beds(out, args.beds_from, variants[0], against)
     print(f"results in {out} (beds.md): {len(args.beds_from)} bed(s), {len(rows)} configurations")
     return 0
 
@@ -1186,7 +1191,8 @@ def main(argv: list[str] | None = None) -> int:
     t.add_argument("--beds-from", type=_folders, default=None, metavar="DIR,...",
                    help="instead of running stages: Table 3 over several beds, from these finished passive-tool "
                         "folders (the variant --variants names, default described; each reduction against its own "
-                        "bed's rigid run); writes beds.json, beds.md and fig_table3_beds.png into --out")
+                        "bed's rigid run; a second variant: the first's runs against its, paired on the beds that "
+                        "hold both); writes beds.json, beds.md and fig_table3_beds.png into --out")
     t.add_argument("--soil", default="workflow", metavar="NAME|DIR",
                    help="workflow: the paper-scale workflow's calibrated soil (default); bonded: GA set 11 with 4x its "
                         "cohesions, yielding bonds on a settled bed (its draught and shear box match the lab's); "

@@ -414,6 +414,61 @@ def reduction_slope(rows: list[dict[str, object]]) -> dict[str, float]:
             "lab_slope_se": float(lab.stderr)}
 
 
+def paired_changes(folders: list[str | Path], variant: str, against: str) -> dict[str, object]:
+    """The ``variant`` tool's passive runs against the ``against`` tool's on the same beds: every folder that holds
+    both (``passive_<variant>.json`` and ``passive_<against>.json``: one bed, one study) gives per configuration the
+    passive draught's change 100 (P_variant / P_against - 1) [%] and the mean displacement's 1e3 (x_variant -
+    x_against) [mm]. Returns folders (those paired) and left_out (those without the ``against`` run); rows (8,):
+    springs, draught_change_pct (b,), draught_change_mean, draught_change_se [%], disp_change_mm (b,),
+    disp_change_mean, disp_change_se [mm] (SE: sample std / sqrt(b), NaN for one bed); and over every pair (all
+    configurations and beds) draught_change_all and disp_change_all: (mean, sample SE). InputError where no folder
+    holds both, or their configurations differ."""
+    paired = [f for f in folders if (Path(f) / f"passive_{against}.json").is_file()]
+    if not paired:
+        raise InputError(f"no folder holds both the {variant!r} and the {against!r} passive runs "
+                         f"(passive_{against}.json)")
+    runs = list(zip(passive_runs(paired, variant), passive_runs(paired, against), strict=True))
+    springs = [int(r["springs"]) for r in runs[0][0]["rows"]]
+    for f, (a, b) in zip(paired, runs, strict=True):
+        if [int(r["springs"]) for r in a["rows"]] != springs or [int(r["springs"]) for r in b["rows"]] != springs:
+            raise InputError(f"{str(f)!r}: the {variant!r} and {against!r} runs list other configurations")
+    drag = np.array([[100.0 * (x["draught_mean"] / y["draught_mean"] - 1.0) for x, y in
+                      zip(a["rows"], b["rows"], strict=True)] for a, b in runs])
+    disp = np.array([[1e3 * (x["displacement_mean"] - y["displacement_mean"]) for x, y in
+                      zip(a["rows"], b["rows"], strict=True)] for a, b in runs])
+    b = len(paired)
+    drag_se, disp_se = ((v.std(axis=0, ddof=1) / math.sqrt(b)) if b > 1 else np.full(len(springs), math.nan)
+                        for v in (drag, disp))
+    rows = [{"springs": n, "draught_change_pct": drag[:, i].tolist(), "draught_change_mean": float(drag[:, i].mean()),
+             "draught_change_se": float(drag_se[i]), "disp_change_mm": disp[:, i].tolist(),
+             "disp_change_mean": float(disp[:, i].mean()), "disp_change_se": float(disp_se[i])}
+            for i, n in enumerate(springs)]
+    return {"variant": variant, "against": against, "folders": [str(f) for f in paired],
+            "left_out": [str(f) for f in folders if f not in paired], "rows": rows,
+            "draught_change_all": (float(drag.mean()), float(drag.std(ddof=1) / math.sqrt(drag.size))),
+            "disp_change_all": (float(disp.mean()), float(disp.std(ddof=1) / math.sqrt(disp.size)))}
+
+
+def paired_lines(p: dict[str, object]) -> list[str]:
+    """The report's section on :func:`paired_changes`."""
+    d, x = p["draught_change_all"], p["disp_change_all"]
+    n_pairs = len(p["rows"]) * len(p["folders"])
+    return [f"### The '{p['variant']}' tool against the '{p['against']}' tool on the same beds", "",
+            "Beds holding both runs: " + ", ".join(f"`{f}`" for f in p["folders"])
+            + ("; without the second: " + ", ".join(f"`{f}`" for f in p["left_out"]) if p["left_out"] else "")
+            + f". Per bed and configuration, '{p['variant']}' minus '{p['against']}': the passive draught's change "
+            "[%] and the zeroed mean displacement's [mm]; mean and standard error over the beds.", "",
+            "| springs | draught change per bed [%] | mean +- SE [%] | displacement change per bed [mm] | "
+            "mean +- SE [mm] |", "|---:|---|---|---|---|",
+            *[f"| {r['springs']} | {', '.join(f'{v:+.1f}' for v in r['draught_change_pct'])} | "
+              f"{r['draught_change_mean']:+.2f} +- {r['draught_change_se']:.2f} | "
+              f"{', '.join(f'{v:+.2f}' for v in r['disp_change_mm'])} | {r['disp_change_mean']:+.2f} +- "
+              f"{r['disp_change_se']:.2f} |" for r in p["rows"]], "",
+            f"Over the {n_pairs} pairs: passive draught {d[0]:+.2f} +- {d[1]:.2f} %, displacement {x[0]:+.3f} +- "
+            f"{x[1]:.3f} mm (mean and sample standard error of all pairs; the reduction against the shared rigid run "
+            "changes by minus the draught's change times P / R).", ""]
+
+
 def rigid_by_speed(rows: list[dict[str, object]]) -> list[dict[str, float]]:
     """The rigid draught over the beds at each measured speed: speed [m/s], mean and standard error over the beds
     [N] (sample std / sqrt(b); NaN for one bed), beds, and the lab's mean over its rows at that speed [N]."""
@@ -526,15 +581,20 @@ def plateau_lines(fit: analysis.Plateau | None) -> list[str]:
                "(a longer travel or a later window would move them)."), ""]
 
 
-def write_beds(out: str | Path, folders: list[str | Path], variant: str = "described") -> list[dict[str, object]]:
+def write_beds(out: str | Path, folders: list[str | Path], variant: str = "described",
+               against: str | None = None) -> list[dict[str, object]]:
     """:func:`beds_table` of ``folders`` into ``out``: beds.json (with the draught's plateau,
-    :func:`draught_plateau`), beds.md and fig_table3_beds.png. Returns the rows."""
+    :func:`draught_plateau`, and with ``against`` the variant's runs paired with that variant's on the beds holding
+    both, :func:`paired_changes`), beds.md and fig_table3_beds.png. Returns the rows."""
     out = Path(out)
     rows = beds_table(folders, variant)
     fit = draught_plateau(folders, variant)
+    paired = None if against is None else paired_changes(folders, variant, against)
     _json(out / "beds.json", {"folders": [str(f) for f in folders], "variant": variant, "rows": rows,
-                              "draught_plateau": None if fit is None else asdict(fit)})
-    text = "\n".join(["# Table 3 over several beds", "", *beds_lines(folders, rows, variant), *plateau_lines(fit)])
+                              "draught_plateau": None if fit is None else asdict(fit),
+                              **({} if paired is None else {"paired": paired})})
+    text = "\n".join(["# Table 3 over several beds", "", *beds_lines(folders, rows, variant), *plateau_lines(fit),
+                      *([] if paired is None else paired_lines(paired))])
     write_text_atomic(out / "beds.md", text)
     table3_figure(rows, out / "fig_table3_beds.png", f"'{variant}' tool, {len(folders)} bed(s)",
                   f"warpdem (mean of {len(folders)} bed(s), SE)")

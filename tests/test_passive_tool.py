@@ -514,3 +514,33 @@ def test_table3_over_beds_says_whether_the_draught_is_steady_in_its_window(tmp_p
     assert fit["window_mean"] == pytest.approx(np.mean(np.array(bins)[:, centre >= 0.5]), rel=1e-12)
     assert fit["window_mean"] < 0.99 * fit["plateau"]
     assert "the window starts before the approach has ended" in (tmp_path / "beds.md").read_text()
+
+
+def test_one_tool_against_another_is_paired_on_the_beds_holding_both(tmp_path) -> None:
+    """The support offsets' change (:func:`paired_changes`) against the arithmetic done here from the records of
+    two committed beds that ran both tools (docs/runs/passive-tool-described-h100/s9, s10): per bed and configuration
+    100 (P_offsets / P_none - 1) and 1e3 (x_offsets - x_none), then the beds' mean and sample standard error, and
+    over all pairs. A folder without the other tool's run is left out and named; with none holding both, refused."""
+    from calibration.passive_study import paired_changes
+
+    runs = Path(__file__).resolve().parents[1] / "docs" / "runs" / "passive-tool-described-h100"
+    folders = [runs / "s9", runs / "s10"]
+    lone = tmp_path / "lone"
+    lone.mkdir()
+    (lone / "passive_described_offsets.json").write_text((folders[0] / "passive_described_offsets.json").read_text())
+    p = paired_changes([*folders, lone], "described_offsets", "described")
+    assert p["folders"] == [str(f) for f in folders] and p["left_out"] == [str(lone)]
+    rec = [[json.loads((f / f"passive_{v}.json").read_text())["rows"] for v in ("described_offsets", "described")]
+           for f in folders]
+    drag = np.array([[100 * (a["draught_mean"] / b["draught_mean"] - 1) for a, b in zip(x, y, strict=True)]
+                     for x, y in rec])
+    disp = np.array([[1e3 * (a["displacement_mean"] - b["displacement_mean"]) for a, b in zip(x, y, strict=True)]
+                     for x, y in rec])
+    np.testing.assert_allclose([r["draught_change_mean"] for r in p["rows"]], drag.mean(axis=0), rtol=1e-12)
+    np.testing.assert_allclose([r["draught_change_se"] for r in p["rows"]], drag.std(axis=0, ddof=1) / math.sqrt(2),
+                               rtol=1e-12)
+    np.testing.assert_allclose([r["disp_change_mean"] for r in p["rows"]], disp.mean(axis=0), rtol=1e-12)
+    assert p["draught_change_all"][0] == pytest.approx(drag.mean(), rel=1e-12)
+    assert p["disp_change_all"][1] == pytest.approx(disp.std(ddof=1) / math.sqrt(16), rel=1e-12)
+    with pytest.raises(InputError, match="no folder holds both"):
+        paired_changes([lone], "described_offsets", "described")
