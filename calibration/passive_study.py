@@ -436,8 +436,8 @@ def paired_changes(folders: list[str | Path], variant: str, against: str) -> dic
                       zip(a["rows"], b["rows"], strict=True)] for a, b in runs])
     disp = np.array([[1e3 * (x["displacement_mean"] - y["displacement_mean"]) for x, y in
                       zip(a["rows"], b["rows"], strict=True)] for a, b in runs])
-    b = len(paired)
-    drag_se, disp_se = ((v.std(axis=0, ddof=1) / math.sqrt(b)) if b > 1 else np.full(len(springs), math.nan)
+    beds = len(paired)
+    drag_se, disp_se = ((v.std(axis=0, ddof=1) / math.sqrt(beds)) if beds > 1 else np.full(len(springs), math.nan)
                         for v in (drag, disp))
     rows = [{"springs": n, "draught_change_pct": drag[:, i].tolist(), "draught_change_mean": float(drag[:, i].mean()),
              "draught_change_se": float(drag_se[i]), "disp_change_mm": disp[:, i].tolist(),
