@@ -78,6 +78,7 @@ def main() -> None:
 
     wp.config.quiet = True
     from scenes.soil_bin import SoilBinConfig, bed_for, run_soil_bin
+    from warpdem.simulation import SKIN_FACTOR
 
     if args.no_graphs:  # every Simulation of this process without captured graphs (a benchmark's switch)
         import functools
@@ -111,7 +112,7 @@ def main() -> None:
         scene = "soil bin, rigid sweep" + (", replica beds" if args.replicas else "") + \
             (", no graphs" if args.no_graphs else "")
         res = {"engine": "warpdem", "scene": scene, "device": args.device, "scale": args.scale,
-               "threads": threads or "all", "skin_factor": skin or 0.2, "worlds": args.worlds,
+               "threads": threads or "all", "skin_factor": skin or SKIN_FACTOR, "worlds": args.worlds,
                "spheres": run.n_spheres * args.worlds,
                "steps": run.steps, "wall_s": run.wall_s,
                # with replica beds the layout's spheres include parked ones: compare wall_ms_per_step instead

@@ -509,10 +509,9 @@ _BOND_RULE = (
     "Yade's cohesive-frictional law either breaks a bond for good once its normal or shear force reaches its "
     "strength (fragile, Yade's default) or lets it yield: a sheared bond slides at its strength and keeps its "
     "cohesion, a tensile one is deleted at its first yield (Yade's unpMax = 0, warpdem's default). Which the paper "
-    "used is not given (its CohFrictMat settings are not "
-    "listed). Yielding bonds survive the bed's settling and the blade's first touch, so the soil ahead of the tool "
-    "holds together longer; fragile ones leave a frictional soil. A choice, not a range: no gene. Rigid and passive "
-    "runs change alike.")
+    "used is not given (its CohFrictMat settings are not listed). Yielding bonds survive the bed's settling and the "
+    "blade's first touch, so the soil ahead of the tool holds together longer; fragile ones leave a frictional soil. "
+    "A choice, not a range: no gene. Rigid and passive runs change alike.")
 register(Mechanism(
     "yielding_bonds", "The soil's bonds yield instead of breaking",
     _BOND_RULE, genes=(), knobs=lambda p: {"fragile": 0.0}, rigs=(SOIL_BIN.name,),

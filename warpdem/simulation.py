@@ -43,6 +43,8 @@ both (a 52-sphere ringing batch on one H100: 81 -> 67 us per step)."""
 WORLD_STEPS_MIN = 32
 """With ``world_steps``, an advance of fewer steps runs stage by stage (the same bits): each advance a thread per
 world costs a hand-over between CPU threads and a few small reads, more than a few steps save."""
+SKIN_FACTOR = 0.2
+"""The contact lists' default skin as a multiple of the mean sphere radius (``Simulation``'s ``skin``)."""
 RECORD_CHUNK_STEPS = 4096
 """With ``world_steps``, :meth:`Simulation.run` hands pose records to the host at least this many steps at a time
 (whole records): the progress callback and the fault check come as often."""
@@ -135,7 +137,7 @@ class Simulation:
     Args:
         model, state: from :meth:`ModelBuilder.finalize`.
         dt: time step [s]; refused above the P-wave critical step unless ``force_dt``.
-        skin: neighbour skin [m] (default 0.2 x the mean sphere radius).
+        skin: neighbour skin [m] (default :data:`SKIN_FACTOR` x the mean sphere radius).
         always_use_moment_law: apply rolling/twisting moments on non-cohesive contacts too (Yade's flag).
         cohesion_on_new_contacts: every new contact gets cohesion (Yade's setCohesionOnNewContacts).
             These two (True) and ``bond_detection_factor`` (other than 1) need cohesive-frictional materials: with
@@ -229,7 +231,7 @@ class Simulation:
                 "(P-wave of the smallest sphere, or the stiffest spring); pass force_dt=True to run anyway"
             )
         radii = model.host["sphere_radius"]
-        self.skin = float(skin) if skin is not None else (0.2 * float(radii.mean()) if len(radii) else 1e-3)
+        self.skin = float(skin) if skin is not None else (SKIN_FACTOR * float(radii.mean()) if len(radii) else 1e-3)
         check_positive("skin", self.skin)
         self.always_use_moment_law = bool(always_use_moment_law)
         self.cohesion_on_new_contacts = bool(cohesion_on_new_contacts)
