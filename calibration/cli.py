@@ -182,18 +182,33 @@ def _deposit_bar(label: str, max_time: float = 3.0) -> Callable[[str, float, flo
 
 
 def _write_config(out: Path, command: str, device: str, **fields: object) -> None:
-    """config.json of a run: command, device, versions and the given parameters."""
+    """config.json of a run: command, device, versions and the given parameters. A run continued on another
+    device or with other versions keeps the earlier calls' device and versions (``earlier_calls``, oldest first),
+    so that its folder says where each part ran."""
     from scenes.reproduce import versions
 
-    (out / "config.json").write_text(json.dumps({"command": command, "device": device, "versions": versions(),
-                                                 **fields}, indent=2, default=str))
+    path = out / "config.json"
+    now = {"device": device, "versions": versions()}
+    earlier: list[dict[str, object]] = []
+    try:
+        old = json.loads(path.read_text())
+    except (OSError, ValueError):
+        old = None
+    if isinstance(old, dict):
+        earlier = list(old.get("earlier_calls", []))
+        last = json.loads(json.dumps({"device": old.get("device"), "versions": old.get("versions")}, default=str))
+        if last != json.loads(json.dumps(now, default=str)) and (not earlier or earlier[-1] != last):
+            earlier.append(last)
+    write_text_atomic(path, json.dumps({"command": command, **now, **({"earlier_calls": earlier} if earlier else {}),
+                                        **fields}, indent=2, default=str))
 
 
 CLAIM = ".warpdem-run.json"
 """The file that marks a results folder as one run's: the command and every parameter that makes the run (not the
-device: a run may continue on another one, and output options such as --quiet do not count)."""
+device nor the Ray workers that evaluate a calibration: a run may continue on another machine, and output options
+such as --quiet do not count)."""
 _NOT_IDENTITY = {"argv", "out", "verbose", "quiet", "debug", "overwrite", "budget", "no_resume", "device", "vtk",
-                 "beds", "defaults", "given", "diagnosis_rounds"}
+                 "beds", "defaults", "given", "diagnosis_rounds", "ray_workers", "ray_address"}
 
 
 def _claim(args: argparse.Namespace, out: str | Path, adopt: str | None = None) -> Path:

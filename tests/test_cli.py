@@ -88,6 +88,33 @@ def test_two_runs_into_one_folder_lose_nothing(tmp_path) -> None:
     assert (other / "notes.txt").read_text() == "keep"
 
 
+def test_a_run_continued_elsewhere_keeps_where_each_call_ran(tmp_path) -> None:
+    """A calibration stopped by its budget on two GPUs may continue on one or on the CPU: the Ray workers are not
+    part of the folder's claim (as the device is not), and config.json keeps the earlier calls' device and
+    versions, oldest first, once a call ran elsewhere."""
+    import argparse
+
+    from calibration import cli
+
+    def claim(workers: int | None) -> object:
+        return cli._claim(argparse.Namespace(command="calibrate", kind="soil", seed=0, ray_workers=workers,
+                                             ray_address=None, device="cpu"), tmp_path / "ga")
+
+    out = claim(2)
+    assert claim(None) == out and claim(4) == out
+    cli._write_config(out, "calibrate soil", "cuda", problem={"seed": 0})
+    first = json.loads((out / "config.json").read_text())
+    cli._write_config(out, "calibrate soil", "cuda", problem={"seed": 0})
+    assert "earlier_calls" not in json.loads((out / "config.json").read_text())
+    cli._write_config(out, "calibrate soil", "cpu", problem={"seed": 0})
+    cli._write_config(out, "calibrate soil", "cpu", problem={"seed": 0})
+    cfg = json.loads((out / "config.json").read_text())
+    assert cfg["device"] == "cpu" and cfg["problem"] == {"seed": 0}
+    assert cfg["earlier_calls"] == [{"device": "cuda", "versions": first["versions"]}]
+    cli._write_config(out, "calibrate soil", "cuda", problem={"seed": 0})
+    assert [c["device"] for c in json.loads((out / "config.json").read_text())["earlier_calls"]] == ["cuda", "cpu"]
+
+
 BAD = [
     ("demo --speed -0.5", "argument --speed: must be > 0 m/s, got '-0.5'"),
     ("demo --depth -0.05", "argument --depth: must be > 0 m"),
