@@ -77,6 +77,7 @@ class _Calibration:
         self.archive = Archive(self.names, problem.simulation_key())
         self.history: list[dict[str, object]] = []
         self.t0 = time.perf_counter()
+        self._mark = self.t0
         self._batch_wall = 0.0
         self._batch_count = 0
 
@@ -135,10 +136,13 @@ class _Calibration:
         # the best of the records made up to this generation (a resumed refinement replays iterations whose later
         # records are already archived)
         best = max((r for r in self.archive if r.generation <= generation), key=lambda r: r.fitness)
+        now = time.perf_counter()
+        # wall_s: since this call began ("so far"); generation_wall_s: this generation's own
         entry = {"stage": stage, "generation": generation, "best_fitness": best.fitness,
                  "population_best": float(np.max(fitness)), "population_median": float(np.median(fitness)),
                  "best_genes": best.genes, "best_errors": best.errors, "simulated": self._batch_count,
-                 "simulation_s": self._batch_wall, "wall_s": time.perf_counter() - self.t0}
+                 "simulation_s": self._batch_wall, "wall_s": now - self.t0, "generation_wall_s": now - self._mark}
+        self._mark = now
         self._batch_count, self._batch_wall = 0, 0.0
         self.history.append(entry)
         if self.out is not None:

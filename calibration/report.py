@@ -78,6 +78,24 @@ def convergence_plot(result: CalibrationResult, path: str | Path) -> None:
     figures.save(fig, path, 120)
 
 
+def _wall_text(history: list[dict[str, object]]) -> str:
+    """The report's phrase for the time over all generations."""
+    wall = history_wall_s(history)
+    if wall is not None:
+        return f"{wall:.1f} s wall over all generations"
+    sim = sum(float(h.get("simulation_s", 0.0)) for h in history)
+    return f"{sim:.1f} s of batched simulation over all generations (this history has no wall per generation)"
+
+
+def history_wall_s(history: list[dict[str, object]]) -> float | None:
+    """A calibration's wall time over all its generations and calls [s]: the sum of the generations' own walls
+    (``generation_wall_s``); None for a history written before that field, whose ``wall_s`` counts from the start
+    of each call (and which says nowhere where a call began)."""
+    if not history or not all("generation_wall_s" in h for h in history):
+        return None
+    return float(sum(float(h["generation_wall_s"]) for h in history))
+
+
 def pareto_front(costs: np.ndarray) -> np.ndarray:
     """Indices of the non-dominated rows of ``costs`` (n, m), every column a cost to minimise: a row is dominated
     when another is no worse in every column and better in one. Rows with a NaN are left out; equal rows all stay."""
@@ -200,8 +218,8 @@ def write_report(result: CalibrationResult, problem, out: str | Path, *,  # noqa
     md = [f"# {title.get(problem.name, 'Calibration')}\n", f"Problem: `{json.dumps(problem.spec())}`\n",
           f"GA settings: `{json.dumps(result.settings)}`\n",
           f"{result.n_simulated} individuals simulated in {result.archive.n_batches} batched simulations, "
-          f"{sum(h.get('wall_s', 0.0) for h in result.history):.1f} s wall over all generations "
-          f"({result.wall_s:.1f} s in the last call).\n", "## Best individual\n", markdown_table([best]),
+          f"{_wall_text(result.history)} ({result.wall_s:.1f} s in the last call).\n", "## Best individual\n",
+          markdown_table([best]),
           f"## The {min(top, len(rows))} fittest individuals\n", markdown_table(rows[:top])]
     accepted = []
     if problem.name == "draught":

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,6 +26,8 @@ from calibration.problems import (
 from calibration.screening import distance, lab_strength, screen
 from scenes import ringing
 from warpdem.errors import InputError, SimulationError
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 class Oscillator:
@@ -388,6 +391,32 @@ def test_calibrate_budget_stops_between_generations_and_the_same_command_finishe
     assert [x.observables for x in runs[0]] == [x.observables for x in runs[1]]
     best = [json.loads((tmp_path / r / "result.json").read_text())["best"] for r in ("whole", "cut")]
     assert best[0] == best[1]
+    # the two calls' generations: each call's own walls add up to its clock, and the report's total counts both
+    from calibration.report import history_wall_s
+
+    history = json.loads((tmp_path / "cut" / "history.json").read_text())
+    assert len(history) == 3 and all(h["generation_wall_s"] >= h["simulation_s"] for h in history)
+    assert history[0]["generation_wall_s"] == history[0]["wall_s"]  # the first call's only generation
+    assert history[1]["generation_wall_s"] + history[2]["generation_wall_s"] == pytest.approx(history[2]["wall_s"])
+    assert history_wall_s(history) == pytest.approx(history[0]["wall_s"] + history[2]["wall_s"])
+
+
+def test_a_history_without_generation_walls_has_no_total_wall() -> None:
+    """Histories written before ``generation_wall_s`` hold the time since their call began, and nothing marks where
+    a call began: the GA at 5-20 kPa of docs/runs/soil_ga_loose_5_20_h200x2 ran in four calls (its log printed 345,
+    465, 462 and 247 s "so far" at their ends), the dense-bed GA of docs/runs/soil_ga_dense_h100 in six of one
+    generation each, and the two clocks look alike. No total is made up for them; the report gives their batches'
+    simulation time instead."""
+    import json
+
+    from calibration.report import _wall_text, history_wall_s
+
+    for run in ("soil_ga_loose_5_20_h200x2", "soil_ga_dense_h100"):
+        history = json.loads((ROOT / "docs/runs" / run / "history.json").read_text())
+        assert history_wall_s(history) is None
+    history = json.loads((ROOT / "docs/runs/soil_ga_loose_5_20_h200x2/history.json").read_text())
+    assert [round(h["wall_s"]) for h in history] == [345, 247, 465, 247, 462, 247]
+    assert _wall_text(history).startswith("1517.5 s of batched simulation")
 
 
 def test_pareto_front_is_the_set_no_row_dominates():
