@@ -646,8 +646,9 @@ class RunCheckpoint:
         self.folder = Path(folder)
         self.key = key
 
-    def load(self, sim: wd.Simulation) -> tuple[int, dict[str, np.ndarray]] | None:
-        """Restore the latest checkpoint into ``sim``; returns (step, records so far) or None if there is none."""
+    def meta(self) -> dict[str, object] | None:
+        """latest.json of this run (key, step and the run's ``extra``), None if there is no checkpoint; ValueError
+        if the folder holds another run's."""
         latest = self.folder / "latest.json"
         if not latest.exists():
             return None
@@ -655,14 +656,23 @@ class RunCheckpoint:
         if meta["key"] != self.key:
             raise ValueError(f"checkpoint folder {str(self.folder)!r} belongs to another soil-bin run (other scene, "
                              "configurations, speeds, knobs or soil); remove it or choose another folder")
+        return meta
+
+    def load(self, sim: wd.Simulation) -> tuple[int, dict[str, np.ndarray]] | None:
+        """Restore the latest checkpoint into ``sim``; returns (step, records so far) or None if there is none."""
+        meta = self.meta()
+        if meta is None:
+            return None
         step = int(meta["step"])
         wd.checkpoint.load(sim, self.folder / f"sim_{step}.npz")
         with np.load(self.folder / f"records_{step}.npz") as f:
             records = {k: f[k] for k in f.files}
         return step, records
 
-    def save(self, sim: wd.Simulation, records: dict[str, np.ndarray]) -> None:
-        """Write the state at the current step and the records so far, then point latest.json at them."""
+    def save(self, sim: wd.Simulation, records: dict[str, np.ndarray], extra: dict[str, object] | None = None
+             ) -> None:
+        """Write the state at the current step and the records so far, then point latest.json at them (with
+        ``extra``: what the run set up before its first step and needs again when it resumes, JSON)."""
         self.folder.mkdir(parents=True, exist_ok=True)
         step = sim.state.step
         wd.checkpoint.save(sim, self.folder / f"sim_{step}.npz")
@@ -670,7 +680,7 @@ class RunCheckpoint:
         np.savez(tmp, **records)
         tmp.replace(self.folder / f"records_{step}.npz")
         meta = self.folder / "latest.json.tmp"
-        meta.write_text(json.dumps({"key": self.key, "step": step}))
+        meta.write_text(json.dumps({"key": self.key, "step": step, **({"extra": extra} if extra else {})}))
         meta.replace(self.folder / "latest.json")
         for old in self.folder.glob("*_*.npz"):
             if old.stem.split("_")[-1] != str(step):
@@ -801,11 +811,27 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
     stop = (np.ceil(travel / speeds_a / dt / every) * every).astype(int)
     n_steps = int(stop.max())
     n_settle = int(round(config.settle_time / dt)) if config.settle_time > 0 else 0
-    if n_settle:  # the progress runs over the settling and the travel together
-        _settle(sim, config.settle_time, carriage_vel,
-                (lambda d, n: progress(d, n_settle + n_steps)) if progress else None)
-    sim.set_cohesion_now()
-    s0 = np.full(len(springs), tool.sensor_point[1]) if drawing else sensor(sim)[:, 1].copy()
+    ck, extra = None, None
+    if checkpoint is not None:
+        bed_digest = hashlib.sha256(b"".join(np.ascontiguousarray(x.centres).tobytes()
+                                             + np.ascontiguousarray(x.radii).tobytes()
+                                             for x in ([bed] if isinstance(bed, Bed) else bed))).hexdigest()
+        key = json.dumps([asdict(config), list(springs), speeds, {k: np.asarray(v).tolist() for k, v in
+                          knob_arrays.items()}, {k: np.asarray(v).tolist() for k, v in (soil_overrides or {}).items()},
+                          bed_digest, float(dt)] + ([] if pitches is None else [pitches.tolist()]), sort_keys=True,
+                         default=str)
+        ck = RunCheckpoint(checkpoint, hashlib.sha256(key.encode()).hexdigest())
+        extra = (ck.meta() or {}).get("extra")
+    if extra is None:  # a new run (or a checkpoint without its setup: settled again, then replaced by the load)
+        if n_settle:  # the progress runs over the settling and the travel together
+            _settle(sim, config.settle_time, carriage_vel,
+                    (lambda d, n: progress(d, n_settle + n_steps)) if progress else None)
+        sim.set_cohesion_now()
+        s0 = np.full(len(springs), tool.sensor_point[1]) if drawing else sensor(sim)[:, 1].copy()
+    else:  # resumed: the checkpoint holds the settled, bonded state; the sensor's zero and point come with it
+        s0 = np.asarray(extra["s0"], dtype=np.float64)
+        sensor.local = np.asarray(extra["sensor_local"], dtype=np.float64)
+    setup = {"s0": s0.tolist(), "sensor_local": np.asarray(sensor.local).tolist()}
     contact = wd.observers.mesh_wrench("sweep_lower")
     if "soil_viscosity" in knob_arrays:  # the dashpot pushes back (compression, < 0) while the tool advances
         drag = wd.observers.spring_force("soil_viscosity")
@@ -830,7 +856,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
         ramp = int(np.ceil(SUPPORT_RAMP / dt / every) * every)
         events.add(ramp)
         off = np.asarray(info["support_offset_m"])
-        sim.set_body_velocity("support", carriage_vel - np.outer(off / (ramp * dt), (0.0, 1.0, 0.0)))
+        if extra is None:  # (a resumed run's support has the velocity its checkpoint holds)
+            sim.set_body_velocity("support", carriage_vel - np.outer(off / (ramp * dt), (0.0, 1.0, 0.0)))
 
     if vtk is not None:
         observers["vtk"] = vtk[0].as_observer(int(vtk[1]))
@@ -840,16 +867,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
                                                                          "ke_soil")})
     parts: list[dict[str, np.ndarray]] = []
     done = 0
-    ck = None
-    if checkpoint is not None:
-        bed_digest = hashlib.sha256(b"".join(np.ascontiguousarray(x.centres).tobytes()
-                                             + np.ascontiguousarray(x.radii).tobytes()
-                                             for x in ([bed] if isinstance(bed, Bed) else bed))).hexdigest()
-        key = json.dumps([asdict(config), list(springs), speeds, {k: np.asarray(v).tolist() for k, v in
-                          knob_arrays.items()}, {k: np.asarray(v).tolist() for k, v in (soil_overrides or {}).items()},
-                          bed_digest, float(dt)] + ([] if pitches is None else [pitches.tolist()]), sort_keys=True,
-                         default=str)
-        ck = RunCheckpoint(checkpoint, hashlib.sha256(key.encode()).hexdigest())
+    if ck is not None:
         resumed = ck.load(sim)
         if resumed is not None:
             done, records = resumed
@@ -874,7 +892,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
             late = deadline is not None and time.time() >= deadline and done < n_steps
             if ck is not None and (done == end or late or time.perf_counter() - saved_at >= checkpoint_every):
                 parts = [{kk: np.concatenate([p_[kk] for p_ in parts]) for kk in parts[0] if kk != "viewer"}]
-                ck.save(sim, parts[0])
+                ck.save(sim, parts[0], setup)
                 saved_at = time.perf_counter()
             if late:
                 raise BudgetExhausted(f"soil-bin run stopped at its budget after step {done} of {n_steps}; its "

@@ -159,17 +159,21 @@ class _Killed(Exception):
     pass
 
 
+@pytest.mark.parametrize("settle", [0.0, 0.01], ids=["unsettled", "settled"])
 @pytest.mark.parametrize("tool", [None, PassiveTool(preload=1e-3, series_stiffness=5e5)], ids=["knobs", "described"])
-def test_a_killed_soil_bin_run_resumes_to_the_same_result(ci_bed, tmp_path, tool) -> None:
+def test_a_killed_soil_bin_run_resumes_to_the_same_result(ci_bed, tmp_path, tool, settle) -> None:
     # Reference: the uninterrupted run. A passive run with two carriage speeds (the faster carriage stops first:
     # a change made mid-run that the checkpoint must hold) is killed after its first stop and run again with the
     # same checkpoint folder; runs are deterministic (integer force sums, on CUDA too), so every record and
-    # statistic must be equal exactly (the displacement too: the sensor's point is taken from the initial pose,
-    # not from the resumed one).
-    cfg = sb.SoilBinConfig(scale="ci", assembly="A", springs=(16, 32), travel=0.08, steady_travel=0.02)
+    # statistic must be equal exactly (the displacement too: the sensor's point is taken from the initial pose, or
+    # with the knobs' tool from the settled one, not from the resumed one). A settled bed is not settled again when
+    # the run resumes: the checkpoint holds it (the resumed call's progress starts past the settling).
+    cfg = sb.SoilBinConfig(scale="ci", assembly="A", springs=(16, 32), travel=0.08, steady_travel=0.02,
+                           settle_time=settle)
     speeds = [0.7, 0.5]
     whole = sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=speeds, passive_tool=tool)
-    first_stop = 0.08 / 0.7 / whole.dt
+    n_settle = round(settle / whole.dt)
+    first_stop = n_settle + 0.08 / 0.7 / whole.dt
 
     def kill(done: int, total: int) -> None:
         if done > 1.2 * first_stop:
@@ -180,13 +184,22 @@ def test_a_killed_soil_bin_run_resumes_to_the_same_result(ci_bed, tmp_path, tool
         sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=speeds, checkpoint=folder,
                         checkpoint_every=0.0, progress=kill, passive_tool=tool)
     step = json.loads((folder / "latest.json").read_text())["step"]
-    assert first_stop < step < whole.steps
+    assert first_stop - n_settle < step < whole.steps
+    seen: list[int] = []
     again = sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=speeds, checkpoint=folder,
-                            passive_tool=tool)
+                            passive_tool=tool, progress=lambda done, total: seen.append(done))
+    assert min(seen) > n_settle + step
     np.testing.assert_array_equal(again.time, whole.time)
     for k, v in whole.series.items():
         np.testing.assert_array_equal(again.series[k], v, err_msg=k)
     assert again.steady == whole.steady
+    # a checkpoint written before latest.json held the run's setup: settled again, then replaced by the load
+    meta = json.loads((folder / "latest.json").read_text())
+    (folder / "latest.json").write_text(json.dumps({k: v for k, v in meta.items() if k != "extra"}))
+    legacy = sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=speeds, checkpoint=folder,
+                             passive_tool=tool)
+    for k, v in whole.series.items():
+        np.testing.assert_array_equal(legacy.series[k], v, err_msg=k)
     with pytest.raises(ValueError, match="another soil-bin run"):
         sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=[0.6, 0.5], checkpoint=folder,
                         passive_tool=tool)
