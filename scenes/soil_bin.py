@@ -425,6 +425,11 @@ class SoilBinRun:
     shared layout and the fitted poses), the Simulation's first lists and the settling (``settle_time``)."""
     rebuilds: int = 0
     """candidate-list rebuilds of the simulation (any world's displacement triggers one for all)."""
+    settle_s: float = 0.0
+    """the settling's wall [s] (``settle_time``; in the call that settled, when the run was resumed)."""
+    steps_s: float = 0.0
+    """the wall of the run's steps after the settling [s], records, rebuilds and checkpoints included, over all
+    its calls (steps redone after a kill counted once)."""
 
     def save(self, path: str | Path) -> None:
         """Into one .npz (written atomically): the arrays as arrays, the rest as JSON (NaN kept as NaN); :meth:`load`
@@ -822,16 +827,20 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
                          default=str)
         ck = RunCheckpoint(checkpoint, hashlib.sha256(key.encode()).hexdigest())
         extra = (ck.meta() or {}).get("extra")
+    settle_s = time.perf_counter()
     if extra is None:  # a new run (or a checkpoint without its setup: settled again, then replaced by the load)
         if n_settle:  # the progress runs over the settling and the travel together
             _settle(sim, config.settle_time, carriage_vel,
                     (lambda d, n: progress(d, n_settle + n_steps)) if progress else None)
+        settle_s = time.perf_counter() - settle_s
         sim.set_cohesion_now()
         s0 = np.full(len(springs), tool.sensor_point[1]) if drawing else sensor(sim)[:, 1].copy()
     else:  # resumed: the checkpoint holds the settled, bonded state; the sensor's zero and point come with it
         s0 = np.asarray(extra["s0"], dtype=np.float64)
         sensor.local = np.asarray(extra["sensor_local"], dtype=np.float64)
-    setup = {"s0": s0.tolist(), "sensor_local": np.asarray(sensor.local).tolist()}
+        settle_s = float(extra.get("settle_s", 0.0))
+    steps_before = float((extra or {}).get("steps_s", 0.0))
+    setup = {"s0": s0.tolist(), "sensor_local": np.asarray(sensor.local).tolist(), "settle_s": settle_s}
     contact = wd.observers.mesh_wrench("sweep_lower")
     if "soil_viscosity" in knob_arrays:  # the dashpot pushes back (compression, < 0) while the tool advances
         drag = wd.observers.spring_force("soil_viscosity")
@@ -875,6 +884,7 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
     chunk = every * max(1, int(round(0.05 / (every * dt))))  # 0.05 s of simulated time between checkpoint chances
     saved_at = time.perf_counter()
     setup_s = saved_at - t0
+    t_steps = saved_at
     for end in sorted(events):
         while done < end:
             k = min(chunk, end - done) if ck is not None else end - done
@@ -892,12 +902,13 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
             late = deadline is not None and time.time() >= deadline and done < n_steps
             if ck is not None and (done == end or late or time.perf_counter() - saved_at >= checkpoint_every):
                 parts = [{kk: np.concatenate([p_[kk] for p_ in parts]) for kk in parts[0] if kk != "viewer"}]
-                ck.save(sim, parts[0], setup)
+                ck.save(sim, parts[0], {**setup, "steps_s": steps_before + time.perf_counter() - t_steps})
                 saved_at = time.perf_counter()
             if late:
                 raise BudgetExhausted(f"soil-bin run stopped at its budget after step {done} of {n_steps}; its "
                                       f"checkpoint is in {str(checkpoint)!r}")
     out = {k: np.concatenate([p_[k] for p_ in parts]) for k in parts[0]}
+    steps_s = steps_before + time.perf_counter() - t_steps
     if view is not None:
         view.close()
         observers.pop("viewer")
@@ -929,7 +940,8 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
         row["bonds_end"] = float(series["bonds"][-1, w])
         steady.append(row)
     return SoilBinRun(tuple(springs), tuple(speeds), t, trav, series, steady, info["n_particles"],
-                      model.spheres_per_world, dt, n_steps, time.perf_counter() - t0, setup_s, sim.rebuild_count)
+                      model.spheres_per_world, dt, n_steps, time.perf_counter() - t0, setup_s, sim.rebuild_count,
+                      settle_s, steps_s)
 
 
 def run_study(config: SoilBinConfig, *, device: str | None = None, cache_dir: str | Path | None = None,

@@ -183,12 +183,16 @@ def test_a_killed_soil_bin_run_resumes_to_the_same_result(ci_bed, tmp_path, tool
     with pytest.raises(_Killed):
         sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=speeds, checkpoint=folder,
                         checkpoint_every=0.0, progress=kill, passive_tool=tool)
-    step = json.loads((folder / "latest.json").read_text())["step"]
+    killed = json.loads((folder / "latest.json").read_text())
+    step = killed["step"]
     assert first_stop - n_settle < step < whole.steps
     seen: list[int] = []
     again = sb.run_soil_bin(cfg, [16, 32], bed=ci_bed, device=DEVICE, speeds=speeds, checkpoint=folder,
                             passive_tool=tool, progress=lambda done, total: seen.append(done))
     assert min(seen) > n_settle + step
+    # the timings add up over the calls: the settling's is the first call's, the steps' grow from where it stopped
+    assert again.settle_s == killed["extra"]["settle_s"] and again.steps_s > killed["extra"]["steps_s"]
+    assert whole.settle_s + whole.steps_s <= whole.wall_s
     np.testing.assert_array_equal(again.time, whole.time)
     for k, v in whole.series.items():
         np.testing.assert_array_equal(again.series[k], v, err_msg=k)
