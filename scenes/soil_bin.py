@@ -645,7 +645,8 @@ def _settle(sim: wd.Simulation, duration: float, carriage_vel: np.ndarray,
 class RunCheckpoint:
     """Checkpoints of one soil-bin run in a folder: the engine's state (``sim_<step>.npz``, which includes the
     stopped carriages), the records so far (``records_<step>.npz``) and ``latest.json`` naming the last complete
-    pair and the run it belongs to (written last, atomically: a kill at any moment leaves a usable checkpoint)."""
+    pair, the run it belongs to and what the run set up before its first step (written last, atomically: a kill at
+    any moment leaves a usable checkpoint)."""
 
     def __init__(self, folder: str | Path, key: str) -> None:
         self.folder = Path(folder)
@@ -827,12 +828,12 @@ def run_soil_bin(config: SoilBinConfig, springs: list[int], *, bed: Bed | list[B
                          default=str)
         ck = RunCheckpoint(checkpoint, hashlib.sha256(key.encode()).hexdigest())
         extra = (ck.meta() or {}).get("extra")
-    settle_s = time.perf_counter()
     if extra is None:  # a new run (or a checkpoint without its setup: settled again, then replaced by the load)
+        t_settle = time.perf_counter()
         if n_settle:  # the progress runs over the settling and the travel together
             _settle(sim, config.settle_time, carriage_vel,
                     (lambda d, n: progress(d, n_settle + n_steps)) if progress else None)
-        settle_s = time.perf_counter() - settle_s
+        settle_s = time.perf_counter() - t_settle
         sim.set_cohesion_now()
         s0 = np.full(len(springs), tool.sensor_point[1]) if drawing else sensor(sim)[:, 1].copy()
     else:  # resumed: the checkpoint holds the settled, bonded state; the sensor's zero and point come with it
